@@ -1,0 +1,55 @@
+"""Self-contained HTML reports: figures inline, no external files or scripts.
+
+Shared by ``backlash-df predict --report`` and ``backlash-df diagnose --report``.
+"""
+
+import base64
+import html
+import io
+
+__all__ = ["figure_html", "table_html", "html_page"]
+
+_STYLE = """
+body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 60em; color: #222; }
+h1 { font-size: 1.6em; } h2 { font-size: 1.25em; margin-top: 1.6em; }
+table { border-collapse: collapse; margin: 0.8em 0; }
+th, td { border: 1px solid #bbb; padding: 0.25em 0.6em; text-align: right; }
+th { background: #eee; } td.text, th.text { text-align: left; }
+figure { margin: 1em 0; } figure img { max-width: 100%; height: auto; }
+figcaption { font-size: 0.9em; color: #555; }
+.summary { background: #f4f8ff; border-left: 4px solid #36c; padding: 0.6em 1em; }
+"""
+
+
+def figure_html(fig, caption="", dpi=110):
+    """A matplotlib figure as an inline PNG ``<figure>`` element; closes the figure."""
+    import matplotlib.pyplot as plt
+
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=dpi, bbox_inches="tight")
+    plt.close(fig)
+    data = base64.b64encode(buffer.getvalue()).decode("ascii")
+    alt = html.escape(caption or "figure")
+    caption_html = f"<figcaption>{html.escape(caption)}</figcaption>" if caption else ""
+    return f'<figure><img alt="{alt}" src="data:image/png;base64,{data}">{caption_html}</figure>'
+
+
+def table_html(header, rows, text_columns=(0,)):
+    """An HTML table; ``rows`` are sequences of already formatted cells."""
+    def cell(tag, index, value):
+        cls = ' class="text"' if index in text_columns else ""
+        return f"<{tag}{cls}>{html.escape(str(value))}</{tag}>"
+
+    head = "".join(cell("th", i, value) for i, value in enumerate(header))
+    body = "".join("<tr>" + "".join(cell("td", i, value) for i, value in enumerate(row)) + "</tr>" for row in rows)
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def html_page(title, sections):
+    """A complete HTML document from ``(heading, html_body)`` sections."""
+    parts = [f"<h2>{html.escape(heading)}</h2>\n{body}" if heading else body for heading, body in sections]
+    return (
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+        f"<title>{html.escape(title)}</title><style>{_STYLE}</style></head>\n"
+        f"<body><h1>{html.escape(title)}</h1>\n" + "\n".join(parts) + "\n</body></html>\n"
+    )

@@ -1,0 +1,725 @@
+"""Time simulation of drives with backlash: one compiled kernel for every loop.
+
+The drive is split into a linear part and the backlash::
+
+    dz/dt = A z + b T + E w(t) + e_d u_d(t - delay) - e_f F tanh(f z / eps)
+    theta_d = c_x z,   dtheta_d = c_v z,   T = law(theta_d, dtheta_d [, theta_b])
+
+``w(t)`` are external inputs sampled on the output grid, or at half steps when
+given as functions of time (linear between samples; at half steps every RK4
+stage of an unsplit step falls on a sample, so a smooth input costs no order),
+``u_d = d z`` an optional delayed signal (dead time), the last term an optional
+smoothed Coulomb friction.  The open-loop two-mass drive
+(:func:`two_mass_system`), the PI loops of :mod:`backlash_df.loops` and the
+replay of measured data all use this form.
+
+Integration is classical RK4 on a fixed grid with the law's *mode* frozen over
+each step (free, rubber band, steel contact; see :mod:`backlash_df.models`);
+a change of mode at the end of a step is located by bisection on the step
+fraction and the step is split there.  So the jump of the phase plane law at
+theta*, and the dead-zone's jump at ``|theta_d| = alpha``, are crossed exactly
+instead of being smeared or chattered over.  Contact of the phase plane law,
+once made at theta*, holds until the release condition of Theorem 1, as in the
+paper's derivation of (20) (:func:`~backlash_df.models.held_mode`): read as a
+memoryless function, (20) lets a strongly damped contact slide along the jump
+at theta* with an event every few nanoseconds.  The exact model's theta_b (14) is
+advanced by the exponential step :func:`~backlash_df.models.exact_step`, stable
+for any ``c / k``.
+"""
+
+import dataclasses
+import math
+
+import numba
+import numpy as np
+
+from .models import (
+    EXACT,
+    BacklashModel,
+    exact_step,
+    held_mode,
+    mode_torque,
+)
+
+__all__ = ["LinearPart", "SimulationResult", "simulate_linear", "two_mass_system", "simulate_two_mass"]
+
+_jit = numba.njit(cache=True, nogil=True)
+_MAX_EVENTS_PER_STEP = 32
+_BISECTIONS = 52
+
+
+# --------------------------------------------------------------------------- kernel
+
+
+@_jit
+def _interp(series, position):
+    """Linear interpolation of ``series`` (rows on the grid) at fractional index."""
+    last = series.shape[0] - 1
+    if position <= 0.0:
+        return series[0]
+    if position >= last:
+        return series[last]
+    i = int(position)
+    frac = position - i
+    return series[i] + frac * (series[i + 1] - series[i])
+
+
+@_jit
+def _torque(law, mode, x, v, p):
+    if law == EXACT:
+        if mode > 0:
+            return p[0] * (x - p[2]) + p[1] * v
+        if mode < 0:
+            return p[0] * (x + p[2]) + p[1] * v
+        return 0.0
+    return mode_torque(law, mode, x, v, p[0], p[1], p[2], p[3])
+
+
+@_jit
+def _deriv(z, t, mode, sys, law, p, W, hist, dt, out):
+    a_mat, b_t, e_mat, c_x, c_v, d_row, e_d, delay, f_row, e_f, f_level, f_eps = sys
+    x = 0.0
+    v = 0.0
+    for j in range(z.shape[0]):
+        x += c_x[j] * z[j]
+        v += c_v[j] * z[j]
+    torque = _torque(law, mode, x, v, p)
+    # W spans the run uniformly: one row per output step, or two (half steps)
+    w = _interp(W, t / dt * (W.shape[0] - 1) / (hist.shape[0] - 1))
+    u_d = _interp(hist, (t - delay) / dt) if delay > 0.0 else 0.0
+    fr = 0.0
+    if f_level > 0.0:
+        s = 0.0
+        for j in range(z.shape[0]):
+            s += f_row[j] * z[j]
+        fr = f_level * math.tanh(s / f_eps)
+    for i in range(z.shape[0]):
+        acc = b_t[i] * torque + e_d[i] * u_d - e_f[i] * fr
+        for j in range(z.shape[0]):
+            acc += a_mat[i, j] * z[j]
+        for j in range(w.shape[0]):
+            acc += e_mat[i, j] * w[j]
+        out[i] = acc
+
+
+@_jit
+def _rk4(z, t, h, mode, sys, law, p, W, hist, dt, work, out):
+    k1, k2, k3, k4, tmp = work[0], work[1], work[2], work[3], work[4]
+    _deriv(z, t, mode, sys, law, p, W, hist, dt, k1)
+    for i in range(z.shape[0]):
+        tmp[i] = z[i] + 0.5 * h * k1[i]
+    _deriv(tmp, t + 0.5 * h, mode, sys, law, p, W, hist, dt, k2)
+    for i in range(z.shape[0]):
+        tmp[i] = z[i] + 0.5 * h * k2[i]
+    _deriv(tmp, t + 0.5 * h, mode, sys, law, p, W, hist, dt, k3)
+    for i in range(z.shape[0]):
+        tmp[i] = z[i] + h * k3[i]
+    _deriv(tmp, t + h, mode, sys, law, p, W, hist, dt, k4)
+    for i in range(z.shape[0]):
+        out[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+
+
+@_jit
+def _xv(z, c_x, c_v):
+    x = 0.0
+    v = 0.0
+    for j in range(z.shape[0]):
+        x += c_x[j] * z[j]
+        v += c_v[j] * z[j]
+    return x, v
+
+
+@_jit
+def _mode_of(law, p, mode, x, v, theta_b):
+    """Mode at a state reached in ``mode``: the law's region, or the exact model's contact."""
+    if law != EXACT:
+        return held_mode(law, mode, x, v, p[0], p[1], p[2], p[3])
+    if theta_b >= p[2] and p[0] * (x - p[2]) + p[1] * v >= 0.0:
+        return 1
+    if theta_b <= -p[2] and p[0] * (x + p[2]) + p[1] * v <= 0.0:
+        return -1
+    return 0
+
+
+@_jit
+def _advance(z, theta_b, t, h, mode, sys, law, p, W, hist, dt, work, z_out):
+    """One frozen-mode step; returns (theta_b at the end, True if the mode must change)."""
+    _rk4(z, t, h, mode, sys, law, p, W, hist, dt, work, z_out)
+    c_x, c_v = sys[3], sys[4]
+    x1, v1 = _xv(z_out, c_x, c_v)
+    if law != EXACT:
+        return theta_b, held_mode(law, mode, x1, v1, p[0], p[1], p[2], p[3]) != mode
+    if mode > 0:
+        return p[2], p[0] * (x1 - p[2]) + p[1] * v1 < 0.0
+    if mode < 0:
+        return -p[2], p[0] * (x1 + p[2]) + p[1] * v1 > 0.0
+    x0, v0 = _xv(z, c_x, c_v)
+    theta_new = exact_step(theta_b, x0, v0, x1, v1, h, p[0], p[1], p[2])
+    return theta_new, abs(theta_new) >= p[2]
+
+
+@_jit
+def _run(sys, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES):
+    n = z0.shape[0]
+    d_row = sys[5]
+    hist = np.zeros(n_steps + 1)
+    work = np.empty((5, n))
+    z = z0.copy()
+    z_new = np.empty(n)
+    z_try = np.empty(n)
+    theta_b = theta_b0
+    x, v = _xv(z, sys[3], sys[4])
+    mode = _mode_of(law, p, 0, x, v, theta_b)
+    events = 0
+    for i in range(n_steps + 1):
+        x, v = _xv(z, sys[3], sys[4])
+        Z[i] = z
+        T[i] = _torque(law, mode, x, v, p)
+        THETA[i] = theta_b
+        MODES[i] = mode
+        u = 0.0
+        for j in range(n):
+            u += d_row[j] * z[j]
+        hist[i] = u
+        if i == n_steps:
+            break
+        t = i * dt
+        remaining = dt
+        for _ in range(_MAX_EVENTS_PER_STEP):
+            theta_end, changed = _advance(z, theta_b, t, remaining, mode, sys, law, p, W, hist, dt, work, z_new)
+            if not changed:
+                z[:] = z_new
+                theta_b = theta_end
+                remaining = 0.0
+                break
+            # bisect for the first fraction of the remaining step where the mode changes
+            lo = 0.0
+            hi = 1.0
+            for _b in range(_BISECTIONS):
+                mid = 0.5 * (lo + hi)
+                _, ch = _advance(z, theta_b, t, mid * remaining, mode, sys, law, p, W, hist, dt, work, z_try)
+                if ch:
+                    hi = mid
+                else:
+                    lo = mid
+            h = hi * remaining
+            theta_try, _ = _advance(z, theta_b, t, h, mode, sys, law, p, W, hist, dt, work, z_try)
+            x, v = _xv(z_try, sys[3], sys[4])
+            if law == EXACT and mode == 0:
+                theta_try = p[2] if theta_try > 0.0 else -p[2]
+            new_mode = _mode_of(law, p, mode, x, v, theta_try)
+            if new_mode == mode:  # grazing or round-off at a boundary: no real switch
+                break
+            z[:] = z_try
+            theta_b = theta_try
+            mode = new_mode
+            t += h
+            remaining -= h
+            events += 1
+            if remaining <= 1e-14 * dt:
+                break
+        if remaining > 1e-14 * dt:
+            theta_b, _ = _advance(z, theta_b, t, remaining, mode, sys, law, p, W, hist, dt, work, z_new)
+            z[:] = z_new
+    return events
+
+
+# --------------------------------------------------------------------------- Python API
+
+
+@dataclasses.dataclass(frozen=True)
+class LinearPart:
+    """The linear part of a drive: ``dz/dt = A z + b T + E w + ...`` (see module docs).
+
+    Attributes
+    ----------
+    A, b, E : ndarray
+        State matrix (n x n), shaft-torque column (n), input matrix (n x m).
+    c_x, c_v : ndarray
+        Rows giving theta_d (rad) and dtheta_d (rad/s) from the state.
+    state_names, input_names : tuple of str
+        Names of the states and of the input channels, for results and errors.
+    delay, d, e_d : float, ndarray, ndarray
+        Dead time (s), the row of the delayed signal and the column it enters by.
+    friction, friction_speed, f, e_f : float, float, ndarray, ndarray
+        Coulomb friction level (N m), smoothing speed (rad/s), the row of the
+        speed it opposes and the column it enters by.
+    """
+
+    A: np.ndarray
+    b: np.ndarray
+    E: np.ndarray
+    c_x: np.ndarray
+    c_v: np.ndarray
+    state_names: tuple
+    input_names: tuple
+    delay: float = 0.0
+    d: np.ndarray | None = None
+    e_d: np.ndarray | None = None
+    friction: float = 0.0
+    friction_speed: float = 1e-3
+    f: np.ndarray | None = None
+    e_f: np.ndarray | None = None
+
+    def __post_init__(self):
+        n = len(self.state_names)
+        zeros = np.zeros(n)
+        for name in ("A", "b", "E", "c_x", "c_v"):
+            object.__setattr__(self, name, np.ascontiguousarray(getattr(self, name), dtype=float))
+        for name in ("d", "e_d", "f", "e_f"):
+            value = getattr(self, name)
+            object.__setattr__(self, name, zeros.copy() if value is None else np.ascontiguousarray(value, dtype=float))
+        if self.A.shape != (n, n) or self.E.shape != (n, len(self.input_names)):
+            raise ValueError("LinearPart: A must be n x n and E n x m for n states and m inputs")
+        if not (self.delay >= 0.0 and math.isfinite(self.delay)):
+            raise ValueError(f"delay must be finite and >= 0, got {self.delay!r}")
+        if self.friction < 0.0 or not self.friction_speed > 0.0:
+            raise ValueError("friction must be >= 0 and friction_speed > 0")
+
+    def _kernel_tuple(self):
+        return (
+            self.A, self.b, self.E, self.c_x, self.c_v, self.d, self.e_d,
+            float(self.delay), self.f, self.e_f, float(self.friction), float(self.friction_speed),
+        )
+
+
+@dataclasses.dataclass(frozen=True)
+class SimulationResult:
+    """Time response of a drive with backlash.
+
+    Attributes
+    ----------
+    time : ndarray
+        Output grid, s.
+    states : ndarray
+        State trajectory, shape (len(time), n), columns named by ``state_names``.
+    theta_d, dtheta_d : ndarray
+        Displacement (rad) and its rate (rad/s).
+    torque : ndarray
+        Shaft torque T (N m).
+    theta_b : ndarray
+        Backlash angle of the exact model (rad); NaN for static laws.
+    mode : ndarray
+        Contact mode at each sample (0 free, +-1 rubber band or exact contact,
+        +-2 steel contact).
+    events : int
+        Number of located mode changes.
+    model : BacklashModel
+        The torque law simulated.
+    state_names : tuple of str
+    """
+
+    time: np.ndarray
+    states: np.ndarray
+    theta_d: np.ndarray
+    dtheta_d: np.ndarray
+    torque: np.ndarray
+    theta_b: np.ndarray
+    mode: np.ndarray
+    events: int
+    model: BacklashModel
+    state_names: tuple
+
+    def state(self, name):
+        """One state's trajectory by name (for example ``"motor_speed"``)."""
+        try:
+            return self.states[:, self.state_names.index(name)]
+        except ValueError:
+            raise ValueError(f"no state {name!r}; states are: {', '.join(self.state_names)}") from None
+
+    def plot(self, ax=None):
+        """Plot theta_d and the shaft torque against time; returns the axes."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(2, 1, sharex=True, figsize=(7, 4.5))
+        ax[0].plot(self.time, self.theta_d)
+        ax[0].set_ylabel("theta_d (rad)")
+        ax[1].plot(self.time, self.torque)
+        ax[1].set_ylabel("shaft torque T (N m)")
+        ax[1].set_xlabel("time (s)")
+        ax[0].set_title(f"{self.model.name}")
+        return ax
+
+
+def simulate_linear(system, model, t_end, dt, inputs=None, z0=None, theta_b0=0.0):
+    """Simulate a linear part closed through a backlash torque law.
+
+    Parameters
+    ----------
+    system : LinearPart
+    model : BacklashModel
+        Any law from :func:`~backlash_df.make_model`, the exact model included.
+    t_end, dt : float
+        Final time and output/integration step, s.
+    inputs : array_like or callable, optional
+        External inputs ``w``: an array of shape (N, m) on the grid
+        ``arange(N) * dt`` (N = number of output samples), or a callable
+        ``w(t) -> (len(t), m)``, sampled at half steps ``arange(2 N - 1) * dt / 2``
+        (the RK4 stage times).  Default: zero.
+    z0 : array_like, optional
+        Initial state (default zero).
+    theta_b0 : float
+        Initial backlash angle of the exact model, rad.
+
+    Returns
+    -------
+    SimulationResult
+    """
+    if not (dt > 0.0 and math.isfinite(dt)):
+        raise ValueError(f"dt must be finite and > 0, got {dt!r}")
+    if not (t_end > 0.0 and math.isfinite(t_end)):
+        raise ValueError(f"t_end must be finite and > 0, got {t_end!r}")
+    if 0.0 < system.delay < dt:
+        raise ValueError(f"dt = {dt!r} s must not exceed the delay {system.delay!r} s")
+    n_steps = int(round(t_end / dt))
+    if n_steps < 1:
+        raise ValueError(f"t_end = {t_end!r} s must be at least one step dt = {dt!r} s")
+    time = np.arange(n_steps + 1) * dt
+    n, m = system.E.shape
+    if inputs is None:
+        w = np.zeros((n_steps + 1, m))
+    elif callable(inputs):
+        w = np.asarray(inputs(np.arange(2 * n_steps + 1) * (0.5 * dt)), dtype=float).reshape(2 * n_steps + 1, m)
+    else:
+        w = np.asarray(inputs, dtype=float)
+        if w.ndim == 1 and m == 1:
+            w = w[:, None]
+        if w.shape != (n_steps + 1, m):
+            raise ValueError(f"inputs must have shape ({n_steps + 1}, {m}) for channels {system.input_names}, got {w.shape}")
+    if not np.all(np.isfinite(w)):
+        raise ValueError("inputs must be finite")
+    z0 = np.zeros(n) if z0 is None else np.asarray(z0, dtype=float).copy()
+    if z0.shape != (n,) or not np.all(np.isfinite(z0)):
+        raise ValueError(f"z0 must be {n} finite numbers for states {system.state_names}")
+    if abs(theta_b0) > model.half_gap:
+        raise ValueError(f"theta_b0 must lie in [-half_gap, half_gap], got {theta_b0!r}")
+    states = np.empty((n_steps + 1, n))
+    torque = np.empty(n_steps + 1)
+    theta_b = np.empty(n_steps + 1)
+    modes = np.empty(n_steps + 1, dtype=np.int64)
+    events = _run(
+        system._kernel_tuple(), model.law, model.params, np.ascontiguousarray(w), z0,
+        float(theta_b0), float(dt), n_steps, states, torque, theta_b, modes,
+    )
+    if model.is_static:
+        theta_b[:] = np.nan
+    return SimulationResult(
+        time=time,
+        states=states,
+        theta_d=states @ system.c_x,
+        dtheta_d=states @ system.c_v,
+        torque=torque,
+        theta_b=theta_b,
+        mode=modes,
+        events=int(events),
+        model=model,
+        state_names=system.state_names,
+    )
+
+
+def two_mass_system(motor_inertia, load_inertia, motor_damping=0.0, load_damping=0.0):
+    """Open-loop two-mass drive: states theta_d, motor_speed, load_speed.
+
+    ``J_m dw_m/dt = T_m - T - d_m w_m``, ``J_l dw_l/dt = T_l + T - d_l w_l``,
+    ``dtheta_d/dt = w_m - w_l`` (paper eq. 42 and the Figure 3 model).
+    Inputs: ``motor_torque`` T_m and ``load_torque`` T_l (N m).
+    """
+    for name, value in (("motor_inertia", motor_inertia), ("load_inertia", load_inertia)):
+        if not (value > 0.0 and math.isfinite(value)):
+            raise ValueError(f"{name} must be finite and > 0, got {value!r}")
+    jm, jl = float(motor_inertia), float(load_inertia)
+    a_mat = np.array([[0.0, 1.0, -1.0], [0.0, -motor_damping / jm, 0.0], [0.0, 0.0, -load_damping / jl]])
+    return LinearPart(
+        A=a_mat,
+        b=np.array([0.0, -1.0 / jm, 1.0 / jl]),
+        E=np.array([[0.0, 0.0], [1.0 / jm, 0.0], [0.0, 1.0 / jl]]),
+        c_x=np.array([1.0, 0.0, 0.0]),
+        c_v=np.array([0.0, 1.0, -1.0]),
+        state_names=("theta_d", "motor_speed", "load_speed"),
+        input_names=("motor_torque", "load_torque"),
+    )
+
+
+def simulate_two_mass(plant, model, t_end, dt, motor_torque=0.0, load_torque=0.0, z0=None, theta_b0=0.0):
+    """Open-loop two-mass drive with backlash under given external torques.
+
+    Parameters
+    ----------
+    plant : Plant
+        Inertias (and the shaft, unless ``model`` is given as an object).
+    model : str or BacklashModel
+        A law name (built from ``plant``'s shaft) or a model object.
+    t_end, dt : float
+        Final time and step, s.
+    motor_torque, load_torque : float, array_like or callable
+        T_m and T_l (N m): constants, arrays on the grid, or functions of time.
+    z0 : array_like, optional
+        Initial ``(theta_d, motor_speed, load_speed)``.
+    theta_b0 : float
+        Initial backlash angle of the exact model, rad.
+
+    Returns
+    -------
+    SimulationResult
+    """
+    from .models import make_model
+
+    if isinstance(model, str):
+        model = make_model(model, **plant.shaft)
+    system = two_mass_system(plant.motor_inertia, plant.load_inertia)
+
+    def inputs(time):
+        columns = []
+        for value in (motor_torque, load_torque):
+            column = value(time) if callable(value) else value
+            columns.append(np.broadcast_to(np.asarray(column, dtype=float), time.shape))
+        return np.stack(columns, axis=1)
+
+    return simulate_linear(system, model, t_end, dt, inputs=inputs, z0=z0, theta_b0=theta_b0)
+
+
+# ---- closed loop and limit-cycle measurement
+
+__all__ += ["MeasuredCycle", "measure_limit_cycle", "simulate_rig", "simulated_limit_cycle", "default_step"]
+
+
+@dataclasses.dataclass(frozen=True)
+class MeasuredCycle:
+    """A limit cycle measured in a time simulation, or the finding that there is none.
+
+    Attributes
+    ----------
+    found : bool
+        True if the response settled to a sustained oscillation with shaft contact.
+    amplitude : float
+        First-harmonic amplitude of theta_d (rad), the DF's ``A``; NaN if none.
+    peak : float
+        Half the peak-to-peak excursion of theta_d (rad); NaN if none.
+    omega : float
+        Angular frequency of the cycle (rad/s); NaN if none.
+    bias : float
+        Mean of theta_d over the measured periods (rad); NaN if none.
+    settled : bool
+        True if a steady state was reached (a periodic cycle, or rest in the gap).
+    verdict : str
+        ``"limit cycle"``, ``"no limit cycle"`` (rest: no shaft contact at the end),
+        ``"decaying"``, ``"growing"``, ``"drifting in the gap"`` or ``"irregular"`` (not settled).
+    periods : int
+        Number of periods averaged.
+    """
+
+    found: bool
+    amplitude: float
+    peak: float
+    omega: float
+    bias: float
+    settled: bool
+    verdict: str
+    periods: int = 0
+
+    def __repr__(self):
+        if not self.found:
+            return f"MeasuredCycle({self.verdict})"
+        return (
+            f"MeasuredCycle(amplitude={self.amplitude:.6g} rad, peak={self.peak:.6g} rad, "
+            f"omega={self.omega:.6g} rad/s, bias={self.bias:.3g} rad, periods={self.periods})"
+        )
+
+    def to_dict(self):
+        """``{"amplitude", "omega"}`` (rad, rad/s) as in the ``predict`` JSON, or ``None``."""
+        if not self.found:
+            return None
+        return {"amplitude": float(self.amplitude), "omega": float(self.omega)}
+
+
+def _upward_crossings(time, signal):
+    """Times (s) where ``signal`` crosses zero upwards, linearly interpolated."""
+    below = signal[:-1] < 0.0
+    above = signal[1:] >= 0.0
+    i = np.nonzero(below & above)[0]
+    frac = -signal[i] / (signal[i + 1] - signal[i])
+    return time[i] + frac * (time[i + 1] - time[i])
+
+
+def _window_integral(time, values, t0, t1):
+    """Trapezoid integral of sampled ``values`` over [t0, t1] with interpolated ends."""
+    inside = (time > t0) & (time < t1)
+    t = np.concatenate(([t0], time[inside], [t1]))
+    y = np.concatenate(([np.interp(t0, time, values.real)], values.real[inside], [np.interp(t1, time, values.real)]))
+    if np.iscomplexobj(values):
+        y = y + 1j * np.concatenate(
+            ([np.interp(t0, time, values.imag)], values.imag[inside], [np.interp(t1, time, values.imag)])
+        )
+    return np.trapezoid(y, t)
+
+
+def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25):
+    """Measure the limit cycle at the end of a closed-loop simulation.
+
+    The last ``periods`` full periods of theta_d (between upward crossings of its
+    mean, located by linear interpolation) give the frequency; the first harmonic
+    ``|2/T int theta_d e^{-jwt} dt|`` over them gives the amplitude (the DF
+    convention of DESIGN.md).  Steady state: the period lengths and per-period
+    peak amplitudes agree to ``rtol``.  No shaft contact over the last
+    ``window`` of the record, with the relative speed dtheta_d there below
+    ``rtol`` times its largest value, means the motion decayed in the gap (with
+    a free load the last contacts come ever more rarely): no limit cycle.
+
+    Parameters
+    ----------
+    result : SimulationResult
+    periods : int
+        Number of full periods to average (at least 2).
+    rtol : float
+        Relative tolerance of the steady-state test.
+    window : float
+        Fraction of the record (at its end) examined for shaft contact.
+
+    Returns
+    -------
+    MeasuredCycle
+    """
+    time, x = result.time, result.theta_d
+    tail = time >= time[-1] * (1.0 - window)
+    if np.all(result.mode[tail] == 0):
+        # decayed: the relative speed has fallen below rtol of its largest value
+        resting = np.abs(result.dtheta_d[tail]).max() < rtol * np.abs(result.dtheta_d).max()
+        return MeasuredCycle(False, math.nan, math.nan, math.nan, math.nan, resting,
+                             "no limit cycle" if resting else "drifting in the gap")
+    half = time >= 0.5 * time[-1]
+    center = 0.5 * (x[half].max() + x[half].min())
+    crossings = _upward_crossings(time[half], x[half] - center)
+    if crossings.size < periods + 1:
+        return MeasuredCycle(False, math.nan, math.nan, math.nan, math.nan, False, "irregular")
+    edges = crossings[-(periods + 1):]
+    lengths = np.diff(edges)
+    peaks = np.array([np.ptp(x[(time >= a) & (time <= b)]) for a, b in zip(edges[:-1], edges[1:])]) / 2.0
+    period = (edges[-1] - edges[0]) / periods
+    omega = 2.0 * math.pi / period
+    bias = _window_integral(time, x, edges[0], edges[-1]) / (edges[-1] - edges[0])
+    c1 = 2.0 * _window_integral(time, x * np.exp(-1j * omega * time), edges[0], edges[-1]) / (edges[-1] - edges[0])
+    settled = np.ptp(lengths) <= rtol * period and np.ptp(peaks) <= rtol * peaks.mean()
+    if not settled:
+        verdict = "decaying" if peaks[-1] < peaks[0] else "growing" if peaks[-1] > peaks[0] else "irregular"
+        return MeasuredCycle(False, math.nan, math.nan, math.nan, math.nan, False, verdict)
+    return MeasuredCycle(True, float(abs(c1)), float(peaks.mean()), float(omega), float(bias), True, "limit cycle", periods)
+
+
+def _initial_state(system, initial, kick):
+    """Initial state: named values, plus the least-norm state with theta_d = 0, dtheta_d = kick."""
+    rows = np.array([system.c_x, system.c_v])
+    z0 = np.linalg.pinv(rows) @ np.array([0.0, float(kick)])
+    for name, value in (initial or {}).items():
+        if name not in system.state_names:
+            raise ValueError(f"initial: no state {name!r}; states are: {', '.join(system.state_names)}")
+        z0[system.state_names.index(name)] = float(value)
+    return z0
+
+
+def default_step(system, model):
+    """A step (s) resolving the fastest closed-loop dynamics: 0.05 / max |eigenvalue|.
+
+    The eigenvalues are those of the loop with the shaft in full contact
+    (``T = k theta_d + c dtheta_d``); the step never exceeds the dead time.
+    """
+    closed = system.A + np.outer(system.b, model.stiffness * system.c_x + model.damping * system.c_v)
+    fastest = max(np.abs(np.linalg.eigvals(closed)).max(), 1e-3)
+    dt = 0.05 / fastest
+    if system.delay > 0.0:
+        dt = min(dt, system.delay / math.ceil(system.delay / dt))
+    return dt
+
+
+def simulate_rig(rig, model=None, t_end=20.0, dt=None, speed_reference=0.0, load_torque=0.0,
+                 initial=None, kick=0.0, linear=None):
+    """Closed-loop time simulation of a rig's PI speed loop with a backlash torque law.
+
+    Public as :func:`backlash_df.simulate`.  The loop is that of
+    :mod:`backlash_df.loops` (states ``theta_d``, ``motor_speed``,
+    ``load_speed``, ``integrator`` and, when present, ``filtered_speed`` and
+    ``motor_torque``), integrated by the compiled kernel of this module.
+
+    Parameters
+    ----------
+    rig : Rig
+        Plant and ``[controller]`` (the shaft parameters build ``model`` if a name).
+    model : str or BacklashModel, optional
+        Torque law (default: the rig's ``[model] backlash``); the exact model included.
+    t_end : float
+        Simulated time, s.
+    dt : float, optional
+        Step, s (default :func:`default_step`).
+    speed_reference, load_torque : float or callable
+        r (rad/s) and T_l (N m): constants or functions of time.
+    initial : dict, optional
+        Initial values by state name, e.g. ``{"motor_speed": 0.5}``; others 0.
+    kick : float
+        Initial rate dtheta_d (rad/s) added as the least-norm state with
+        ``theta_d = 0`` (for the PI loop: motor and load speeds at +-kick/2).
+    linear : control.LTI, optional
+        A user's linear part G (shaft torque -> -theta_d) replacing the rig's loop;
+        then the loop has no external inputs and ``initial`` names ``x0, x1, ...``.
+
+    Returns
+    -------
+    SimulationResult
+
+    Examples
+    --------
+    >>> from backlash_df import rig_from_dict, simulate
+    >>> rig = rig_from_dict({"plant": {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0,
+    ...     "damping": 3.0, "half_gap": 0.05}, "controller": {"kp": 30.0, "ti": 0.5, "feedback": "motor"}})
+    >>> result = simulate(rig, "phase-plane", t_end=1.0, initial={"motor_speed": 1.0})
+    >>> result.state_names
+    ('theta_d', 'motor_speed', 'load_speed', 'integrator')
+    """
+    from .loops import drive_loop, lti_linear_part
+    from .models import BacklashModel
+
+    if not isinstance(model, BacklashModel):
+        model = rig.make_model(model)
+    system = drive_loop(rig).linear_part() if linear is None else lti_linear_part(linear)
+    dt = default_step(system, model) if dt is None else dt
+    z0 = _initial_state(system, initial, kick)
+    inputs = None
+    if system.E.shape[1] == 2:
+
+        def inputs(time):
+            columns = []
+            for value in (speed_reference, load_torque):
+                column = value(time) if callable(value) else value
+                columns.append(np.broadcast_to(np.asarray(column, dtype=float), time.shape))
+            return np.stack(columns, axis=1)
+
+    return simulate_linear(system, model, t_end, dt, inputs=inputs, z0=z0)
+
+
+def simulated_limit_cycle(rig, model=None, t_end=20.0, max_t_end=160.0, dt=None, periods=6, rtol=1e-3, **kwargs):
+    """Simulate until a steady state and measure the limit cycle.
+
+    Runs :func:`simulate_rig` for ``t_end`` and doubles it (re-running from the
+    start, so a dead time's history stays exact) until :func:`measure_limit_cycle`
+    finds a steady state or ``max_t_end`` is passed.
+
+    Parameters
+    ----------
+    rig, model, dt, **kwargs
+        As :func:`simulate_rig` (``speed_reference``, ``load_torque``, ``initial``, ``kick``, ``linear``).
+    t_end, max_t_end : float
+        First and largest simulated time, s.
+    periods, rtol
+        As :func:`measure_limit_cycle`.
+
+    Returns
+    -------
+    measured : MeasuredCycle
+    result : SimulationResult
+        The last simulation run.
+    """
+    while True:
+        result = simulate_rig(rig, model, t_end=t_end, dt=dt, **kwargs)
+        measured = measure_limit_cycle(result, periods=periods, rtol=rtol)
+        if measured.settled or 2.0 * t_end > max_t_end:
+            return measured, result
+        t_end *= 2.0
