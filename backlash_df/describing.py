@@ -1,0 +1,635 @@
+"""Describing functions N(A, w, bias) of the backlash torque laws by harmonic balance.
+
+Convention (DESIGN.md): the input is ``x(t) = bias + A sin(w t)``, ``v = dx/dt``;
+with ``b1``, ``a1`` the sine and cosine Fourier coefficients of the steady-state
+torque over one period,
+
+    N(A, w, bias) = (b1 + j a1) / A        (N m / rad)
+
+and the mean torque ``a0 = (1 / 2 pi) int T dphi`` (N m) is the DC term of a
+dual-input analysis.  Because the laws depend on the rate ``v``, N depends on
+``w`` as well as on ``A``.
+
+How each law is computed:
+
+* Static laws: along ``phi = w t`` the torque is smooth inside each mode of the
+  law (free, rubber band, contact; see :mod:`backlash_df.models`).  The mode is
+  followed as the simulation follows it (:func:`~backlash_df.models.held_mode`):
+  contact of the phase plane law, once made at theta*, holds until the release
+  condition, as in the paper's derivation of (20).  The mode
+  changes (contact, release, theta*, rubber band edges, the kink of the
+  ElastoBacklash law) are located to machine precision by bisection on the
+  phase, and each smooth piece is integrated by Gauss-Legendre quadrature on
+  sub-intervals of at most pi/4.  Accuracy does not depend on a sample count.
+* The exact model (1) + (14): off contact the shaft relaxes as
+  ``theta_b = x + (theta_b0 - x0) exp(-(phi - phi0) / (c w / k))`` (eq. 13),
+  contact starts when that reaches ``+-alpha`` (located by bisection) and ends at
+  the release phase where ``y = x + (c/k) v`` crosses ``+-alpha`` (closed form,
+  Theorem 1).  The state at a release is always ``theta_b = +-alpha`` at a fixed
+  phase, so the response is periodic from the first release on: the periodic
+  steady state is reached exactly, after at most the periods it takes the
+  free shaft to close the gap again (no convergence iteration is needed).
+  In contact ``T = k (y -+ alpha)`` is a sinusoid plus a constant, integrated
+  in closed form.
+* Closed forms (no bias): classical dead-zone (24), Tustin's
+  ``N = k F(alpha / A)`` with ``F(r) = 1 - (2/pi)(asin r + r sqrt(1 - r^2))``;
+  damped dead-zone (26), ``N = (k + j c w) F(alpha / A)``; revised dead-zone
+  (27), a dead-zone of ``y`` of amplitude ``R = A sqrt(1 + (c w / k)^2)``:
+  ``N = (k + j c w) F(alpha / R)``.
+"""
+
+import dataclasses
+import math
+
+import numba
+import numpy as np
+
+from .models import (
+    DAMPED_DEAD_ZONE,
+    DEAD_ZONE,
+    ELASTO_BACKLASH,
+    EXACT,
+    REVISED_DEAD_ZONE,
+    RUBBER,
+    BacklashModel,
+    held_mode,
+    make_model,
+    mode_torque,
+    static_mode,
+)
+
+__all__ = [
+    "describing_function",
+    "describing_function_grid",
+    "DescribingFunctionResult",
+    "phase_plane_validity",
+    "ValidityMap",
+]
+
+_jit = numba.njit(cache=True, nogil=True)
+_TWO_PI = 2.0 * math.pi
+_SAMPLES = 64  # phase samples that bracket mode changes (plus special phases)
+_SCAN_STEP = 0.02  # phase step (rad) of the exact model's search for re-contact
+_BISECTIONS = 60
+_MAX_PIECE = 0.25 * math.pi
+_GAUSS_ORDER = 16
+
+
+# --------------------------------------------------------------------------- static laws
+
+
+@_jit
+def _piece(law, mode, phi, amp, omega, bias, p):
+    """(mode, smooth-piece index) at phase phi for a trajectory that held ``mode``.
+
+    The mode follows :func:`~backlash_df.models.held_mode`, as in the simulation:
+    contact of the phase plane law, once made at theta*, holds until release.
+    The piece index adds the side of the ElastoBacklash kink ``min(tau_c, tau_d)``
+    and the sign of v in the rubber band (the two lines of (36) meet with a kink
+    at v = 0).
+    """
+    k, c, alpha, beta = p[0], p[1], p[2], p[3]
+    x = bias + amp * math.sin(phi)
+    v = amp * omega * math.cos(phi)
+    m = held_mode(law, mode, x, v, k, c, alpha, beta)
+    if law == RUBBER and (m == 1 or m == -1):
+        return m, 2 * m + (1 if v > 0.0 else 0)
+    if law == ELASTO_BACKLASH and m != 0:
+        if m > 0:
+            kink = 1 if k * (x - alpha) < c * v else 0
+        else:
+            kink = 1 if k * (x + alpha) > c * v else 0
+        return m, 2 * m + kink
+    return m, 2 * m
+
+
+@_jit
+def _integrate_piece(law, m, a, e, amp, omega, bias, p, nodes, weights, acc):
+    """Add int T sin, int T cos, int T over [a, e] (one smooth piece in mode m) to ``acc``."""
+    if m == 0:
+        return
+    # the rubber band's torque follows theta*(v), steep at high rate: finer pieces
+    longest = 0.5 * _MAX_PIECE if law == RUBBER and (m == 1 or m == -1) else _MAX_PIECE
+    n_sub = int(math.ceil((e - a) / longest))
+    width = (e - a) / n_sub
+    for s in range(n_sub):
+        centre = a + (s + 0.5) * width
+        for i in range(nodes.shape[0]):
+            phi = centre + 0.5 * width * nodes[i]
+            sn = math.sin(phi)
+            cs = math.cos(phi)
+            torque = mode_torque(law, m, bias + amp * sn, amp * omega * cs, p[0], p[1], p[2], p[3])
+            w = 0.5 * width * weights[i] * torque
+            acc[0] += w * sn
+            acc[1] += w * cs
+            acc[2] += w
+
+
+@_jit
+def _static_harmonics(law, amp, omega, bias, p, nodes, weights, samples, acc):
+    """Fourier integrals of a static law's torque over one period (see module docs).
+
+    The walk starts at phi = pi/2, where v = 0 and the held mode does not depend
+    on the history, and runs one period.
+    """
+    tau_omega = p[1] * omega / p[0]
+    psi = math.atan(tau_omega)
+    phi0 = 0.5 * math.pi
+    grid = np.empty(samples + 7)
+    for i in range(samples + 1):
+        grid[i] = phi0 + _TWO_PI * i / samples
+    # special phases: extrema of x and of y = x + (c/k) v, zero crossings of v
+    specials = (0.5 * math.pi, 1.5 * math.pi, 0.5 * math.pi - psi, 1.5 * math.pi - psi, math.pi, 0.0)
+    for j in range(6):
+        grid[samples + 1 + j] = phi0 + (specials[j] - phi0) % _TWO_PI
+    grid.sort()
+    acc[0] = 0.0
+    acc[1] = 0.0
+    acc[2] = 0.0
+    start = phi0
+    x0 = bias + amp * math.sin(phi0)
+    mode = static_mode(law, x0, 0.0, p[0], p[1], p[2], p[3])
+    mode, current = _piece(law, mode, phi0, amp, omega, bias, p)
+    for j in range(1, grid.shape[0]):
+        if grid[j] <= grid[j - 1]:
+            continue
+        target = _piece(law, mode, grid[j], amp, omega, bias, p)[1]
+        while target != current:
+            lo = max(start, grid[j - 1])
+            hi = grid[j]
+            for _ in range(_BISECTIONS):
+                mid = 0.5 * (lo + hi)
+                if mid <= lo or mid >= hi:
+                    break
+                if _piece(law, mode, mid, amp, omega, bias, p)[1] == current:
+                    lo = mid
+                else:
+                    hi = mid
+            _integrate_piece(law, mode, start, hi, amp, omega, bias, p, nodes, weights, acc)
+            start = hi
+            mode, current = _piece(law, mode, hi, amp, omega, bias, p)
+            target = _piece(law, mode, grid[j], amp, omega, bias, p)[1]
+    _integrate_piece(law, mode, start, phi0 + _TWO_PI, amp, omega, bias, p, nodes, weights, acc)
+    return 1.0
+
+
+# --------------------------------------------------------------------------- exact model
+
+
+@_jit
+def _contact_integrals(a, e, amp, omega, bias, side, p, acc):
+    """Closed-form Fourier integrals of T = k (y - side alpha) over [a, e]."""
+    k, c, alpha = p[0], p[1], p[2]
+    p0 = k * (bias - side * alpha)
+    p1 = k * amp
+    p2 = c * amp * omega
+    sa, se = math.sin(a), math.sin(e)
+    ca, ce = math.cos(a), math.cos(e)
+    half = 0.5 * (e - a)
+    quarter = 0.25 * (math.sin(2.0 * e) - math.sin(2.0 * a))
+    sin2 = half - quarter
+    cos2 = half + quarter
+    sincos = 0.5 * (se * se - sa * sa)
+    acc[0] += p0 * (ca - ce) + p1 * sin2 + p2 * sincos
+    acc[1] += p0 * (se - sa) + p1 * sincos + p2 * cos2
+    acc[2] += p0 * (e - a) + p1 * (ca - ce) + p2 * (se - sa)
+
+
+@_jit
+def _free_theta(phi, phi0, offset, amp, bias, tau_omega):
+    """theta_b in free motion (13): x(phi) + offset exp(-(phi - phi0) / (c w / k))."""
+    return bias + amp * math.sin(phi) + offset * math.exp(-(phi - phi0) / tau_omega)
+
+
+@_jit
+def _next_contact(phi0, theta0, amp, bias, tau_omega, alpha, horizon, scan_step):
+    """First phase after phi0 where the free theta_b reaches +-alpha; (phase, side).
+
+    Returns side 0 if the shaft stays free up to ``phi0 + horizon``.
+    """
+    offset = theta0 - (bias + amp * math.sin(phi0))
+    transient = 40.0 * tau_omega
+    fine = 0.25 * tau_omega
+    phi_prev = phi0
+    phi = phi0
+    while phi - phi0 < horizon:
+        step = fine if (phi - phi0 < transient and fine < scan_step) else scan_step
+        phi = phi + step
+        theta = _free_theta(phi, phi0, offset, amp, bias, tau_omega)
+        if theta >= alpha or theta <= -alpha:
+            side = 1.0 if theta >= alpha else -1.0
+            lo = phi_prev
+            hi = phi
+            for _ in range(_BISECTIONS):
+                mid = 0.5 * (lo + hi)
+                if mid <= lo or mid >= hi:
+                    break
+                if side * _free_theta(mid, phi0, offset, amp, bias, tau_omega) >= alpha:
+                    hi = mid
+                else:
+                    lo = mid
+            return hi, side
+        phi_prev = phi
+    return phi, 0.0
+
+
+@_jit
+def _release_phase(side, amp, bias, tau_omega, alpha):
+    """Phase in [0, 2 pi) where y = x + (c/k) v leaves contact on ``side`` (Theorem 1).
+
+    ``y = bias + R sin(phi + psi)``; right contact ends where y falls through
+    alpha, left contact where y rises through -alpha.  NaN if y never crosses.
+    """
+    radius = amp * math.sqrt(1.0 + tau_omega * tau_omega)
+    psi = math.atan(tau_omega)
+    level = (side * alpha - bias) / radius
+    if abs(level) >= 1.0:
+        return math.nan
+    if side > 0.0:
+        phi = math.pi - math.asin(level) - psi
+    else:
+        phi = math.asin(level) - psi
+    return phi % _TWO_PI
+
+
+@_jit
+def _exact_harmonics(amp, omega, bias, p, scan_step, acc):
+    """Fourier integrals of the exact model's periodic steady-state torque, per period.
+
+    Returns the number of input periods the response repeats over (1 normally).
+    """
+    k, c, alpha = p[0], p[1], p[2]
+    tau_omega = c * omega / k
+    radius = amp * math.sqrt(1.0 + tau_omega * tau_omega)
+    acc[0] = 0.0
+    acc[1] = 0.0
+    acc[2] = 0.0
+    if bias - radius >= alpha:  # y >= alpha throughout: permanent right contact
+        _contact_integrals(0.0, _TWO_PI, amp, omega, bias, 1.0, p, acc)
+        return 1.0
+    if bias + radius <= -alpha:
+        _contact_integrals(0.0, _TWO_PI, amp, omega, bias, -1.0, p, acc)
+        return 1.0
+    start_side = 1.0
+    start = _release_phase(1.0, amp, bias, tau_omega, alpha)
+    if math.isnan(start):
+        start_side = -1.0
+        start = _release_phase(-1.0, amp, bias, tau_omega, alpha)
+        if math.isnan(start):  # |y| < alpha throughout: the gap never closes
+            return 1.0
+    # the shaft needs about 40 time constants to forget its twist; search that long
+    horizon = _TWO_PI * (2.0 + math.ceil(40.0 * tau_omega / _TWO_PI))
+    # The state right after a release is (theta_b = side alpha, fixed phase), so the
+    # response repeats from one release of a side to the next release of that side.
+    # Integrals are kept since the last release of each side: index 0 right, 1 left.
+    since = np.zeros((2, 3))
+    opened = np.zeros(2)
+    released_at = np.zeros(2)
+    index = 0 if start_side > 0.0 else 1
+    opened[index] = 1.0
+    released_at[index] = start
+    phi = start
+    theta = start_side * alpha
+    for _ in range(4):  # with two sides a side repeats within three contacts
+        contact, side = _next_contact(phi, theta, amp, bias, tau_omega, alpha, horizon, scan_step)
+        if side == 0.0:  # the gap is not closed again: the steady state is free, T = 0
+            return 1.0
+        release = _release_phase(side, amp, bias, tau_omega, alpha)
+        release += _TWO_PI * math.ceil((contact - release) / _TWO_PI)
+        segment = np.zeros(3)
+        _contact_integrals(contact, release, amp, omega, bias, side, p, segment)
+        since += segment
+        index = 0 if side > 0.0 else 1
+        if opened[index] > 0.0:
+            acc[:] = since[index]
+            return float(round((release - released_at[index]) / _TWO_PI))
+        opened[index] = 1.0
+        released_at[index] = release
+        since[index] = 0.0
+        phi = release
+        theta = side * alpha
+    return 1.0
+
+
+# --------------------------------------------------------------------------- grid kernel
+
+
+@_jit
+def _harmonic_balance(law, p, amp, omega, bias, nodes, weights, samples, scan_step, n_out, mean_out):
+    acc = np.zeros(3)
+    for i in range(amp.shape[0]):
+        a, w, b = amp[i], omega[i], bias[i]
+        if law == EXACT and p[1] > 0.0 and w > 0.0:
+            periods = _exact_harmonics(a, w, b, p, scan_step, acc)
+        elif law == EXACT:  # c w = 0: the shaft relaxes at once, the classical dead-zone
+            periods = _static_harmonics(DEAD_ZONE, a, w, b, p, nodes, weights, samples, acc)
+        else:
+            periods = _static_harmonics(law, a, w, b, p, nodes, weights, samples, acc)
+        scale = 1.0 / (math.pi * periods)
+        n_out[i] = complex(acc[0] * scale / a, acc[1] * scale / a)
+        mean_out[i] = 0.5 * acc[2] * scale
+
+
+def _tustin(excess):
+    """Dead-zone DF over k, F = 1 - (2/pi)(asin r + r sqrt(1 - r^2)), r = alpha / A.
+
+    Evaluated from ``excess = (A - alpha) / A`` as ``F = (u - sin u) / pi`` with
+    ``u = 4 asin(sqrt(excess / 2))``, and a series for small u, so that F keeps
+    full relative precision as A -> alpha (the printed form cancels).
+    """
+    d = np.clip(excess, 0.0, 1.0)
+    u = 4.0 * np.arcsin(np.sqrt(0.5 * d))
+    u2 = u * u
+    series = u * u2 / 6.0 * (1.0 - u2 / 20.0 * (1.0 - u2 / 42.0 * (1.0 - u2 / 72.0 * (1.0 - u2 / 110.0))))
+    return np.where(u < 0.1, series, u - np.sin(u)) / np.pi
+
+
+def _closed_form(model, amplitude, omega):
+    """N of (24), (26), (27) without bias, or None for laws that have no closed form here."""
+    k, c, alpha = model.stiffness, model.damping, model.half_gap
+    if model.law == DEAD_ZONE:
+        return k * _tustin((amplitude - alpha) / amplitude) + 0j * omega
+    if model.law == DAMPED_DEAD_ZONE:
+        return (k + 1j * c * omega) * _tustin((amplitude - alpha) / amplitude)
+    if model.law == REVISED_DEAD_ZONE:
+        radius = amplitude * np.sqrt(1.0 + (c * omega / k) ** 2)
+        return (k + 1j * c * omega) * _tustin((radius - alpha) / radius)
+    return None
+
+
+# --------------------------------------------------------------------------- public API
+
+
+def _validated(name, values, positive=False):
+    array = np.asarray(values, dtype=float)
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{name} must be finite")
+    if positive and np.any(array <= 0.0):
+        raise ValueError(f"{name} must be > 0")
+    if not positive and name == "omega" and np.any(array < 0.0):
+        raise ValueError("omega must be >= 0")
+    return array
+
+
+def _as_model(model):
+    if isinstance(model, BacklashModel):
+        return model
+    raise ValueError(f"model must be a model from make_model(), got {model!r}")
+
+
+def _evaluate(model, amplitude, omega, bias, method, samples=_SAMPLES, gauss_order=_GAUSS_ORDER, scan_step=_SCAN_STEP):
+    """N and mean torque; ``samples``, ``gauss_order`` and ``scan_step`` set the
+    resolution of the harmonic balance (tests refine them)."""
+    model = _as_model(model)
+    amplitude = _validated("amplitude", amplitude, positive=True)
+    omega = _validated("omega", omega)
+    bias = _validated("bias", bias)
+    if method not in ("auto", "closed-form", "harmonic-balance"):
+        raise ValueError(f"method must be 'auto', 'closed-form' or 'harmonic-balance', got {method!r}")
+    a, w, b = np.broadcast_arrays(amplitude, omega, bias)
+    closed = _closed_form(model, a, w) if method != "harmonic-balance" and not np.any(b) else None
+    if method == "closed-form" and closed is None:
+        raise ValueError(f"no closed-form describing function for {model.name!r} (or with a bias)")
+    if closed is not None:
+        return np.asarray(closed, dtype=complex), np.zeros(a.shape)
+    n_out = np.empty(a.size, dtype=complex)
+    mean_out = np.empty(a.size)
+    nodes, weights = np.polynomial.legendre.leggauss(gauss_order)
+    _harmonic_balance(
+        model.law, model.params, np.ascontiguousarray(a, dtype=float).ravel(),
+        np.ascontiguousarray(w, dtype=float).ravel(), np.ascontiguousarray(b, dtype=float).ravel(),
+        nodes, weights, int(samples), float(scan_step), n_out, mean_out,
+    )
+    return n_out.reshape(a.shape), mean_out.reshape(a.shape)
+
+
+def describing_function(model, amplitude, omega, bias=0.0, method="auto"):
+    """Describing function N(A, w, bias) of a backlash torque law.
+
+    Parameters
+    ----------
+    model : BacklashModel
+        A law from :func:`~backlash_df.make_model`, the exact model included.
+    amplitude : array_like
+        First-harmonic amplitude A of theta_d, rad (> 0).
+    omega : array_like
+        Angular frequency w, rad/s (>= 0).
+    bias : array_like, optional
+        Mean of theta_d, rad.
+    method : {"auto", "closed-form", "harmonic-balance"}
+        ``auto`` uses the closed forms of (24), (26), (27) without bias and
+        harmonic balance otherwise; the other two force one route.
+
+    Returns
+    -------
+    complex ndarray
+        N = (b1 + j a1) / A in N m/rad, broadcast over the arguments.
+
+    Raises
+    ------
+    ValueError
+        Amplitude not > 0, omega negative, any argument non-finite.
+
+    See Also
+    --------
+    describing_function_grid : a grid with gain, phase, mean torque and plots.
+
+    Examples
+    --------
+    Tustin's dead-zone: N = k F(alpha / A).
+
+    >>> model = make_model("dead-zone", stiffness=100.0, half_gap=0.1)
+    >>> complex(describing_function(model, 0.2, 10.0))
+    (39.100...+0j)
+
+    The damped laws lead in phase:
+
+    >>> pp = make_model("phase-plane", stiffness=5895.0, damping=3.0, half_gap=0.05)
+    >>> n = describing_function(pp, [0.06, 0.2], 100.0)
+    >>> bool(np.all(np.angle(n) > 0))
+    True
+    """
+    return _evaluate(model, amplitude, omega, bias, method)[0]
+
+
+@dataclasses.dataclass(frozen=True)
+class DescribingFunctionResult:
+    """Describing function of one law on an (amplitude x omega) grid.
+
+    Attributes
+    ----------
+    model : BacklashModel
+    amplitude : ndarray
+        Amplitudes A (rad), shape (n_A,).
+    omega : ndarray
+        Angular frequencies w (rad/s), shape (n_w,).
+    bias : float
+        Mean of theta_d (rad).
+    N : complex ndarray
+        Describing function (N m/rad), shape (n_A, n_w).
+    mean_torque : ndarray
+        DC term of the torque (N m), shape (n_A, n_w); zero without bias.
+    """
+
+    model: BacklashModel
+    amplitude: np.ndarray
+    omega: np.ndarray
+    bias: float
+    N: np.ndarray
+    mean_torque: np.ndarray
+
+    @property
+    def gain(self):
+        """|N|, N m/rad."""
+        return np.abs(self.N)
+
+    @property
+    def phase_deg(self):
+        """Phase of N in degrees (positive: a lead)."""
+        return np.degrees(np.angle(self.N))
+
+    @property
+    def rate(self):
+        """Dimensionless rate c w / k of each column."""
+        return self.model.damping * self.omega / self.model.stiffness
+
+    def __repr__(self):
+        return (
+            f"DescribingFunctionResult(model={self.model.name!r}, {self.amplitude.size} amplitudes x "
+            f"{self.omega.size} frequencies, bias={self.bias!r})"
+        )
+
+    def plot(self, axes=None):
+        """Gain (normalised by k) and phase against A / alpha, one line per c w / k.
+
+        Returns
+        -------
+        axes : ndarray of matplotlib Axes
+            Gain and phase axes.
+        """
+        import matplotlib.pyplot as plt
+
+        if axes is None:
+            _, axes = plt.subplots(2, 1, sharex=True, figsize=(7, 5.5))
+        ratio = self.amplitude / self.model.half_gap
+        for j, rate in enumerate(self.rate):
+            label = f"c w / k = {rate:.3g}"
+            axes[0].semilogx(ratio, self.gain[:, j] / self.model.stiffness, label=label)
+            axes[1].semilogx(ratio, self.phase_deg[:, j], label=label)
+        axes[0].set_ylabel("|N| / k")
+        axes[1].set_ylabel("phase of N (deg)")
+        axes[1].set_xlabel("A / alpha")
+        axes[0].set_title(f"describing function: {self.model.name}")
+        axes[0].legend(fontsize="small")
+        for ax in axes:
+            ax.grid(True, which="both", alpha=0.3)
+        return axes
+
+
+def describing_function_grid(model, amplitude, omega, bias=0.0):
+    """Describing function and mean torque on the grid ``amplitude x omega``.
+
+    Parameters
+    ----------
+    model : BacklashModel
+    amplitude, omega : array_like
+        1-D arrays of amplitudes (rad, > 0) and angular frequencies (rad/s, >= 0).
+    bias : float, optional
+        Mean of theta_d, rad.
+
+    Returns
+    -------
+    DescribingFunctionResult
+
+    Examples
+    --------
+    >>> model = make_model("phase-plane", stiffness=5895.0, damping=3.0, half_gap=0.05)
+    >>> result = describing_function_grid(model, [0.06, 0.1], [10.0, 100.0])
+    >>> result.N.shape
+    (2, 2)
+    """
+    amplitude = np.atleast_1d(np.asarray(amplitude, dtype=float))
+    omega = np.atleast_1d(np.asarray(omega, dtype=float))
+    if amplitude.ndim != 1 or omega.ndim != 1:
+        raise ValueError("amplitude and omega must be 1-D arrays")
+    n, mean = _evaluate(model, amplitude[:, None], omega[None, :], float(bias), "auto")
+    return DescribingFunctionResult(_as_model(model), amplitude, omega, float(bias), n, mean)
+
+
+@dataclasses.dataclass(frozen=True)
+class ValidityMap:
+    """Where the phase plane law's DF departs from the exact model's (reading notes, item 10).
+
+    Attributes
+    ----------
+    amplitude_ratio : ndarray
+        A / alpha, shape (n_A,).
+    rate : ndarray
+        c w / k, shape (n_r,).
+    relative_error : ndarray
+        |N_phase - N_exact| / |N_exact|, shape (n_A, n_r); NaN where N_exact = 0.
+    early_contact : ndarray of bool
+        Where the phase plane law transmits torque although A < alpha: it closes
+        the gap at theta* < alpha, an artefact of its approximation (ii).
+    """
+
+    amplitude_ratio: np.ndarray
+    rate: np.ndarray
+    relative_error: np.ndarray
+    early_contact: np.ndarray
+
+    def plot(self, ax=None, levels=(0.01, 0.05, 0.2)):
+        """Contours of the relative difference at ``levels`` (1 %, 5 %, 20 %) and the
+        early-contact region; returns the axes."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(7, 4.5))
+        err = np.where(np.isfinite(self.relative_error), self.relative_error, np.nan)
+        bounds = [0.0, *levels, max(float(np.nanmax(err, initial=0.0)), 2.0 * levels[-1])]
+        colours = ["#f7fbff", "#c6dbef", "#6baed6", "#08519c", "#08306b"][: len(bounds) - 1]
+        filled = ax.contourf(self.rate, self.amplitude_ratio, err, levels=bounds, colors=colours)
+        ax.contour(self.rate, self.amplitude_ratio, err, levels=list(levels), colors="k", linewidths=0.8)
+        if np.any(self.early_contact):
+            ax.contourf(self.rate, self.amplitude_ratio, self.early_contact.astype(float), levels=[0.5, 1.5],
+                        colors="none", hatches=["//"])
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("c w / k")
+        ax.set_ylabel("A / alpha")
+        ax.set_title("|N_phase-plane - N_exact| / |N_exact|; hatched: contact although A < alpha", fontsize="medium")
+        colorbar = ax.figure.colorbar(filled, ax=ax, spacing="uniform")
+        colorbar.set_ticks(bounds)
+        colorbar.set_ticklabels(["0", *[f"{level:.0%}" for level in levels], f"{bounds[-1]:.0%}"])
+        return ax
+
+
+def phase_plane_validity(stiffness, damping, half_gap, amplitude_ratio, rate):
+    """Relative difference between the phase plane and exact describing functions.
+
+    Parameters
+    ----------
+    stiffness, damping, half_gap : float
+        k (N m/rad), c (N m s/rad, > 0), alpha (rad).
+    amplitude_ratio : array_like
+        A / alpha values.
+    rate : array_like
+        c w / k values (dimensionless).
+
+    Returns
+    -------
+    ValidityMap
+    """
+    if not damping > 0.0:
+        raise ValueError("damping must be > 0 for a validity map (with c = 0 both laws are the dead-zone)")
+    shaft = dict(stiffness=stiffness, damping=damping, half_gap=half_gap)
+    ratio = np.atleast_1d(np.asarray(amplitude_ratio, dtype=float))
+    rate = np.atleast_1d(np.asarray(rate, dtype=float))
+    amplitude = ratio[:, None] * half_gap
+    omega = rate[None, :] * stiffness / damping
+    n_phase = describing_function(make_model("phase-plane", **shaft), amplitude, omega)
+    n_exact = describing_function(make_model("exact", **shaft), amplitude, omega)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        error = np.where(np.abs(n_exact) > 0.0, np.abs(n_phase - n_exact) / np.abs(n_exact), np.nan)
+    early = (np.abs(n_phase) > 0.0) & (amplitude < half_gap)
+    return ValidityMap(ratio, rate, error, early)

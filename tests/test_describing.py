@@ -1,0 +1,280 @@
+"""Describing functions: closed forms, an independent FFT, refinement, limits, symmetry."""
+
+import numpy as np
+import pytest
+
+from backlash_df import describing_function, describing_function_grid, make_model
+from backlash_df.describing import _evaluate, phase_plane_validity
+
+K, C, ALPHA, BETA = 5895.0, 3.0, 0.05, 0.05
+STATIC = ["dead-zone", "damped-dead-zone", "revised-dead-zone", "phase-plane", "rubber", "elasto-backlash"]
+ALL = STATIC + ["exact"]
+
+
+def model(name, **changes):
+    params = dict(stiffness=K, damping=C, half_gap=ALPHA, rubber_thickness=BETA)
+    params.update(changes)
+    return make_model(name, **params)
+
+
+def tustin(a_over_alpha):
+    """Dead-zone DF / k, written as in the textbooks (Gelb and Vander Velde)."""
+    r = 1.0 / a_over_alpha
+    return 1.0 - (2.0 / np.pi) * (np.arcsin(r) + r * np.sqrt(1.0 - r * r))
+
+
+def fourier_by_fft(torque, amplitude):
+    """N and mean from torque samples on a uniform phase grid over one period."""
+    spectrum = np.fft.rfft(torque) / torque.size
+    # T = a0 + b1 sin + a1 cos + ...: rfft[1] = (a1 - j b1) / 2
+    b1 = -2.0 * spectrum[1].imag
+    a1 = 2.0 * spectrum[1].real
+    return (b1 + 1j * a1) / amplitude, spectrum[0].real
+
+
+# ------------------------------------------------------------------ closed forms
+
+
+@pytest.mark.parametrize("name", ["dead-zone", "damped-dead-zone", "revised-dead-zone"])
+def test_harmonic_balance_matches_closed_forms_over_ten_decades_of_rate(name):
+    ratio = np.geomspace(1.0001, 1e3, 41)[:, None]
+    rate = np.geomspace(1e-5, 1e5, 41)[None, :]  # c w A / (k alpha)
+    amplitude = ratio * ALPHA
+    omega = rate * K * ALPHA / (C * amplitude)
+    closed = describing_function(model(name), amplitude, omega, method="closed-form")
+    balance = describing_function(model(name), amplitude, omega, method="harmonic-balance")
+    np.testing.assert_allclose(balance, closed, rtol=1e-10, atol=0.0)
+
+
+def test_closed_forms_are_the_textbook_formulas():
+    # (26): the damper adds j c w on the same contact fraction; (27) is a dead-zone of
+    # y = x + (c/k) v, amplitude A sqrt(1 + (c w / k)^2), phase-shifted by atan(c w / k)
+    ratio, omega = 1.7, 400.0
+    amplitude = ratio * ALPHA
+    f = tustin(ratio)
+    assert describing_function(model("dead-zone"), amplitude, omega) == pytest.approx(K * f, rel=1e-13)
+    assert describing_function(model("damped-dead-zone"), amplitude, omega) == pytest.approx(
+        (K + 1j * C * omega) * f, rel=1e-13)
+    radius = amplitude * np.hypot(1.0, C * omega / K)
+    assert describing_function(model("revised-dead-zone"), amplitude, omega) == pytest.approx(
+        (K + 1j * C * omega) * tustin(radius / ALPHA), rel=1e-13)
+
+
+def test_closed_form_keeps_precision_next_to_the_gap():
+    # A = alpha (1 + e): F = (16 sqrt 2 / (3 pi)) e^(3/2) (1 + O(e))
+    excess = 1e-10
+    value = describing_function(model("dead-zone"), ALPHA * (1.0 + excess), 1.0).real / K
+    assert value == pytest.approx(16.0 * np.sqrt(2.0) / (3.0 * np.pi) * excess**1.5, rel=1e-8)
+
+
+# ------------------------------------------------------------------ independent FFT
+
+
+@pytest.mark.parametrize("name", STATIC)
+@pytest.mark.parametrize("ratio, omega, bias", [(1.3, 150.0, 0.0), (4.0, 900.0, 0.0), (2.0, 300.0, 0.02)])
+def test_harmonic_balance_matches_fft_of_the_sampled_torque(name, ratio, omega, bias):
+    law = model(name)
+    amplitude = ratio * ALPHA
+    phi = np.arange(2**18) * (2.0 * np.pi / 2**18)
+    torque = law.torque(bias + amplitude * np.sin(phi), amplitude * omega * np.cos(phi))
+    n_fft, mean_fft = fourier_by_fft(torque, amplitude)
+    n, mean = _evaluate(law, amplitude, omega, bias, "harmonic-balance")
+    # the jumps of (23) and (26) limit the sampled sum to first order: 1/M ~ 4e-6
+    assert abs(complex(n) - n_fft) <= 2e-5 * abs(n_fft)
+    assert float(mean) == pytest.approx(mean_fft, abs=2e-5 * K * ALPHA)
+
+
+@pytest.mark.parametrize("ratio, rate", [(1.2, 0.05), (3.0, 0.5), (2.0, 3.0)])
+def test_exact_model_matches_a_time_simulation_of_14_along_the_sinusoid(ratio, rate):
+    law = model("exact")
+    amplitude = ratio * ALPHA
+    omega = rate * K / C
+    period = 2.0 * np.pi / omega
+    samples = 2**14
+    time = np.arange(8 * samples + 1) * (period / samples)
+    torque, _ = law.torque_along(time, amplitude * np.sin(omega * time), amplitude * omega * np.cos(omega * time))
+    n_sim, _ = fourier_by_fft(torque[-samples - 1:-1], amplitude)  # the 8th period: steady
+    n = describing_function(law, amplitude, omega)
+    assert abs(complex(n) - n_sim) <= 2e-4 * abs(n_sim)
+
+
+# ------------------------------------------------------------------ refinement
+
+
+@pytest.mark.parametrize("name", ["phase-plane", "rubber", "elasto-backlash"])
+def test_refining_the_quadrature_changes_n_by_less_than_1e_10(name):
+    amplitude = ALPHA * np.geomspace(1.01, 50.0, 15)[:, None]
+    omega = np.geomspace(1.0, 2e4, 15)[None, :]
+    coarse, _ = _evaluate(model(name), amplitude, omega, 0.0, "harmonic-balance")
+    fine, _ = _evaluate(model(name), amplitude, omega, 0.0, "harmonic-balance", samples=256, gauss_order=32)
+    scale = np.maximum(np.abs(fine), 1e-300)
+    assert np.max(np.abs(coarse - fine) / scale) < 1e-10
+
+
+def test_exact_model_does_not_depend_on_its_search_step():
+    amplitude = ALPHA * np.geomspace(1.01, 50.0, 12)[:, None]
+    omega = np.geomspace(1.0, 2e4, 12)[None, :]
+    coarse, _ = _evaluate(model("exact"), amplitude, omega, 0.0, "auto")
+    fine, _ = _evaluate(model("exact"), amplitude, omega, 0.0, "auto", scan_step=0.005)
+    scale = np.maximum(np.abs(fine), 1e-300)
+    assert np.max(np.abs(coarse - fine) / scale) < 1e-6
+
+
+# ------------------------------------------------------------------ limits (Remark 2, beta -> 0)
+
+
+@pytest.mark.parametrize("name", ["phase-plane", "revised-dead-zone", "rubber", "exact", "elasto-backlash"])
+def test_every_damped_law_tends_to_the_damped_dead_zone_as_c_goes_to_zero(name):
+    amplitude = ALPHA * np.array([1.05, 1.5, 4.0, 30.0])[:, None]
+    omega = np.array([5.0, 50.0, 500.0])[None, :]
+    for damping in (1e-3, 1e-6):
+        reference = describing_function(model("damped-dead-zone", damping=damping), amplitude, omega)
+        extra = dict(rubber_thickness=0.0) if name == "rubber" else {}
+        law = model(name, damping=damping, **extra)
+        n = describing_function(law, amplitude, omega)
+        assert np.max(np.abs(n - reference) / np.abs(reference)) < 50.0 * damping / C
+
+
+def test_rubber_tends_to_the_phase_plane_law_as_beta_goes_to_zero():
+    amplitude = ALPHA * np.array([1.2, 2.0, 5.0])[:, None]
+    omega = np.array([10.0, 300.0])[None, :]
+    phase = describing_function(model("phase-plane"), amplitude, omega)
+    errors = []
+    for beta in (1e-2, 1e-3, 1e-4):
+        rubber = describing_function(model("rubber", rubber_thickness=beta), amplitude, omega)
+        errors.append(np.max(np.abs(rubber - phase) / np.abs(phase)))
+    assert errors[0] > errors[1] > errors[2] and errors[2] < 1e-3
+
+
+def test_exact_and_phase_plane_agree_where_the_shaft_relaxes_between_contacts():
+    # reading notes item 10: agreement when c w A / (k alpha) is small
+    ratio = np.geomspace(1.05, 100.0, 20)[:, None]
+    amplitude = ratio * ALPHA
+    omega = 0.01 * K * ALPHA / (C * amplitude) * np.array([[0.01, 0.1, 1.0]])
+    exact = describing_function(model("exact"), amplitude, omega)
+    phase = describing_function(model("phase-plane"), amplitude, omega)
+    assert np.max(np.abs(exact - phase) / np.abs(exact)) < 0.005
+
+
+def test_every_law_tends_to_the_linear_shaft_at_large_amplitude():
+    # contact nearly all the time: N -> k + j c w, to O(alpha / A).  Not the
+    # ElastoBacklash law: it clips the damper wherever c v > k (|x| - alpha).
+    for name in set(ALL) - {"elasto-backlash"}:
+        n = describing_function(model(name), 1e4 * ALPHA, 200.0)
+        damper = 0.0 if name == "dead-zone" else C * 200.0
+        assert abs(complex(n) - (K + 1j * damper)) < 3e-4 * K
+
+
+# ------------------------------------------------------------------ no contact, bias, symmetry
+
+
+@pytest.mark.parametrize("name", ["dead-zone", "damped-dead-zone", "revised-dead-zone", "elasto-backlash", "exact"])
+def test_no_contact_no_torque(name):
+    bias = np.array([0.0, 0.01, -0.02])
+    amplitude = (ALPHA - np.abs(bias)) * 0.999
+    law = model(name, damping=1e-3)  # revised (27) closes early by c v / k: keep it small
+    n, mean = _evaluate(law, amplitude, 50.0, bias, "auto")
+    assert np.all(n == 0.0) and np.all(mean == 0.0)
+
+
+def test_no_contact_no_torque_for_the_rubber_law():
+    bias = np.array([0.0, 0.01])
+    amplitude = (ALPHA - BETA / 2 - np.abs(bias)) * 0.999
+    n, mean = _evaluate(model("rubber", damping=1e-3), amplitude, 50.0, bias, "auto")
+    assert np.all(n == 0.0) and np.all(mean == 0.0)
+
+
+def test_phase_plane_law_closes_the_gap_below_alpha_at_high_rate():
+    # theta* < alpha: approximation (ii) transmits torque for A < alpha (shown in the validity map)
+    amplitude = 0.9 * ALPHA
+    fast = K * ALPHA / C * 20.0 / amplitude
+    assert abs(complex(describing_function(model("phase-plane"), amplitude, fast))) > 0.0
+    assert complex(describing_function(model("exact"), amplitude, fast)) == 0.0
+    validity = phase_plane_validity(K, C, ALPHA, [0.9, 2.0], [1e-3, 50.0])
+    assert validity.early_contact[0, 1] and not validity.early_contact[1].any()
+
+
+@pytest.mark.parametrize("name", ALL)
+def test_odd_symmetry_makes_n_even_and_the_mean_odd_in_the_bias(name):
+    amplitude, omega = np.array([0.06, 0.12]), 300.0
+    n_up, mean_up = _evaluate(model(name), amplitude, omega, 0.015, "auto")
+    n_down, mean_down = _evaluate(model(name), amplitude, omega, -0.015, "auto")
+    np.testing.assert_allclose(n_down, n_up, rtol=1e-9)
+    np.testing.assert_allclose(mean_down, -mean_up, rtol=1e-9)
+
+
+def test_permanent_contact_gives_the_linear_shaft_and_its_mean():
+    # bias beyond the gap, small amplitude: T = k (x - alpha) + c v all period
+    bias, amplitude, omega = 0.2, 0.01, 40.0
+    for name in ("damped-dead-zone", "phase-plane", "exact", "revised-dead-zone"):
+        n, mean = _evaluate(model(name), amplitude, omega, bias, "auto")
+        assert complex(n) == pytest.approx(K + 1j * C * omega, rel=1e-12)
+        assert float(mean) == pytest.approx(K * (bias - ALPHA), rel=1e-12)
+
+
+def test_grid_result_and_plot():
+    result = describing_function_grid(model("phase-plane"), ALPHA * np.array([1.2, 2.0, 5.0]), [10.0, 1000.0])
+    assert result.N.shape == (3, 2)
+    np.testing.assert_allclose(result.gain, np.abs(result.N))
+    assert np.all(result.phase_deg > 0.0)  # the damped law leads (notes item 11)
+    axes = result.plot()
+    assert len(axes[0].lines) == 2
+
+
+def test_phase_plane_leads_less_than_the_damped_dead_zone():
+    # reading notes item 11: the smaller lead of (23) is what lets Nyquist curves meet -1/N
+    amplitude = ALPHA * np.geomspace(1.1, 20.0, 12)
+    omega = 100.0
+    phase = np.angle(describing_function(model("phase-plane"), amplitude, omega))
+    dead = np.angle(describing_function(model("damped-dead-zone"), amplitude, omega))
+    assert np.all(phase < dead)
+
+
+# ------------------------------------------------------------------ bad input
+
+
+@pytest.mark.parametrize(
+    "amplitude, omega, bias, match",
+    [
+        (0.0, 10.0, 0.0, "amplitude must be > 0"),
+        (-0.1, 10.0, 0.0, "amplitude must be > 0"),
+        (np.nan, 10.0, 0.0, "amplitude must be finite"),
+        (0.1, -1.0, 0.0, "omega must be >= 0"),
+        (0.1, np.inf, 0.0, "omega must be finite"),
+        (0.1, 10.0, np.nan, "bias must be finite"),
+    ],
+)
+def test_bad_arguments_raise_value_error_naming_them(amplitude, omega, bias, match):
+    with pytest.raises(ValueError, match=match):
+        describing_function(model("phase-plane"), amplitude, omega, bias)
+
+
+def test_closed_form_request_for_a_law_without_one():
+    with pytest.raises(ValueError, match="no closed-form"):
+        describing_function(model("phase-plane"), 0.1, 10.0, method="closed-form")
+
+
+def test_phase_plane_contact_is_held_until_release_as_in_the_simulation():
+    # Just above the gap at high rate, (23) read as a memoryless function would drop
+    # contact for an instant before the peak (x < theta*(v) while v decays); the
+    # simulation holds contact until release (models.held_mode) and so does the DF.
+    from backlash_df.models import held_mode, mode_torque, static_mode
+
+    law = model("phase-plane")
+    amplitude, omega = 1.001 * ALPHA, 11595.0
+    k, c, alpha, beta = law.params
+    samples = 2**16
+    phi = 0.5 * np.pi + np.arange(2 * samples) * (2.0 * np.pi / samples)
+    x = amplitude * np.sin(phi)
+    v = amplitude * omega * np.cos(phi)
+    mode = static_mode(law.law, x[0], 0.0, k, c, alpha, beta)
+    torque = np.empty(phi.size)
+    for i in range(phi.size):  # march the held mode sample by sample, two periods
+        mode = held_mode(law.law, mode, x[i], v[i], k, c, alpha, beta)
+        torque[i] = mode_torque(law.law, mode, x[i], v[i], k, c, alpha, beta)
+    spectrum = np.fft.rfft(torque[samples:]) / samples
+    # the samples start at phi0 = phi[samples]: refer the harmonic back to phi = 0
+    first = 2.0 * spectrum[1] * np.exp(-1j * phi[samples])  # = a1 - j b1
+    n_marched = (-first.imag + 1j * first.real) / amplitude
+    n = complex(describing_function(law, amplitude, omega))
+    assert abs(n - n_marched) <= 1e-3 * abs(n_marched)
