@@ -1,0 +1,755 @@
+"""Limit cycles of a loop closed through backlash: solving G(jw) N(A, w) = -1.
+
+With the loop cut at the backlash (:mod:`backlash_df.loops`), a harmonic
+oscillation ``theta_d = A sin(w t)`` sustains itself when
+
+    F(A, w) = 1 + G(jw) N(A, w) = 0,
+
+two real equations in the amplitude A (rad, first harmonic of theta_d) and the
+frequency w (rad/s).  The -1/N(A, w) loci of the damped models depend on w, and
+the loci can be nearly tangent to G(jw), so a single local solve is not enough:
+
+1. ``F`` is evaluated on a grid in ``(log(A - alpha), log w)``;
+2. every grid cell around which ``F`` winds (topological degree != 0) and every
+   interior local minimum of ``|F|`` seeds a damped Newton solve;
+3. converged roots are deduplicated; minima that do not lead to a root are
+   refined by a bounded minimisation of ``|F|`` and reported as *near misses*
+   with their distance ``|1 + G N|``, which is the relative change of G (gain
+   and phase together) that would make the loci meet.
+
+Stability is Loeb's criterion (Gelb and Vander Velde, 1968, Ch. 2): with
+``U + jV = 1 + G(jw) N(A, w)``, a cycle is stable if
+
+    dU/dA dV/dw - dU/dw dV/dA > 0,
+
+i.e. a small increase of the amplitude moves the characteristic root into the
+left half plane.  It is a local, first-harmonic statement; the time simulation
+(:func:`verify_limit_cycles`) is the check.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+from scipy import optimize
+
+from .loops import DriveLoop, drive_loop, frequency_response_of
+from .models import BacklashModel
+
+__all__ = [
+    "LimitCycle",
+    "NearMiss",
+    "LimitCyclePrediction",
+    "solve_harmonic_balance",
+    "predict_limit_cycles",
+    "verify_limit_cycles",
+    "limit_cycle_plot",
+    "prediction_rows",
+    "prediction_json",
+    "prediction_report",
+    "DesignMap",
+    "design_map",
+]
+
+_NEWTON_TOL = 1e-11
+_FD_STEP = 1e-6
+
+
+@dataclasses.dataclass(frozen=True)
+class LimitCycle:
+    """One solution (A, w) of G(jw) N(A, w) = -1.
+
+    Attributes
+    ----------
+    amplitude : float
+        A, first-harmonic amplitude of theta_d, rad.
+    omega : float
+        w, rad/s.
+    stable : bool
+        Loeb's criterion (module docs).
+    loeb : float
+        ``dU/dA dV/dw - dU/dw dV/dA`` in (1/rad)(s/rad); its sign decides ``stable``.
+    residual : float
+        ``|1 + G(jw) N(A, w)|`` at the solution.
+    simulated : MeasuredCycle or None
+        The cycle measured in time simulation, once verified.
+    """
+
+    amplitude: float
+    omega: float
+    stable: bool
+    loeb: float
+    residual: float
+    simulated: object = None
+
+    @property
+    def amplitude_error(self):
+        """Relative error of the predicted amplitude against simulation (NaN if none)."""
+        if self.simulated is None or not self.simulated.found:
+            return math.nan
+        return self.amplitude / self.simulated.amplitude - 1.0
+
+    @property
+    def omega_error(self):
+        """Relative error of the predicted frequency against simulation (NaN if none)."""
+        if self.simulated is None or not self.simulated.found:
+            return math.nan
+        return self.omega / self.simulated.omega - 1.0
+
+    def __repr__(self):
+        kind = "stable" if self.stable else "unstable"
+        text = f"LimitCycle(A={self.amplitude:.6g} rad, omega={self.omega:.6g} rad/s, {kind}"
+        if self.simulated is not None:
+            text += f", simulated={self.simulated!r}"
+        return text + ")"
+
+
+@dataclasses.dataclass(frozen=True)
+class NearMiss:
+    """Where the loci come closest without meeting.
+
+    Attributes
+    ----------
+    amplitude, omega : float
+        A (rad) and w (rad/s) of the closest approach.
+    distance : float
+        ``min |1 + G(jw) N(A, w)|``: the relative change of G (gain and phase)
+        that would create a limit cycle there.
+    """
+
+    amplitude: float
+    omega: float
+    distance: float
+
+    def __repr__(self):
+        return f"NearMiss(A={self.amplitude:.6g} rad, omega={self.omega:.6g} rad/s, distance={self.distance:.3%})"
+
+
+@dataclasses.dataclass(frozen=True)
+class LimitCyclePrediction:
+    """Predicted limit cycles of one loop with one torque law.
+
+    Attributes
+    ----------
+    model : str
+        Torque-law name.
+    cycles : tuple of LimitCycle
+        All solutions in the searched range, by increasing amplitude.
+    near_misses : tuple of NearMiss
+        Closest approaches that are not solutions, by increasing distance.
+    amplitude_range, omega_range : tuple of float
+        The searched box, rad and rad/s.
+    linear : object
+        The linear part (DriveLoop, LTI or callable), for plots.
+    describing : callable
+        ``N(A, w)`` used, for plots.
+    half_gap : float
+        alpha, rad.
+    simulation : MeasuredCycle or None
+        After :func:`verify_limit_cycles`: what the time simulation settled to
+        (started on the first stable predicted cycle, or from the default kick
+        when none is predicted).
+    """
+
+    model: str
+    cycles: tuple
+    near_misses: tuple
+    amplitude_range: tuple
+    omega_range: tuple
+    simulation: object = None
+    linear: object = dataclasses.field(repr=False, default=None)
+    describing: object = dataclasses.field(repr=False, default=None)
+    half_gap: float = dataclasses.field(repr=False, default=0.0)
+
+    @property
+    def stable_cycles(self):
+        """The cycles Loeb's criterion calls stable (those a simulation can show)."""
+        return tuple(cycle for cycle in self.cycles if cycle.stable)
+
+    def to_dicts(self):
+        """The ``limit_cycles`` entries of the ``predict`` JSON (DESIGN.md)."""
+        return [
+            {
+                "model": self.model,
+                "amplitude": float(cycle.amplitude),
+                "omega": float(cycle.omega),
+                "stable": bool(cycle.stable),
+                "simulated": None if cycle.simulated is None else cycle.simulated.to_dict(),
+            }
+            for cycle in self.cycles
+        ]
+
+    def plot(self, ax=None, **kwargs):
+        """Nyquist overlay of G(jw) and the -1/N(A, w) loci; see :func:`limit_cycle_plot`."""
+        return limit_cycle_plot([self], ax=ax, **kwargs)
+
+
+# --------------------------------------------------------------------------- solver
+
+
+class _Problem:
+    """F(A, w) = 1 + G(jw) N(A, w) in the variables p = log(A - alpha), q = log w."""
+
+    def __init__(self, g_of_w, n_of, half_gap):
+        self.g_of_w, self.n_of, self.half_gap = g_of_w, n_of, half_gap
+
+    def to_aw(self, p, q):
+        return self.half_gap + np.exp(p), np.exp(q)
+
+    def residual(self, p, q):
+        amplitude, omega = self.to_aw(np.asarray(p, dtype=float), np.asarray(q, dtype=float))
+        return 1.0 + self.g_of_w(omega) * self.n_of(amplitude, omega)
+
+    def jacobian(self, p, q):
+        """d(Re F, Im F)/d(p, q) by central differences."""
+        h = _FD_STEP
+        values = self.residual(np.array([p + h, p - h, p, p]), np.array([q, q, q + h, q - h]))
+        dp = (values[0] - values[1]) / (2 * h)
+        dq = (values[2] - values[3]) / (2 * h)
+        return np.array([[dp.real, dq.real], [dp.imag, dq.imag]])
+
+    def newton(self, p, q, box, iterations=60):
+        """Damped Newton from (p, q); returns (p, q) of a root in ``box`` or None."""
+        f = complex(self.residual(p, q))
+        for _ in range(iterations):
+            if abs(f) < _NEWTON_TOL:
+                return p, q
+            jac = self.jacobian(p, q)
+            try:
+                step = np.linalg.solve(jac, -np.array([f.real, f.imag]))
+            except np.linalg.LinAlgError:
+                return None
+            scale = min(1.0, 2.0 / max(np.linalg.norm(step), 1e-300))  # at most e^2 per step
+            for _ in range(30):
+                p_new, q_new = p + scale * step[0], q + scale * step[1]
+                f_new = complex(self.residual(p_new, q_new))
+                if np.isfinite(f_new) and abs(f_new) < abs(f):
+                    break
+                scale *= 0.5
+            else:
+                return None
+            p, q, f = p_new, q_new, f_new
+            if not (box[0][0] - 1.0 <= p <= box[0][1] + 1.0 and box[1][0] - 0.1 <= q <= box[1][1] + 0.1):
+                return None
+        return (p, q) if abs(f) < 1e3 * _NEWTON_TOL else None
+
+    def closest(self, p, q, box):
+        """Bounded minimum of |F|^2 from (p, q): (p, q, |F|)."""
+        found = optimize.minimize(
+            lambda y: abs(complex(self.residual(y[0], y[1]))) ** 2,
+            x0=[p, q],
+            bounds=box,
+            method="L-BFGS-B",
+            options={"ftol": 1e-15, "gtol": 1e-12},
+        )
+        return found.x[0], found.x[1], math.sqrt(found.fun)
+
+
+def _winding_cells(values):
+    """Cells (i, j) of a complex grid around which the values wind (degree != 0)."""
+    corners = [values[:-1, :-1], values[1:, :-1], values[1:, 1:], values[:-1, 1:], values[:-1, :-1]]
+    total = np.zeros(corners[0].shape)
+    for a, b in zip(corners[:-1], corners[1:]):
+        total += np.angle(b / a)
+    return np.argwhere(np.abs(np.round(total / (2 * math.pi))) >= 1)
+
+
+def _local_minima(magnitude):
+    """Interior grid points whose |F| is below all 8 neighbours."""
+    core = magnitude[1:-1, 1:-1]
+    is_min = np.ones(core.shape, dtype=bool)
+    for di in (-1, 0, 1):
+        for dj in (-1, 0, 1):
+            if di or dj:
+                is_min &= core < magnitude[1 + di:magnitude.shape[0] - 1 + di, 1 + dj:magnitude.shape[1] - 1 + dj]
+    return np.argwhere(is_min) + 1
+
+
+def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range, grid=(60, 80),
+                           near_miss_cutoff=0.5):
+    """All roots of ``1 + G(jw) N(A, w) = 0`` in a box, their stability and the near misses.
+
+    Parameters
+    ----------
+    g_of_w : callable
+        ``omega -> G(j omega)`` (complex, vectorised).
+    n_of : callable
+        ``(A, omega) -> N`` (complex, broadcasting), zero for ``A <= half_gap``.
+    half_gap : float
+        alpha, rad: the searched amplitudes exceed it.
+    amplitude_range, omega_range : (float, float)
+        Search box: A in rad (lower bound > alpha), w in rad/s.
+    grid : (int, int)
+        Scan points in A and w (log-spaced in ``A - alpha`` and ``w``).
+    near_miss_cutoff : float
+        Largest ``|1 + G N|`` reported as a near miss.
+
+    Returns
+    -------
+    cycles : list of LimitCycle
+    near_misses : list of NearMiss
+
+    Examples
+    --------
+    Classical dead zone (k = 1, alpha = 1) against ``G = 4 / (s (s + 1)^2)``;
+    the Nyquist curve crosses the negative real axis at w = 1, -2:
+
+    >>> import numpy as np
+    >>> def dead_zone(a, w):
+    ...     r = np.minimum(1.0 / np.asarray(a), 1.0)
+    ...     return 1 - 2 / np.pi * (np.arcsin(r) + r * np.sqrt(1 - r * r)) + 0j * w
+    >>> cycles, _ = solve_harmonic_balance(lambda w: 4 / (1j * w * (1j * w + 1) ** 2), dead_zone,
+    ...                                    1.0, (1.001, 100.0), (0.1, 10.0))
+    >>> [(round(c.omega, 6), c.stable) for c in cycles]  # dead zone: amplitude grows past it
+    [(1.0, False)]
+    """
+    lo_a, hi_a = amplitude_range
+    lo_w, hi_w = omega_range
+    if not (half_gap < lo_a < hi_a and 0.0 < lo_w < hi_w and math.isfinite(hi_a * hi_w)):
+        raise ValueError(
+            f"search box must have half_gap = {half_gap!r} < A_min < A_max and 0 < w_min < w_max; "
+            f"got A in {amplitude_range!r}, w in {omega_range!r}"
+        )
+    problem = _Problem(g_of_w, n_of, half_gap)
+    box = ((math.log(lo_a - half_gap), math.log(hi_a - half_gap)), (math.log(lo_w), math.log(hi_w)))
+    ps = np.linspace(*box[0], grid[0])
+    qs = np.linspace(*box[1], grid[1])
+    values = problem.residual(ps[:, None], qs[None, :])
+    magnitude = np.abs(values)
+    seeds = [(0.5 * (ps[i] + ps[i + 1]), 0.5 * (qs[j] + qs[j + 1])) for i, j in _winding_cells(values)]
+    minima = [(ps[i], qs[j]) for i, j in _local_minima(magnitude)]
+    roots = []
+    for p0, q0 in seeds + minima:
+        root = problem.newton(p0, q0, box)
+        if root is None or not (box[0][0] <= root[0] <= box[0][1] and box[1][0] <= root[1] <= box[1][1]):
+            continue
+        if all(abs(root[0] - p) > 1e-6 or abs(root[1] - q) > 1e-6 for p, q in roots):
+            roots.append(root)
+    cycles = sorted((_cycle(problem, p, q) for p, q in roots), key=lambda c: (c.amplitude, c.omega))
+    near = []
+    for p0, q0 in minima:
+        p, q, distance = problem.closest(p0, q0, box)
+        at_edge = min(p - box[0][0], box[0][1] - p, q - box[1][0], box[1][1] - q) < 1e-6
+        at_root = any(abs(p - pr) < 1e-3 and abs(q - qr) < 1e-3 for pr, qr in roots)
+        if distance < 1e-6 or distance > near_miss_cutoff or at_edge or at_root:
+            continue
+        amplitude, omega = problem.to_aw(p, q)
+        if all(abs(math.log(omega / m.omega)) > 1e-4 or abs(amplitude / m.amplitude - 1) > 1e-4 for m in near):
+            near.append(NearMiss(float(amplitude), float(omega), float(distance)))
+    return cycles, sorted(near, key=lambda m: m.distance)
+
+
+def _cycle(problem, p, q):
+    amplitude, omega = problem.to_aw(p, q)
+    jac = problem.jacobian(p, q)
+    # d/dA = d/dp / (A - alpha), d/dw = d/dq / w: positive factors, same sign
+    loeb = np.linalg.det(jac) / ((amplitude - problem.half_gap) * omega)
+    residual = abs(complex(problem.residual(p, q)))
+    return LimitCycle(float(amplitude), float(omega), bool(loeb > 0.0), float(loeb), residual)
+
+
+# --------------------------------------------------------------------------- rig level
+
+
+def _describing_of(model, bias):
+    from . import describing_function
+
+    def n_of(amplitude, omega):
+        return describing_function(model, amplitude, omega, bias=bias)
+
+    return n_of
+
+
+def default_ranges(rig, linear=None):
+    """Default search box: A in (alpha (1 + 1e-4), 200 alpha), w within 3 decades of the shaft mode.
+
+    The shaft mode is ``w_n = sqrt(k (1/J_m + 1/J_l))`` (rad/s); the box is
+    ``w_n / 300 .. 3 w_n``.
+    """
+    plant = rig.plant
+    w_n = math.sqrt(plant.stiffness * (1.0 / plant.motor_inertia + 1.0 / plant.load_inertia))
+    alpha = plant.half_gap
+    return (alpha * (1.0 + 1e-4), 200.0 * alpha), (w_n / 300.0, 3.0 * w_n)
+
+
+def predict_limit_cycles(rig, model=None, linear=None, amplitude_range=None, omega_range=None, bias=0.0,
+                         grid=(60, 80), describing=None, near_miss_cutoff=0.5):
+    """Predict the limit cycles of a rig's loop by the describing function.
+
+    Parameters
+    ----------
+    rig : Rig
+        Plant, ``[controller]`` (unless ``linear`` is given) and default model.
+    model : str or BacklashModel, optional
+        Torque law (default: the rig's ``[model] backlash``).
+    linear : DriveLoop, control.LTI or callable, optional
+        The linear part G (shaft torque -> -theta_d); default the rig's PI loop.
+    amplitude_range, omega_range : (float, float), optional
+        Search box in rad and rad/s (default :func:`default_ranges`).
+    bias : float
+        Mean of theta_d, rad, passed to the describing function.
+    grid : (int, int)
+        Scan points in A and w.
+    describing : callable, optional
+        ``N(A, w)`` to use instead of :func:`backlash_df.describing_function`.
+    near_miss_cutoff : float
+        Largest ``|1 + G N|`` reported as a near miss.
+
+    Returns
+    -------
+    LimitCyclePrediction
+    """
+    if not isinstance(model, BacklashModel):
+        model = rig.make_model(model)
+    linear = drive_loop(rig) if linear is None else linear
+    default_a, default_w = default_ranges(rig)
+    amplitude_range = default_a if amplitude_range is None else tuple(amplitude_range)
+    omega_range = default_w if omega_range is None else tuple(omega_range)
+    n_of = _describing_of(model, bias) if describing is None else describing
+    cycles, near = solve_harmonic_balance(
+        lambda omega: frequency_response_of(linear, omega), n_of, model.half_gap,
+        amplitude_range, omega_range, grid=grid, near_miss_cutoff=near_miss_cutoff,
+    )
+    return LimitCyclePrediction(
+        model=model.name, cycles=tuple(cycles), near_misses=tuple(near), amplitude_range=amplitude_range,
+        omega_range=omega_range, linear=linear, describing=n_of, half_gap=model.half_gap,
+    )
+
+
+# --------------------------------------------------------------------------- verification
+
+
+def verify_limit_cycles(rig, prediction, linear=None, kick=None, t_end=None, max_t_end=320.0, dt=None,
+                        progress=None):
+    """Check a prediction by closed-loop time simulation with the same torque law.
+
+    Every stable predicted cycle is simulated from the kick ``dtheta_d(0) = A w``
+    (theta_d(0) = 0, the cycle's zero crossing) until steady state
+    (:func:`~backlash_df.simulate.simulated_limit_cycle`); unstable cycles cannot
+    be observed and keep ``simulated = None``.  Without a stable prediction the
+    loop is simulated once from ``kick`` to see whether it settles.
+
+    Parameters
+    ----------
+    rig : Rig
+    prediction : LimitCyclePrediction
+    linear : control.LTI, optional
+        The user's linear part, if the prediction used one.
+    kick : float, optional
+        Initial dtheta_d (rad/s) when no stable cycle is predicted (default
+        ``2 alpha w_n``, w_n the shaft mode of :func:`default_ranges`).
+    t_end, max_t_end, dt : float, optional
+        First and largest simulated time and the step, s (default first time:
+        60 periods of the cycle, or 20 s).
+    progress : callable, optional
+        Called once after each simulation (e.g. a tqdm ``update``).
+
+    Returns
+    -------
+    LimitCyclePrediction
+        A copy with ``simulated`` filled in and ``simulation`` set.
+    """
+    from .simulate import simulated_limit_cycle
+
+    model = rig.make_model(prediction.model)
+    user_linear = linear if linear is not None and not isinstance(linear, DriveLoop) else None
+    cycles = []
+    first = None
+    for cycle in prediction.cycles:
+        if not cycle.stable:
+            cycles.append(cycle)
+            continue
+        start = t_end or max(60.0 * 2.0 * math.pi / cycle.omega, 5.0)
+        measured, _ = simulated_limit_cycle(
+            rig, model, t_end=start, max_t_end=max(max_t_end, start), dt=dt,
+            kick=cycle.amplitude * cycle.omega, linear=user_linear,
+        )
+        first = measured if first is None else first
+        cycles.append(dataclasses.replace(cycle, simulated=measured))
+        if progress is not None:
+            progress()
+    if first is None:
+        if kick is None:
+            _, (_, w_hi) = default_ranges(rig)
+            kick = 2.0 * model.half_gap * w_hi / 3.0
+        first, _ = simulated_limit_cycle(rig, model, t_end=t_end or 20.0, max_t_end=max_t_end, dt=dt,
+                                         kick=kick, linear=user_linear)
+        if progress is not None:
+            progress()
+    return dataclasses.replace(prediction, cycles=tuple(cycles), simulation=first)
+
+
+# --------------------------------------------------------------------------- plot
+
+
+def limit_cycle_plot(predictions, ax=None, n_loci=7, n_amplitudes=200, g_omega=None):
+    """Nyquist overlay: G(jw) with the -1/N(A, w) loci of one or several models.
+
+    For each model the loci ``A -> -1/N(A, w_i)`` are drawn at ``n_loci``
+    frequencies spread (log) over the searched band, and at each predicted
+    cycle's own frequency; the cycles are marked with A and w, the near misses
+    with their distance.
+
+    Parameters
+    ----------
+    predictions : sequence of LimitCyclePrediction
+        Same linear part; one colour per model.
+    ax : matplotlib Axes, optional
+    n_loci : int
+        Loci per model across the frequency band.
+    n_amplitudes : int
+        Points along each locus.
+    g_omega : array_like, optional
+        Frequencies (rad/s) for the G curve (default: the searched band).
+
+    Returns
+    -------
+    dict
+        ``{"ax": Axes, "figure": Figure, "lines": {name: [Line2D, ...]}}``.
+    """
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(7.5, 6))
+    first = predictions[0]
+    lo_w, hi_w = first.omega_range
+    g_omega = np.geomspace(lo_w, hi_w, 2000) if g_omega is None else np.asarray(g_omega, dtype=float)
+    g = frequency_response_of(first.linear, g_omega)
+    lines = {"G": ax.plot(g.real, g.imag, color="k", lw=1.6, label="G(jw)")}
+    points = [g]
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for index, prediction in enumerate(predictions):
+        color = colors[index % len(colors)]
+        lo_a, hi_a = prediction.amplitude_range
+        amplitudes = prediction.half_gap + np.geomspace(lo_a - prediction.half_gap, hi_a - prediction.half_gap,
+                                                        n_amplitudes)
+        band = list(np.geomspace(lo_w, hi_w, n_loci)) + [cycle.omega for cycle in prediction.cycles]
+        drawn = []
+        for k, omega in enumerate(band):
+            locus = -1.0 / prediction.describing(amplitudes, omega)
+            bold = k >= n_loci
+            label = f"-1/N {prediction.model}" if k == 0 else None
+            drawn += ax.plot(locus.real, locus.imag, color=color, lw=1.4 if bold else 0.6,
+                             alpha=1.0 if bold else 0.5, label=label)
+            points.append(locus[np.isfinite(locus)])
+        for cycle in prediction.cycles:
+            at = -1.0 / complex(prediction.describing(cycle.amplitude, cycle.omega))
+            ax.plot(at.real, at.imag, "o" if cycle.stable else "x", color=color, ms=8, mfc="none" if not cycle.stable else color)
+            ax.annotate(f"A={cycle.amplitude:.4g} rad\nw={cycle.omega:.4g} rad/s", (at.real, at.imag),
+                        textcoords="offset points", xytext=(6, 6), fontsize=8, color=color)
+        for miss in prediction.near_misses[:3]:
+            at = -1.0 / complex(prediction.describing(miss.amplitude, miss.omega))
+            ax.plot(at.real, at.imag, "d", color=color, ms=6, mfc="none")
+            ax.annotate(f"miss {miss.distance:.2%}", (at.real, at.imag), textcoords="offset points",
+                        xytext=(6, -12), fontsize=8, color=color)
+        lines[prediction.model] = drawn
+    _zoom(ax, predictions, points)
+    ax.axhline(0.0, color="0.7", lw=0.5)
+    ax.axvline(0.0, color="0.7", lw=0.5)
+    ax.set_xlabel("real")
+    ax.set_ylabel("imaginary")
+    ax.set_title("Nyquist overlay: G(jw) and -1/N(A, w)")
+    ax.legend(loc="best", fontsize=8)
+    return {"ax": ax, "figure": ax.figure, "lines": lines}
+
+
+def _zoom(ax, predictions, points):
+    """Frame the loci around the cycles and near misses (or the -1/N band)."""
+    marks = []
+    for prediction in predictions:
+        for item in list(prediction.cycles) + list(prediction.near_misses[:3]):
+            marks.append(-1.0 / complex(prediction.describing(item.amplitude, item.omega)))
+    if not marks:
+        ends = np.concatenate([p[-1:] for p in points[1:]]) if len(points) > 1 else points[0]
+        marks = list(ends)
+    marks = np.array(marks)
+    span = max(np.ptp(marks.real), np.ptp(marks.imag), 0.5 * np.abs(marks).max())
+    center = 0.5 * (marks.real.min() + marks.real.max()) + 0.5j * (marks.imag.min() + marks.imag.max())
+    ax.set_xlim(center.real - span, center.real + span)
+    ax.set_ylim(center.imag - span, center.imag + span)
+
+
+# --------------------------------------------------------------------------- tables and report
+
+
+def _percent(value):
+    return "" if not math.isfinite(value) else f"{100.0 * value:+.2f} %"
+
+
+def prediction_rows(predictions):
+    """One row per predicted cycle (or per model without one): predicted next to simulated.
+
+    Returns
+    -------
+    header : list of str
+    rows : list of list of str
+    """
+    header = ["model", "A pred (rad)", "w pred (rad/s)", "Loeb", "A sim (rad)", "w sim (rad/s)",
+              "A error", "w error", "closest miss"]
+    rows = []
+    for prediction in predictions:
+        miss = f"{prediction.near_misses[0].distance:.2%}" if prediction.near_misses else ""
+        for cycle in prediction.cycles:
+            sim = cycle.simulated
+            found = sim is not None and sim.found
+            rows.append([
+                prediction.model, f"{cycle.amplitude:.5g}", f"{cycle.omega:.5g}",
+                "stable" if cycle.stable else "unstable",
+                f"{sim.amplitude:.5g}" if found else ("" if sim is None else sim.verdict),
+                f"{sim.omega:.5g}" if found else "",
+                _percent(cycle.amplitude_error), _percent(cycle.omega_error), miss,
+            ])
+        if not prediction.stable_cycles:
+            sim = prediction.simulation
+            found = sim is not None and sim.found
+            rows.append([
+                prediction.model, "none" if not prediction.cycles else "(unstable only)", "", "",
+                f"{sim.amplitude:.5g}" if found else ("" if sim is None else sim.verdict),
+                f"{sim.omega:.5g}" if found else "", "", "", miss,
+            ])
+    return header, rows
+
+
+def prediction_json(predictions, source=""):
+    """The ``predict`` JSON of DESIGN.md, with per-model details after ``limit_cycles``."""
+    return {
+        "limit_cycles": [entry for prediction in predictions for entry in prediction.to_dicts()],
+        "rig": source,
+        "models": [
+            {
+                "model": prediction.model,
+                "simulated": None if prediction.simulation is None else prediction.simulation.to_dict(),
+                "verdict": None if prediction.simulation is None else prediction.simulation.verdict,
+                "near_misses": [
+                    {"amplitude": m.amplitude, "omega": m.omega, "distance": m.distance}
+                    for m in prediction.near_misses
+                ],
+                "amplitude_range": list(prediction.amplitude_range),
+                "omega_range": list(prediction.omega_range),
+            }
+            for prediction in predictions
+        ],
+    }
+
+
+def prediction_report(predictions, title="Limit-cycle prediction", rig_text=""):
+    """A self-contained HTML page: summary, Nyquist overlay, predicted vs simulated table."""
+    from .report import figure_html, html_page, table_html
+
+    header, rows = prediction_rows(predictions)
+    lines = []
+    for prediction in predictions:
+        stable = prediction.stable_cycles
+        sim = prediction.simulation
+        said = f"{len(stable)} stable and {len(prediction.cycles) - len(stable)} unstable predicted cycle(s)"
+        seen = "simulation: " + (repr(sim) if sim is not None else "not run")
+        lines.append(f"<li><b>{prediction.model}</b>: {said}; {seen}</li>")
+    summary = (
+        '<div class="summary"><p>Solutions of G(jw) N(A, w) = -1 (A: first-harmonic amplitude of '
+        "theta_d), stability by Loeb's criterion, each stable cycle checked by closed-loop time "
+        "simulation with the same torque law. A near miss is the smallest |1 + G N|: the relative "
+        f"change of G that would create a cycle.</p><ul>{''.join(lines)}</ul></div>"
+    )
+    ax = limit_cycle_plot(predictions)["ax"]
+    sections = [("", summary)]
+    if rig_text:
+        sections.append(("Rig", f"<pre>{rig_text}</pre>"))
+    sections += [
+        ("Nyquist overlay", figure_html(ax.figure, "G(jw) (black) and -1/N(A, w) per model at several frequencies; "
+                                        "o stable cycle, x unstable, diamond near miss")),
+        ("Predicted and simulated limit cycles", table_html(header, rows, text_columns=(0, 3, 4))),
+    ]
+    return html_page(title, sections)
+
+
+# --------------------------------------------------------------------------- design map
+
+
+@dataclasses.dataclass(frozen=True)
+class DesignMap:
+    """Where each model's DF predicts a stable limit cycle over a (kp, ti) grid, and where simulation shows one.
+
+    Attributes
+    ----------
+    kp, ti : ndarray
+        Grid values, N m s/rad and s.
+    predicted : dict
+        Model name -> bool array (len(kp), len(ti)): a stable cycle is predicted.
+    simulated : dict
+        Model name -> bool array: the simulation with that law settled onto a cycle
+        (absent if not simulated).
+    """
+
+    kp: np.ndarray
+    ti: np.ndarray
+    predicted: dict
+    simulated: dict
+
+    def plot(self, ax=None):
+        """One panel per model: filled = predicted, ring = simulated; returns the axes."""
+        import matplotlib.pyplot as plt
+
+        names = list(self.predicted)
+        if ax is None:
+            _, ax = plt.subplots(1, len(names), figsize=(4.2 * len(names), 3.8), squeeze=False, sharey=True)
+            ax = ax[0]
+        kp, ti = np.meshgrid(self.kp, self.ti, indexing="ij")
+        for axis, name in zip(ax, names):
+            pred = self.predicted[name]
+            axis.scatter(kp[pred], ti[pred], s=40, color="C3", label="DF predicts a cycle")
+            axis.scatter(kp[~pred], ti[~pred], s=40, color="C2", alpha=0.4, label="DF: none")
+            if name in self.simulated:
+                sim = self.simulated[name]
+                axis.scatter(kp[sim], ti[sim], s=110, facecolors="none", edgecolors="k", label="simulation cycles")
+            axis.set_xscale("log")
+            axis.set_yscale("log")
+            axis.set_xlabel("kp (N m s/rad)")
+            axis.set_title(name)
+        ax[0].set_ylabel("ti (s)")
+        ax[0].legend(fontsize=7, loc="best")
+        return ax
+
+
+def design_map(rig, kp_values, ti_values, models=("phase-plane", "damped-dead-zone"), simulate=True,
+               grid=(40, 60), t_end=10.0, max_t_end=40.0, describing=None):
+    """Scan PI tunings: DF predictions of each model and, optionally, time simulation.
+
+    Parameters
+    ----------
+    rig : Rig
+        Plant and controller; ``kp`` and ``ti`` are replaced by the grid values.
+    kp_values, ti_values : array_like
+        Gains (N m s/rad) and integral times (s).
+    models : sequence of str
+        Torque laws.
+    simulate : bool
+        Also simulate each tuning with each law (kick ``2 alpha w_n``, or the
+        predicted cycle's ``A w`` when one is predicted).
+    grid : (int, int)
+        Scan grid of :func:`solve_harmonic_balance` (small keeps the map quick).
+    t_end, max_t_end : float
+        Simulated times, s.
+    describing : callable, optional
+        ``describing(model) -> N(A, w)`` replacing the package's describing function.
+
+    Returns
+    -------
+    DesignMap
+    """
+    kp_values = np.asarray(kp_values, dtype=float)
+    ti_values = np.asarray(ti_values, dtype=float)
+    shape = (kp_values.size, ti_values.size)
+    predicted = {name: np.zeros(shape, dtype=bool) for name in models}
+    simulated = {name: np.zeros(shape, dtype=bool) for name in models} if simulate else {}
+    for i, kp in enumerate(kp_values):
+        for j, ti in enumerate(ti_values):
+            tuned = dataclasses.replace(rig, controller=dataclasses.replace(rig.require_controller(), kp=kp, ti=ti))
+            for name in models:
+                model = tuned.make_model(name)
+                n_of = None if describing is None else describing(model)
+                prediction = predict_limit_cycles(tuned, model, grid=grid, describing=n_of)
+                predicted[name][i, j] = bool(prediction.stable_cycles)
+                if simulate:
+                    checked = verify_limit_cycles(tuned, prediction, t_end=t_end, max_t_end=max_t_end)
+                    simulated[name][i, j] = bool(checked.simulation is not None and checked.simulation.found)
+    return DesignMap(kp_values, ti_values, predicted, simulated)

@@ -1,0 +1,54 @@
+"""``backlash-df predict``: bad input is one line naming key and file, exit code 2."""
+
+import pytest
+from click.testing import CliRunner
+
+from backlash_df.cli import main
+
+GOOD = """
+[plant]
+motor_inertia = 0.4
+load_inertia = 5.6
+stiffness = 5895.0
+damping = 3.0
+half_gap = 0.05
+
+[controller]
+feedback = "load"
+kp = 30.0
+ti = 0.5
+"""
+
+
+def run(tmp_path, text, *args):
+    path = tmp_path / "rig.toml"
+    path.write_text(text)
+    result = CliRunner().invoke(main, ["predict", str(path), *args])
+    return path, result
+
+
+@pytest.mark.parametrize(
+    "text, args, words",
+    [
+        (GOOD.replace("kp = 30.0", "kp = 30.0\ngain = 2.0"), (), ["unknown key", "[controller] gain"]),
+        (GOOD.replace("ti = 0.5", "ti = -0.5"), (), ["[controller] ti", "> 0"]),
+        (GOOD.replace('feedback = "load"', 'feedback = "both"'), (), ["[controller] feedback"]),
+        (GOOD.replace("half_gap = 0.05", "half_gap = 0.05\n[[oops"), (), ["malformed TOML"]),
+        (GOOD.split("[controller]")[0], (), ["no [controller] table"]),
+        (GOOD, ("--model", "coulomb"), ["--model", "unknown model 'coulomb'"]),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(tmp_path, text, args, words):
+    path, result = run(tmp_path, text, *args)
+    assert result.exit_code == 2
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("backlash-df: error:")
+    assert str(path) in lines[0]
+    for word in words:
+        assert word in lines[0]
+
+
+def test_missing_file_names_it(tmp_path):
+    result = CliRunner().invoke(main, ["predict", str(tmp_path / "nope.toml")])
+    assert result.exit_code == 2
+    assert "nope.toml" in result.output and "cannot read rig file" in result.output
