@@ -1,0 +1,258 @@
+"""Measurement files from a simulated rig that is NOT the model being fitted.
+
+The rig is a speed-controlled two-mass drive with backlash, simulated at a finer
+step than the record's (``oversample`` sub-steps a sample):
+
+* the shaft follows the exact model (1), (14) with its own limited integrator
+  for theta_b (the rubber law (40) when the hidden effect is ``rubber``);
+* a PI speed controller (rig file ``[controller]``: kp, ti, feedback) on the
+  measured speed through a first-order filter, noise included;
+* the reference is a slow sine (the speed reverses, so friction changes sign),
+  an injected multisine test torque on the motor and a known smoothed square
+  load torque make the shaft torque reverse: both contact sides are crossed;
+* the true plant is the rig file's with data-sheet errors: each of inertias,
+  stiffness, damping and half gap off by a uniform random amount within
+  ``+-datasheet_error``;
+* white sensor noise on both speeds; the recorded ``motor_torque`` is the
+  commanded torque (controller output plus test signal), exact;
+* exactly one hidden effect (or none), of random size unless given: load-side
+  Coulomb friction (smoothed 10 times more sharply than the fitted model's),
+  load-side viscous friction, an actuator dead time, rubber in the coupling.
+
+The simulation is the compiled kernel of :mod:`backlash_df.simulate` with the
+controller states in the linear part.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+
+from ..config import Plant
+from ..models import make_model
+from ..simulate import LinearPart, simulate_linear
+from .effects import COULOMB_SMOOTHING_SPEED, EFFECT_NAMES, get_effect
+from .measurements import measurements_from_arrays
+
+__all__ = ["Experiment", "SyntheticRecord", "synthesize", "random_effect_size"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Experiment:
+    """The excitation of a synthetic record (SI units).
+
+    Attributes
+    ----------
+    speed_amplitude : float
+        Amplitude of the sine speed reference, rad/s.
+    speed_frequency : float
+        Its frequency, Hz.
+    test_amplitude : float
+        Amplitude of each sine of the injected multisine test torque, N m.
+    test_frequencies : tuple of float
+        Frequencies of the multisine, Hz (random phases).
+    load_torque : float
+        Amplitude of the smoothed square load torque, N m.
+    load_period : float
+        Its period, s.
+    noise : float
+        Standard deviation of the white speed-sensor noise, rad/s.
+    warmup : float
+        Simulated time before the record starts, s (the record starts mid-motion).
+    """
+
+    speed_amplitude: float = 3.0
+    speed_frequency: float = 0.5
+    test_amplitude: float = 6.0
+    test_frequencies: tuple = (1.7, 3.1, 5.3, 8.9, 13.7, 21.1, 29.3)
+    load_torque: float = 60.0
+    load_period: float = 0.45
+    noise: float = 0.02
+    warmup: float = 0.3
+
+
+@dataclasses.dataclass(frozen=True)
+class SyntheticRecord:
+    """A synthetic measurement record with the truth behind it.
+
+    Attributes
+    ----------
+    measurements : Measurements
+        What a measurement file would hold.
+    cause : str
+        The hidden effect (``none`` if none).
+    size : float
+        Its parameter value (0 for ``none``), in the effect's unit.
+    true_plant : Plant
+        The plant actually simulated (data-sheet errors applied).
+    seed : int
+    initial_state : dict
+        The rig's state at the first sample: ``theta_d0`` (rad), ``motor_speed0``,
+        ``load_speed0`` (rad/s, noise-free) and the exact model's ``theta_b0`` (rad).
+    """
+
+    measurements: object
+    cause: str
+    size: float
+    true_plant: Plant
+    seed: int
+    initial_state: dict
+
+
+def random_effect_size(cause, rig, rng, experiment=Experiment()):
+    """A random size of ``cause`` inside the range the generator draws from.
+
+    ``rubber``: beta in [0.5, 1.2] alpha.  ``coulomb_friction``: [4, 12] N m per
+    100 kg m^2/s^2 of reference torque ``J_tot w_ref 2 pi f_ref``, i.e. a few
+    per cent of the torque moving the load.  ``viscous_friction``: the same torque
+    at the reference's peak speed.  ``actuator_delay``: [1.5, 6] ms.
+    """
+    plant = rig.plant
+    torque = (plant.motor_inertia + plant.load_inertia) * experiment.speed_amplitude * 2 * np.pi * experiment.speed_frequency
+    if cause == "none":
+        return 0.0
+    if cause == "rubber":
+        return float(rng.uniform(0.5, 1.2) * plant.half_gap)
+    if cause == "coulomb_friction":
+        return float(rng.uniform(0.04, 0.12) * torque)
+    if cause == "viscous_friction":
+        return float(rng.uniform(0.04, 0.12) * torque / experiment.speed_amplitude)
+    if cause == "actuator_delay":
+        return float(rng.uniform(1.5e-3, 6e-3))
+    raise ValueError(f"unknown effect {cause!r}; the catalogue has: {', '.join(EFFECT_NAMES)}")
+
+
+def _perturbed_plant(plant, rng, error):
+    changes = {name: getattr(plant, name) * (1.0 + rng.uniform(-error, error))
+               for name in ("motor_inertia", "load_inertia", "stiffness", "damping", "half_gap")}
+    return dataclasses.replace(plant, **changes)
+
+
+def _signals(experiment, phases, time):
+    """Reference (rad/s), test torque and load torque (N m) at ``time`` (s from the simulation start)."""
+    reference = experiment.speed_amplitude * np.sin(2 * np.pi * experiment.speed_frequency * time)
+    test = sum(experiment.test_amplitude * np.sin(2 * np.pi * f * time + p)
+               for f, p in zip(experiment.test_frequencies, phases))
+    square = np.tanh(8.0 * np.sin(2 * np.pi * time / experiment.load_period))
+    return reference, test, experiment.load_torque * square
+
+
+def _closed_loop(plant, controller, cause, size):
+    """Linear part of plant + PI loop: states theta_d, w_m, w_l, filtered speed, integral.
+
+    Inputs: reference now, reference and test torque as applied (delayed by the
+    dead time), load torque, sensor noise of the fed-back speed.
+    """
+    jm, jl = plant.motor_inertia, plant.load_inertia
+    kp, ki = controller.kp, controller.kp / controller.ti
+    tf = max(controller.speed_filter, 1e-3)
+    fb = 1 if controller.feedback == "motor" else 2
+    a = np.zeros((5, 5))
+    a[0, 1], a[0, 2] = 1.0, -1.0
+    a[3, fb], a[3, 3] = 1.0 / tf, -1.0 / tf
+    a[4, 3] = -1.0
+    if cause == "viscous_friction":
+        a[2, 2] = -size / jl
+    controller_row = np.array([0.0, 0.0, 0.0, -kp, ki])  # u = kp (r - w_f) + ki xi, state part
+    motor_column = np.array([0.0, 1.0 / jm, 0.0, 0.0, 0.0])
+    delay = size if cause == "actuator_delay" else 0.0
+    if delay == 0.0:
+        a += np.outer(motor_column, controller_row)
+    e = np.zeros((5, 5))
+    e[4, 0] = 1.0  # integral of r - w_f
+    e[1, 1] = kp / jm  # kp r(t - delay)
+    e[1, 2] = 1.0 / jm  # test(t - delay)
+    e[2, 3] = 1.0 / jl  # load torque
+    e[3, 4] = 1.0 / tf  # sensor noise of the fed-back speed
+    friction = size if cause == "coulomb_friction" else 0.0
+    system = LinearPart(
+        A=a, b=np.array([0.0, -1.0 / jm, 1.0 / jl, 0.0, 0.0]), E=e,
+        c_x=np.array([1.0, 0.0, 0.0, 0.0, 0.0]), c_v=np.array([0.0, 1.0, -1.0, 0.0, 0.0]),
+        state_names=("theta_d", "motor_speed", "load_speed", "filtered_speed", "speed_error_integral"),
+        input_names=("reference", "reference_applied", "test_applied", "load_torque", "noise"),
+        delay=delay, d=controller_row if delay else None, e_d=motor_column if delay else None,
+        friction=friction, friction_speed=0.1 * COULOMB_SMOOTHING_SPEED,
+        f=np.array([0.0, 0.0, 1.0, 0.0, 0.0]), e_f=np.array([0.0, 0.0, 1.0 / jl, 0.0, 0.0]),
+    )
+    return system, (kp, ki, fb)
+
+
+def synthesize(rig, cause="none", size=None, seed=0, duration=2.0, sample_rate=1000.0, oversample=5,
+               experiment=Experiment(), datasheet_error=0.04):
+    """Simulate a measurement record of ``rig`` with one hidden effect.
+
+    Parameters
+    ----------
+    rig : Rig
+        Data-sheet plant and PI controller (``[controller]`` required).
+    cause : str
+        Hidden effect: a catalogue name (``none`` for no effect).
+    size : float, optional
+        The effect's parameter (rad, N m, N m s/rad or s); random if omitted
+        (:func:`random_effect_size`).
+    seed : int
+        Seed of every random draw (data-sheet errors, size, phases, noise).
+    duration, sample_rate : float
+        Length of the record (s) and its sampling rate (Hz).
+    oversample : int
+        Simulation sub-steps per sample (the rig runs at a finer step than the fit).
+    experiment : Experiment
+        Excitation and noise.
+    datasheet_error : float
+        Relative range of the data-sheet errors (0.04: each value within +-4 %).
+
+    Returns
+    -------
+    SyntheticRecord
+
+    Examples
+    --------
+    >>> from backlash_df import rig_from_dict
+    >>> rig = rig_from_dict({"plant": {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0,
+    ...     "damping": 3.0, "half_gap": 0.02}, "controller": {"kp": 20.0, "ti": 0.3, "feedback": "motor"}})
+    >>> record = synthesize(rig, "coulomb_friction", size=5.0, seed=1, duration=0.5)
+    >>> record.measurements.n_samples, record.cause
+    (501, 'coulomb_friction')
+    """
+    get_effect(cause)
+    controller = rig.require_controller()
+    rng = np.random.default_rng(seed)
+    plant = _perturbed_plant(rig.plant, rng, datasheet_error)
+    size = random_effect_size(cause, rig, rng, experiment) if size is None else float(size)
+    if cause == "rubber":
+        plant = dataclasses.replace(plant, rubber_thickness=size)
+    system, (kp, ki, fb) = _closed_loop(plant, controller, cause, size)
+    model = make_model("rubber" if cause == "rubber" else "exact", **plant.shaft)
+
+    dt_fine = 1.0 / (sample_rate * oversample)
+    n_warm = int(round(experiment.warmup * sample_rate))
+    n_record = int(round(duration * sample_rate)) + 1
+    n_samples = n_warm + n_record
+    time = np.arange((n_samples - 1) * oversample + 1) * dt_fine
+    phases = rng.uniform(0.0, 2.0 * np.pi, len(experiment.test_frequencies))
+    delay = size if cause == "actuator_delay" else 0.0
+    reference, test, load_torque = _signals(experiment, phases, time)
+    reference_applied, test_applied, _ = _signals(experiment, phases, np.maximum(time - delay, 0.0))
+    noise = rng.normal(0.0, experiment.noise, (n_samples, 2))
+    sample_time = time[::oversample]
+    fed_back_noise = np.interp(time, sample_time, noise[:, fb - 1])
+    inputs = np.column_stack([reference, reference_applied, test_applied, load_torque, fed_back_noise])
+    result = simulate_linear(system, model, time[-1], dt_fine, inputs=inputs)
+
+    record = slice(n_warm * oversample, None, oversample)
+    states = result.states[record]
+    commanded = kp * (reference[record] - states[:, 3]) + ki * states[:, 4] + test[record]
+    measurements = measurements_from_arrays(
+        time=sample_time[n_warm:] - sample_time[n_warm],
+        motor_torque=commanded,
+        motor_speed=states[:, 1] + noise[n_warm:, 0],
+        load_speed=states[:, 2] + noise[n_warm:, 1],
+        load_torque=load_torque[record],
+        source=f"synthetic({cause}, seed={seed})",
+    )
+    first = n_warm * oversample
+    initial_state = {"theta_d0": float(result.states[first, 0]), "motor_speed0": float(result.states[first, 1]),
+                     "load_speed0": float(result.states[first, 2]),
+                     "theta_b0": float(result.theta_b[first]) if cause != "rubber" else math.nan}
+    return SyntheticRecord(measurements=measurements, cause=cause, size=size, true_plant=plant, seed=seed,
+                           initial_state=initial_state)
