@@ -1,0 +1,133 @@
+"""The README and the documentation pages work as written.
+
+Every ```python block of ``README.md``, ``docs/README_proposed.md`` and the Markdown
+pages of ``docs/`` is run (the blocks of one page in order, in one namespace, as a
+reader would paste them), and every ``backlash-df ...`` command of their shell blocks
+is run and must exit 0.  Both run in a temporary copy of the repository's
+``examples/`` folder, so relative paths such as ``examples/paper_rig.toml`` resolve
+as they do from the repository root, and files the commands write land in the copy.
+"""
+
+import os
+import re
+import shlex
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+_SKIPPED_DOC_DIRS = {"_build", "notebooks", "_static"}
+
+_FENCE = re.compile(r"^(?P<indent> *)(?P<fence>```+|~~~+)\s*\{?(?P<lang>[\w-]*)\}?[^\n]*\n(?P<body>.*?)^(?P=indent)(?P=fence)\s*$",
+                    re.MULTILINE | re.DOTALL)
+_SHELL_LANGUAGES = {"bash", "sh", "shell", "console", "shell-session"}
+
+
+def markdown_pages():
+    """README.md and every Markdown page of docs/ (not the build or the notebook copies)."""
+    pages = [ROOT / "README.md"]
+    for path in sorted(DOCS.rglob("*.md")):
+        if not _SKIPPED_DOC_DIRS.intersection(path.relative_to(DOCS).parts[:-1]):
+            pages.append(path)
+    return pages
+
+
+def code_blocks(path, languages):
+    """The bodies of the fenced code blocks of ``path`` whose language is in ``languages``."""
+    text = path.read_text(encoding="utf-8")
+    return [match["body"] for match in _FENCE.finditer(text) if match["lang"].lower() in languages]
+
+
+def shell_commands(block):
+    """The commands of a shell block: prompts stripped, continuation lines joined."""
+    commands, pending = [], ""
+    for line in block.splitlines():
+        line = re.sub(r"^\s*\$\s+", "", line).rstrip()
+        if line.endswith("\\"):
+            pending += line[:-1].strip() + " "
+            continue
+        command = " ".join((pending + line).split())
+        pending = ""
+        if command and not command.startswith("#"):
+            commands.append(command)
+    return commands
+
+
+def backlash_df_commands(path):
+    """Every ``backlash-df ...`` command shown in the shell blocks of ``path``."""
+    return [command for block in code_blocks(path, _SHELL_LANGUAGES) for command in shell_commands(block)
+            if command.split()[0] == "backlash-df"]
+
+
+def _page_id(path):
+    return str(path.relative_to(ROOT))
+
+
+def _python_cases():
+    return [pytest.param(path, id=_page_id(path)) for path in markdown_pages() if code_blocks(path, {"python"})]
+
+
+def _command_cases():
+    """One case per distinct command (a command shown on several pages runs once)."""
+    pages = {}
+    for path in markdown_pages():
+        for command in backlash_df_commands(path):
+            pages.setdefault(command, []).append(_page_id(path))
+    return [pytest.param(command, id=f"{command} [{', '.join(dict.fromkeys(where))}]")
+            for command, where in pages.items()]
+
+
+@pytest.fixture
+def repo_copy(tmp_path, monkeypatch):
+    """A scratch working directory holding a copy of ``examples/``, as seen from the repo root."""
+    shutil.copytree(ROOT / "examples", tmp_path / "examples")
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+def _console_script():
+    """The ``backlash-df`` script of the running interpreter's environment."""
+    script = shutil.which("backlash-df", path=str(Path(sys.executable).parent)) or shutil.which("backlash-df")
+    assert script, "the backlash-df console script is not installed (pip install -e .)"
+    return script
+
+
+def test_the_pages_show_code():
+    """The extraction itself works: the README shows commands, the theory page no code."""
+    assert ROOT / "README.md" in markdown_pages()
+    assert DOCS / "theory.md" in markdown_pages()
+    assert not any("_build" in path.parts for path in markdown_pages())
+    sample = "```bash\n$ backlash-df predict a.toml \\\n    --json out.json\n# comment\n```\n"
+    match = _FENCE.search(sample)
+    assert shell_commands(match["body"]) == ["backlash-df predict a.toml --json out.json"]
+
+
+@pytest.mark.parametrize("path", _python_cases())
+def test_python_blocks_run(path, repo_copy):
+    """All ```python blocks of one page run in order in one namespace."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    namespace = {"__name__": "__docs__"}
+    try:
+        for number, block in enumerate(code_blocks(path, {"python"}), start=1):
+            code = compile(block, f"{_page_id(path)} [python block {number}]", "exec")
+            exec(code, namespace)  # noqa: S102 - the documented code is the test
+    finally:
+        plt.close("all")
+
+
+@pytest.mark.parametrize("command", _command_cases())
+def test_backlash_df_commands_run(command, repo_copy):
+    """Every ``backlash-df`` command shown exits 0 (run from a copy of the repo root)."""
+    argv = [_console_script(), *shlex.split(command)[1:]]
+    env = {**os.environ, "MPLBACKEND": "Agg"}
+    result = subprocess.run(argv, cwd=repo_copy, env=env, capture_output=True, text=True, timeout=600,
+                            stdin=subprocess.DEVNULL)
+    assert result.returncode == 0, f"{command!r} exited {result.returncode}:\n{result.stderr[-3000:]}"
