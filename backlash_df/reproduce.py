@@ -500,8 +500,8 @@ def figure2_maps(n=301, x_max=4.0, v_max=0.4, shaft=FIGURE2_SHAFT):
     Returns
     -------
     dict
-        ``x``, ``v`` (grids, rad and rad/s); ``regions``: (5) as +1 on A_+
-        (T = 0 or right contact), 0 on the release set A_r (T = 0), -1 on A_-;
+        ``x``, ``v`` (grids, rad and rad/s); ``regions``: (5) as +1 on ``A_+``
+        (T = 0 or right contact), 0 on the release set ``A_r`` (T = 0), -1 on ``A_-``;
         ``torque``: the phase plane (23), dead-zone (26) and rubber (40) maps,
         N m; ``pull``: where (26) pulls (areas A1, A2).
     """

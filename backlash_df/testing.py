@@ -24,7 +24,7 @@ def assert_describing_function(model, amplitude, omega, gain=None, phase_deg=Non
     amplitude, omega : array_like
         A (rad) and w (rad/s), broadcast together.
     gain : array_like, optional
-        Expected |N| (N m/rad), compared with relative tolerance ``rtol``.
+        Expected gain ``|N|`` (N m/rad), compared with relative tolerance ``rtol``.
     phase_deg : array_like, optional
         Expected phase of N (degrees), compared with absolute tolerance ``atol_deg``.
     rtol : float

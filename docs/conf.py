@@ -38,7 +38,7 @@ extensions = [
 ]
 
 source_suffix = {".rst": "restructuredtext", ".md": "myst-nb", ".ipynb": "myst-nb"}
-exclude_patterns = ["_build", "README_proposed.md", "make_figures.py", "**.ipynb_checkpoints"]
+exclude_patterns = ["_build", "make_figures.py", "**.ipynb_checkpoints"]
 templates_path = []
 html_static_path = ["_static"]
 
