@@ -254,3 +254,40 @@ def assert_page_sound(facts):
     for image in facts["images"]:
         assert image["complete"] and min(image["natural"]) > 0, f"image not decoded: {image['alt']}"
         assert min(image["rendered"]) > 0, f"image not rendered: {image['alt']}"
+
+
+@pytest.fixture
+def examples_copy(tmp_path):
+    """A scratch directory with a copy of ``examples/`` (the commands write next to it)."""
+    shutil.copytree(ROOT / "examples", tmp_path / "examples")
+    return tmp_path
+
+
+def test_predict_report_in_browser(examples_copy, tmp_path):
+    """``predict``'s report: sound page, the predicted and simulated A and w of the JSON shown."""
+    run_cli("predict", "examples/load_feedback.toml", "--model", "phase-plane",
+            "--json", "cycles.json", "--report", "cycles.html", cwd=examples_copy)
+    results = json.loads((examples_copy / "cycles.json").read_text(encoding="utf-8"))
+    facts = render_page(examples_copy / "cycles.html", ARTIFACTS / "predict_report.png", tmp_path)
+    assert_page_sound(facts)
+    assert results["limit_cycles"], "the documented case predicts a limit cycle"
+    for cycle in results["limit_cycles"]:
+        assert cycle["model"] in facts["text"]
+        for value in (cycle["amplitude"], cycle["omega"]):
+            assert shown(value, facts["text"]), f"predicted {value} not on the page"
+        for value in (cycle["simulated"]["amplitude"], cycle["simulated"]["omega"]):
+            assert shown(value, facts["text"]), f"simulated {value} not on the page"
+
+
+def test_diagnose_report_in_browser(examples_copy, tmp_path):
+    """``diagnose``'s report: sound page, the named cause and the fit percentages shown."""
+    run_cli("diagnose", "examples/diagnose_rubber.csv", "--rig", "examples/diagnose_rig.toml",
+            "--json", "diagnosis.json", "--report", "diagnosis.html", cwd=examples_copy)
+    diagnosis = json.loads((examples_copy / "diagnosis.json").read_text(encoding="utf-8"))
+    facts = render_page(examples_copy / "diagnosis.html", ARTIFACTS / "diagnose_report.png", tmp_path)
+    assert_page_sound(facts)
+    assert diagnosis["cause"] == "rubber"
+    assert diagnosis["cause"] in facts["text"]
+    for result in (diagnosis["baseline"], diagnosis["extended"]):
+        assert shown(result["fit_percent"], facts["text"]), f"fit {result['fit_percent']} % not on the page"
+    assert shown(diagnosis["extended"]["parameter"]["value"], facts["text"])
