@@ -63,7 +63,9 @@ _UNITS = {
 }
 _RELATIVE_RANGE = 0.3  # data-sheet values are trusted to +-30 %
 _Z95 = 1.959963984540054
-_POLISH_NFEV = 30  # iterations of the free-run refinement (it starts next to its optimum)
+_POLISH_NFEV = 30  # iterations of each free-run refinement step (it starts next to its optimum)
+_POLISH_FRACTIONS = (0.25, 0.5, 1.0)  # growing windows of the free-run refinement
+_THETA_GRID_POINTS = 33  # starting theta_d0 searched on a grid of step alpha / 4
 
 
 def fit_percent(measured, simulated):
@@ -453,6 +455,33 @@ def segment_replay(measurements, rig, values, window, horizon=0.2):
     return np.concatenate(pieces)
 
 
+def _theta_d0_by_grid(measurements, rig, values, window, horizon, points=_THETA_GRID_POINTS):
+    """Starting ``theta_d0`` (rad): the best of a grid over ``[-4 alpha, 4 alpha]``.
+
+    The cost is the residual sum of squares of the speeds over ``window``
+    (segments of ``horizon`` s, or one free run when None) at the other
+    ``values``.  It is far from convex in theta_d0: a start on the wrong side of
+    the gap (the first samples' estimate of :func:`estimate_initial_state` is
+    too noisy to tell) leads the fit into a local minimum with the half gap at
+    its bound, so the fit starts from the global minimum of this 1-D cut.
+    """
+    start, stop = window
+    measured = measurements.speeds[start:stop]
+    weights = 1.0 / np.maximum(measured.std(axis=0), 1e-12)
+    alpha = values["half_gap"]
+
+    def cost(theta_d0):
+        trial = values | {"theta_d0": theta_d0}
+        if horizon is None:
+            simulated = replay(measurements, rig, trial, n_samples=stop).simulated[start:stop]
+        else:
+            simulated = segment_replay(measurements, rig, trial, window, horizon)
+        return float(np.sum(((measured - simulated) * weights) ** 2))
+
+    grid = np.linspace(-4.0 * alpha, 4.0 * alpha, points)
+    return float(grid[int(np.argmin([cost(theta) for theta in grid]))])
+
+
 def calibrate(measurements, rig, effect="none", window=None, start_values=None, horizon=0.2, polish=True,
               workers=1, max_nfev=None):
     """Fit plant values, initial state and one effect's parameter to a record.
@@ -470,6 +499,8 @@ def calibrate(measurements, rig, effect="none", window=None, start_values=None, 
         Samples ``(start, stop)`` whose residual is minimised (default: all).
     start_values : dict, optional
         Starting values (for example a previous calibration's ``values``).
+        Without ``theta_d0`` its start is the best point of a grid
+        (:func:`_theta_d0_by_grid`).
     horizon : float or None
         Length (s) of the simulated segments.  With a measured load speed the
         window is cut into segments of ``horizon`` seconds, each simulated
@@ -480,10 +511,11 @@ def calibrate(measurements, rig, effect="none", window=None, start_values=None, 
         ``None`` (or no load speed): one free run from sample 0, with the
         initial speeds fitted too.
     polish : bool
-        After the segmented fit, refine by one free run from sample 0 over the
-        window (output error, the prediction mode of the validation), starting
-        from the segmented solution.  Effects that act slowly (friction) show
-        their full size only over a long free run.
+        After the segmented fit, refine by free runs from sample 0 (output
+        error, the prediction mode of the validation) over a quarter, half and
+        all of the window, starting from the segmented solution
+        (:func:`_polish`).  Effects that act slowly (friction) show their full
+        size only over a long free run.
     workers : int
         Threads computing Jacobian columns (the simulation kernel releases the GIL).
     max_nfev : int, optional
@@ -504,6 +536,8 @@ def calibrate(measurements, rig, effect="none", window=None, start_values=None, 
     values0 = nominal_values(rig) | dict(start_values or {})
     if not all(name in values0 for name in STATE_PARAMETERS):
         values0 = estimate_initial_state(measurements, values0) | values0
+    if "theta_d0" not in (start_values or {}):
+        values0["theta_d0"] = _theta_d0_by_grid(measurements, rig, values0, (start, stop), horizon if segmented else None)
     rows = _free_parameters(measurements, rig, effect, values0, segmented)
     names = [row[0] for row in rows]
     scales = np.array([row[4] for row in rows])
@@ -530,10 +564,8 @@ def calibrate(measurements, rig, effect="none", window=None, start_values=None, 
     jacobian = _parallel_jacobian(residual, lower, upper, workers)
     solution = least_squares(residual, x0, jac=jacobian, bounds=(lower, upper), method="trf", max_nfev=max_nfev)
     if segmented and polish:
-        polished_start = values_of(solution.x)
-        polished_start |= dict(zip(STATE_PARAMETERS, data_state(measurements, polished_start["theta_d0"], 0)))
-        return calibrate(measurements, rig, effect.name, window=(start, stop), start_values=polished_start,
-                         horizon=None, workers=workers, max_nfev=_POLISH_NFEV if max_nfev is None else max_nfev)
+        return _polish(measurements, rig, effect.name, (start, stop), values_of(solution.x), workers,
+                       _POLISH_NFEV if max_nfev is None else max_nfev)
     stderr = _stderr(solution.jac, solution.fun, len(names), scales)
     best = solution.x * scales
     parameters = {
@@ -552,6 +584,26 @@ def calibrate(measurements, rig, effect="none", window=None, start_values=None, 
         nfev=int(solution.nfev) + int(solution.njev or 0) * (len(names) + 1), success=bool(solution.success),
         message=str(solution.message),
     )
+
+
+def _polish(measurements, rig, effect, window, values, workers, max_nfev):
+    """Free-run refinement of a segmented fit over growing windows (continuation).
+
+    The free run starts at sample 0 from the data's state (:func:`data_state`),
+    whose speeds are only as good as the smoothing at the record's edge; over
+    the whole window the free-run cost is far from convex (the rigid-body mode
+    integrates any initial-speed error), so the fit runs first on the first
+    quarter of the window, then on half of it, then on all of it, each from the
+    previous solution (:data:`_POLISH_FRACTIONS`).
+    """
+    start, stop = window
+    values = values | dict(zip(STATE_PARAMETERS, data_state(measurements, values["theta_d0"], 0)))
+    for fraction in _POLISH_FRACTIONS:
+        last = start + max(int(round(fraction * (stop - start))), 10)
+        result = calibrate(measurements, rig, effect, window=(start, last), start_values=values, horizon=None,
+                           workers=workers, max_nfev=max_nfev)
+        values = result.values
+    return result
 
 
 def information_criterion(rss, n, n_free, kind="aic"):
