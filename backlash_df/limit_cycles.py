@@ -234,15 +234,24 @@ class _Problem:
         return (p, q) if abs(f) < 1e3 * _NEWTON_TOL else None
 
     def closest(self, p, q, box):
-        """Bounded minimum of |F|^2 from (p, q): (p, q, |F|)."""
-        found = optimize.minimize(
-            lambda y: abs(complex(self.residual(y[0], y[1]))) ** 2,
-            x0=[p, q],
-            bounds=box,
-            method="L-BFGS-B",
-            options={"ftol": 1e-15, "gtol": 1e-12},
+        """Local minimum of |F| from (p, q) inside ``box``: (p, q, |F|).
+
+        A trust-region least-squares solve on (Re F, Im F) with the
+        finite-difference Jacobian: it follows the narrow curved valleys of
+        nearly tangent loci down to the closest approach (or to a root).
+        """
+        lower, upper = (box[0][0], box[1][0]), (box[0][1], box[1][1])
+        start = np.clip([p, q], lower, upper)
+        found = optimize.least_squares(
+            lambda y: _split(self.residual(y[0], y[1])), start, jac=lambda y: self.jacobian(y[0], y[1]),
+            bounds=(lower, upper), method="trf", xtol=1e-13, ftol=1e-15, gtol=1e-15, max_nfev=200,
         )
-        return found.x[0], found.x[1], math.sqrt(found.fun)
+        return found.x[0], found.x[1], float(np.hypot(*found.fun))
+
+
+def _split(value):
+    value = complex(value)
+    return np.array([value.real, value.imag])
 
 
 def _winding_cells(values):
@@ -706,7 +715,7 @@ class DesignMap:
             axis.set_xlabel("kp (N m s/rad)")
             axis.set_title(name)
         ax[0].set_ylabel("ti (s)")
-        ax[0].legend(fontsize=7, loc="best")
+        ax[-1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
         return ax
 
 
