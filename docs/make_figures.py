@@ -5,9 +5,10 @@ Run from the repository root after a change to the models or the example rigs::
     python docs/make_figures.py
 
 It writes ``docs/_static/nyquist_overlay.png``: the Nyquist overlay of
-``examples/load_feedback.toml`` (PI speed loop closed on the load speed), G(jw)
-with the -1/N(A, w) loci of the phase plane law (23) and the damped dead-zone
-(26), the phase plane law's predicted limit cycle marked with A and w.
+``examples/motor_lag_feedback.toml`` (PI on the motor speed with a speed filter
+and a torque-loop lag), G(jw) with the -1/N(A, w) loci of the phase plane law
+(23) and the damped dead-zone (26): the phase plane law's predicted limit cycles
+marked with A and w, the dead-zone's closest miss with its distance.
 """
 
 from pathlib import Path
@@ -21,12 +22,12 @@ from backlash_df.limit_cycles import limit_cycle_plot  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 STATIC = ROOT / "docs" / "_static"
-RIG = ROOT / "examples" / "load_feedback.toml"
+RIG = ROOT / "examples" / "motor_lag_feedback.toml"
 MODELS = ("phase-plane", "damped-dead-zone")
 
 
 def nyquist_overlay(path=STATIC / "nyquist_overlay.png"):
-    """Save the Nyquist overlay of the load-feedback example; returns the predictions."""
+    """Save the Nyquist overlay of the motor-lag example; returns the predictions."""
     rig = bd.load_rig(RIG)
     predictions = [bd.predict_limit_cycles(rig, model) for model in MODELS]
     plot = limit_cycle_plot(predictions)

@@ -4,32 +4,28 @@ Cases: ``examples/load_feedback.toml`` (PI on the load speed, the README's case)
 ``examples/motor_feedback.toml`` (PI on the motor speed, loci clearly apart), and
 a motor-speed loop with a slow speed filter and torque lag around a more damped
 shaft, where the phase plane DF (23) predicts a cycle that the dead-zone (26) DF
-misses (module ``LAG_RIG``; the same rig is drawn in notebooks/03_limit_cycles).
+misses (``examples/motor_lag_feedback.toml``; drawn in notebooks/03_limit_cycles).
 Every comparison prints its errors (``pytest -s``), inside tolerance or not.
 """
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from backlash_df import load_rig, rig_from_dict, simulated_limit_cycle
+from backlash_df import load_rig, simulated_limit_cycle
 from backlash_df.limit_cycles import predict_limit_cycles, verify_limit_cycles
 from backlash_df.loops import drive_loop
 from backlash_df.simulate import default_step
 
-EXAMPLES = "examples/"
-# motor-speed PI with a 7.6 ms speed filter and a 2.25 ms torque lag; shaft damping c = 10 N m s/rad
-LAG_RIG = {
-    "plant": {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0, "damping": 10.0, "half_gap": 0.05},
-    "controller": {"feedback": "motor", "kp": 222.0, "ti": 0.3, "speed_filter": 0.0076, "torque_lag": 0.00225},
-}
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 AMPLITUDE_TOL, OMEGA_TOL = 0.15, 0.05
 FIRST_HARMONIC_SHARE = 0.95  # DF hypothesis: theta_d nearly sinusoidal, first harmonic >= 95 % of the peak
 
 
 def rig_of(case):
-    return rig_from_dict(LAG_RIG) if case == "motor-lag" else load_rig(EXAMPLES + case + ".toml")
+    return load_rig(EXAMPLES / f"{case}.toml")
 
 
 _CACHE = {}
@@ -47,8 +43,8 @@ def verified(case, model):
     ("load_feedback", "phase-plane"),
     ("load_feedback", "damped-dead-zone"),
     ("load_feedback", "exact"),
-    ("motor-lag", "phase-plane"),
-    ("motor-lag", "exact"),
+    ("motor_lag_feedback", "phase-plane"),
+    ("motor_lag_feedback", "exact"),
 ])
 def test_predicted_cycle_matches_simulation(case, model):
     prediction = verified(case, model)
@@ -69,27 +65,27 @@ def test_predicted_cycle_matches_simulation(case, model):
 
 
 def test_phase_plane_predicts_what_dead_zone_26_misses():
-    dead_zone = verified("motor-lag", "damped-dead-zone")
-    phase_plane = verified("motor-lag", "phase-plane")
+    dead_zone = verified("motor_lag_feedback", "damped-dead-zone")
+    phase_plane = verified("motor_lag_feedback", "phase-plane")
     assert dead_zone.cycles == ()
     miss = dead_zone.near_misses[0]
-    print(f"\nmotor-lag/damped-dead-zone: closest approach {miss!r}")
+    print(f"\nmotor_lag_feedback/damped-dead-zone: closest approach {miss!r}")
     assert 0.01 < miss.distance < 0.1  # a clear miss, yet a near one
     # independent dense scan around the miss: no root closer than the reported distance
-    rig = rig_of("motor-lag")
+    rig = rig_of("motor_lag_feedback")
     amplitude = rig.plant.half_gap * (1 + np.geomspace(1e-3, 20.0, 300))[:, None]
     omega = np.geomspace(150.0, 350.0, 300)[None, :]
     values = 1 + drive_loop(rig).frequency_response(omega) * dead_zone.describing(amplitude, omega)
     assert np.abs(values).min() >= miss.distance - 1e-9
     # the physics the (26) DF misses: the phase plane and exact laws cycle in simulation
     assert phase_plane.stable_cycles[0].simulated.found
-    assert verified("motor-lag", "exact").stable_cycles[0].simulated.found
+    assert verified("motor_lag_feedback", "exact").stable_cycles[0].simulated.found
 
 
 def test_real_dead_zone_df_misses_the_load_feedback_cycle():
     # the classical dead-zone (24)-(25) DF is real; with PI on the load speed
     # Im G(jw) = Re K(jw) / (J_m J_l w^3) > 0 (speed_filter < ti), so G never meets -1/N
-    rig = load_rig(EXAMPLES + "load_feedback.toml")
+    rig = load_rig(EXAMPLES / "load_feedback.toml")
     prediction = predict_limit_cycles(rig, "dead-zone")
     omega = np.geomspace(*prediction.omega_range, 2000)
     assert np.all(drive_loop(rig).frequency_response(omega).imag > 0.0)
@@ -99,7 +95,7 @@ def test_real_dead_zone_df_misses_the_load_feedback_cycle():
 
 @pytest.mark.parametrize("model", ["phase-plane", "damped-dead-zone", "exact"])
 def test_loci_apart_settle_without_limit_cycle(model):
-    rig = load_rig(EXAMPLES + "motor_feedback.toml")
+    rig = load_rig(EXAMPLES / "motor_feedback.toml")
     prediction = verified("motor_feedback", model)
     assert prediction.cycles == ()
     # clearly apart: |1 + G N| > 20 % over the searched amplitudes and w >= w_n / 30 (dense independent
@@ -132,21 +128,21 @@ def _halving(case, model, t_end):
     assert coarse.omega == pytest.approx(fine.omega, rel=1e-3)
 
 
-@pytest.mark.parametrize("case", ["load_feedback", "motor-lag"])
+@pytest.mark.parametrize("case", ["load_feedback", "motor_lag_feedback"])
 def test_simulated_cycle_is_converged_in_the_step(case):
     _halving(case, "phase-plane", t_end=8.0)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("case", ["load_feedback", "motor-lag"])
+@pytest.mark.parametrize("case", ["load_feedback", "motor_lag_feedback"])
 def test_simulated_exact_cycle_is_converged_in_the_step(case):
     _halving(case, "exact", t_end=8.0)
 
 
 def test_cycle_is_periodic_with_the_measured_frequency():
     # independent of the harmonic fit: theta_d one measured period later repeats itself
-    rig = rig_of("motor-lag")
-    cycle = verified("motor-lag", "phase-plane").stable_cycles[0]
+    rig = rig_of("motor_lag_feedback")
+    cycle = verified("motor_lag_feedback", "phase-plane").stable_cycles[0]
     measured, result = simulated_limit_cycle(rig, "phase-plane", t_end=8.0, max_t_end=8.0,
                                              kick=cycle.amplitude * cycle.omega)
     period = 2 * math.pi / measured.omega
