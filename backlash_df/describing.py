@@ -18,9 +18,12 @@ How each law is computed:
   contact of the phase plane law, once made at theta*, holds until the release
   condition, as in the paper's derivation of (20).  The mode
   changes (contact, release, theta*, rubber band edges, the kink of the
-  ElastoBacklash law) are located to machine precision by bisection on the
-  phase, and each smooth piece is integrated by Gauss-Legendre quadrature on
-  sub-intervals of at most pi/4.  Accuracy does not depend on a sample count.
+  ElastoBacklash law) are bracketed by 64 phase samples, located to a few
+  ulps as zeros of the law's boundary functions (regula falsi, Illinois) and
+  settled by bisection on the mode itself, which has the last word (bisection
+  alone where no boundary function fits).  Each smooth piece is integrated by
+  adaptive Gauss-Kronrod (7-15) quadrature with a stated error test.  Accuracy
+  does not depend on a sample count.
 * The exact model (1) + (14): off contact the shaft relaxes as
   ``theta_b = x + (theta_b0 - x0) exp(-(phi - phi0) / (c w / k))`` (eq. 13),
   contact starts when that reaches ``+-alpha`` (located by bisection) and ends at
@@ -49,9 +52,11 @@ from .models import (
     DEAD_ZONE,
     ELASTO_BACKLASH,
     EXACT,
+    PHASE_PLANE,
     REVISED_DEAD_ZONE,
     RUBBER,
     BacklashModel,
+    _theta_star,
     held_mode,
     make_model,
     mode_torque,
@@ -71,8 +76,25 @@ _TWO_PI = 2.0 * math.pi
 _SAMPLES = 64  # phase samples that bracket mode changes (plus special phases)
 _SCAN_STEP = 0.02  # phase step (rad) of the exact model's search for re-contact
 _BISECTIONS = 60
-_MAX_PIECE = 0.25 * math.pi
-_GAUSS_ORDER = 16
+_MAX_PIECE = 0.25 * math.pi  # longest sub-interval of the fixed reference rule
+_START_PIECE = 0.5 * math.pi  # longest first sub-interval of the adaptive rule
+_KRONROD_TOLERANCE = 1e-9  # accepted |K15 - G7| / int |T| of a sub-interval
+_MAX_LEVEL = 40  # halvings of a sub-interval before it is accepted as it is
+
+# Gauss-Kronrod 7-15 rule on [-1, 1] (Piessens et al., QUADPACK qk15): the Kronrod
+# nodes, their weights, and the weights of the embedded 7-point Gauss rule (zero
+# at the Kronrod-only nodes)
+_KRONROD_HALF = (
+    (0.991455371120812639206854697526329, 0.022935322010529224963732008058970, 0.0),
+    (0.949107912342758524526189684047851, 0.063092092629978553290700663189204, 0.129484966168869693270611432679082),
+    (0.864864423359769072789712788640926, 0.104790010322250183839876322541518, 0.0),
+    (0.741531185599394439863864773280788, 0.140653259715525918745189590510238, 0.279705391489276667901467771423780),
+    (0.586087235467691130294144845693013, 0.169004726639267902826583426598550, 0.0),
+    (0.405845151377397166906606412076961, 0.190350578064785409913256402421014, 0.381830050505118944950369775488975),
+    (0.207784955007898467600689403773245, 0.204432940075298892414161999234649, 0.0),
+    (0.0, 0.209482141084727828012999174891714, 0.417959183673469387755102040816327),
+)
+_KRONROD = np.array([(-x, wk, wg) for x, wk, wg in _KRONROD_HALF[:-1]] + list(_KRONROD_HALF[::-1]))
 
 
 # --------------------------------------------------------------------------- static laws
@@ -104,11 +126,13 @@ def _piece(law, mode, phi, amp, omega, bias, p):
 
 
 @_jit
-def _integrate_piece(law, m, a, e, amp, omega, bias, p, nodes, weights, acc):
-    """Add int T sin, int T cos, int T over [a, e] (one smooth piece in mode m) to ``acc``."""
-    if m == 0:
-        return
-    # the rubber band's torque follows theta*(v), steep at high rate: finer pieces
+def _integrate_fixed(law, m, a, e, amp, omega, bias, p, nodes, weights, acc):
+    """Add int T sin, int T cos, int T over [a, e] to ``acc`` by a fixed composite rule.
+
+    Gauss-Legendre ``nodes``, ``weights`` on sub-intervals of at most pi/4 (pi/8 in
+    the rubber band, where theta*(v) is steep at high rate): the reference that
+    the adaptive rule is tested against.
+    """
     longest = 0.5 * _MAX_PIECE if law == RUBBER and (m == 1 or m == -1) else _MAX_PIECE
     n_sub = int(math.ceil((e - a) / longest))
     width = (e - a) / n_sub
@@ -126,7 +150,242 @@ def _integrate_piece(law, m, a, e, amp, omega, bias, p, nodes, weights, acc):
 
 
 @_jit
-def _static_harmonics(law, amp, omega, bias, p, nodes, weights, samples, acc):
+def _kronrod(law, m, a, e, amp, omega, bias, p):
+    """15-point Kronrod integrals of T sin, T cos, T over [a, e], |K15 - G7| and int |T|."""
+    half = 0.5 * (e - a)
+    centre = a + half
+    k_sin = k_cos = k_one = g_sin = g_cos = g_one = total = 0.0
+    for i in range(_KRONROD.shape[0]):
+        phi = centre + half * _KRONROD[i, 0]
+        sn = math.sin(phi)
+        cs = math.cos(phi)
+        torque = mode_torque(law, m, bias + amp * sn, amp * omega * cs, p[0], p[1], p[2], p[3])
+        kronrod = _KRONROD[i, 1] * torque
+        gauss = _KRONROD[i, 2] * torque
+        k_sin += kronrod * sn
+        k_cos += kronrod * cs
+        k_one += kronrod
+        g_sin += gauss * sn
+        g_cos += gauss * cs
+        g_one += gauss
+        total += abs(kronrod)
+    error = max(abs(k_sin - g_sin), abs(k_cos - g_cos), abs(k_one - g_one))
+    return half * k_sin, half * k_cos, half * k_one, half * error, half * total
+
+
+@_jit
+def _integrate_adaptive(law, m, a, e, amp, omega, bias, p, stack, acc):
+    """Add int T sin, int T cos, int T over [a, e] to ``acc`` by adaptive Gauss-Kronrod.
+
+    A sub-interval is accepted when its 15-point Kronrod and embedded 7-point
+    Gauss integrals differ by at most ``_KRONROD_TOLERANCE`` times its int |T|,
+    and halved otherwise.  For an analytic integrand the Kronrod error is of
+    order ``|K15 - G7|^(23/14)`` (degrees of exactness 23 and 13), below 1e-14
+    relative at that tolerance.  Affine modes, sinusoids along phi, pass on
+    intervals of pi/2; the rubber band, with theta*(v), is refined where needed.
+    """
+    n_start = int(math.ceil((e - a) / _START_PIECE))
+    width = (e - a) / n_start
+    top = 0
+    for s in range(n_start):  # pushed last to first: integrated in order of phase
+        stack[top, 0] = e - (s + 1) * width
+        stack[top, 1] = e - s * width
+        stack[top, 2] = 0.0
+        top += 1
+    while top > 0:
+        top -= 1
+        lo, hi, level = stack[top, 0], stack[top, 1], stack[top, 2]
+        k_sin, k_cos, k_one, error, total = _kronrod(law, m, lo, hi, amp, omega, bias, p)
+        if error <= _KRONROD_TOLERANCE * total or level >= _MAX_LEVEL or top + 2 > stack.shape[0]:
+            acc[0] += k_sin
+            acc[1] += k_cos
+            acc[2] += k_one
+            continue
+        mid = 0.5 * (lo + hi)
+        stack[top, 0], stack[top, 1], stack[top, 2] = mid, hi, level + 1.0
+        stack[top + 1, 0], stack[top + 1, 1], stack[top + 1, 2] = lo, mid, level + 1.0
+        top += 2
+
+
+@_jit
+def _integrate_piece(law, m, a, e, amp, omega, bias, p, nodes, weights, stack, acc):
+    """Add int T sin, int T cos, int T over [a, e] (one smooth piece in mode m) to ``acc``:
+    adaptively if ``nodes`` is empty, else by the fixed composite rule."""
+    if m == 0:
+        return
+    if nodes.shape[0] == 0:
+        _integrate_adaptive(law, m, a, e, amp, omega, bias, p, stack, acc)
+    else:
+        _integrate_fixed(law, m, a, e, amp, omega, bias, p, nodes, weights, acc)
+
+
+# Boundary functions of the modes along the sinusoid (right side; index + _SIDE is
+# the mirror image): their zeros are where a law may change mode or piece.
+_X_ALPHA, _RELEASE, _KINK, _RATE, _THETA_STAR, _BAND_TOP, _BAND_BOTTOM, _RUBBER_TOP, _BAND_BACK = range(9)
+_SIDE = 9
+
+
+@_jit
+def _boundary_of(index, x, v, ts, p):
+    """Right-side boundary function ``index`` at (x, v), with ts = theta*(v)."""
+    k, c, alpha, beta = p[0], p[1], p[2], p[3]
+    s = c * v / k
+    if index == _X_ALPHA:  # contact of the dead-zones (24), (26)
+        return x - alpha
+    if index == _RELEASE:  # k (x - alpha) + c v = 0: release, Theorem 1; (27)
+        return x - alpha + s
+    if index == _KINK:  # ElastoBacklash: k (x - alpha) = c v
+        return x - alpha - s
+    if index == _RATE:  # v = 0: the two lines of (36)
+        return s
+    if index == _RUBBER_TOP:  # x = alpha + beta / 2
+        return x - alpha - 0.5 * beta
+    if index == _BAND_BACK:  # (28) second line
+        return x - alpha + 0.5 * beta + 2.0 * s
+    if index == _THETA_STAR:  # contact of the phase plane law, (20)
+        return x - ts
+    if index == _BAND_TOP:  # (28) first line, both edges
+        return x - ts - 0.5 * beta
+    return x - ts + 0.5 * beta
+
+
+@_jit
+def _boundary(index, phi, amp, omega, bias, p):
+    """Value at phase phi of boundary function ``index`` (zero on the boundary)."""
+    x = bias + amp * math.sin(phi)
+    v = amp * omega * math.cos(phi)
+    if index >= _SIDE:
+        x, v, index = -x, -v, index - _SIDE
+    ts = _theta_star(v, p[0], p[1], p[2]) if index >= _THETA_STAR and index <= _BAND_BOTTOM else p[2]
+    return _boundary_of(index, x, v, ts, p)
+
+
+@_jit
+def _slot(index, x, v, ts, p):
+    return 1.0 if index < 0 else _boundary_of(index, x, v, ts, p)
+
+
+@_jit
+def _boundary_values(law, phi, amp, omega, bias, p):
+    """The law's boundary functions at phase phi, right side and mirrored (tuples in the
+    order of :func:`_boundaries`; one theta* evaluation per side at most)."""
+    x = bias + amp * math.sin(phi)
+    v = amp * omega * math.cos(phi)
+    i = _boundaries(law, p[3])
+    ts = _theta_star(v, p[0], p[1], p[2])
+    right = (_slot(i[0], x, v, ts, p), _slot(i[1], x, v, ts, p), _slot(i[2], x, v, ts, p),
+             _slot(i[3], x, v, ts, p), _slot(i[4], x, v, ts, p), _slot(i[5], x, v, ts, p))
+    ts = _theta_star(-v, p[0], p[1], p[2])
+    left = (_slot(i[0], -x, -v, ts, p), _slot(i[1], -x, -v, ts, p), _slot(i[2], -x, -v, ts, p),
+            _slot(i[3], -x, -v, ts, p), _slot(i[4], -x, -v, ts, p), _slot(i[5], -x, -v, ts, p))
+    return right, left
+
+
+@_jit
+def _boundaries(law, beta):
+    """Indices of the right-side boundary functions of a law (see :func:`_boundary`),
+    padded with -1."""
+    if law == RUBBER and beta > 0.0:
+        return (_RELEASE, _RATE, _BAND_TOP, _BAND_BOTTOM, _RUBBER_TOP, _BAND_BACK)
+    if law == PHASE_PLANE or law == RUBBER:
+        return (_RELEASE, _THETA_STAR, -1, -1, -1, -1)
+    if law == ELASTO_BACKLASH:
+        return (_X_ALPHA, _RELEASE, _KINK, -1, -1, -1)
+    if law == REVISED_DEAD_ZONE:
+        return (_RELEASE, -1, -1, -1, -1, -1)
+    return (_X_ALPHA, -1, -1, -1, -1, -1)
+
+
+@_jit
+def _illinois(index, a, e, fa, fe, amp, omega, bias, p):
+    """Zero of boundary function ``index`` in [a, e], where it changes sign, by the
+    Illinois variant of regula falsi (superlinear, bracketing)."""
+    root = a
+    last = 0
+    for _ in range(_BISECTIONS):
+        previous = root
+        root = (fa * e - fe * a) / (fa - fe)
+        if not a <= root <= e:
+            root = 0.5 * (a + e)
+        f = _boundary(index, root, amp, omega, bias, p)
+        if f == 0.0 or abs(root - previous) <= 4e-16 * abs(root):
+            return root
+        if (f > 0.0) == (fe > 0.0):
+            e, fe = root, f
+            if last == 1:
+                fa *= 0.5
+            last = 1
+        else:
+            a, fa = root, f
+            if last == -1:
+                fe *= 0.5
+            last = -1
+    return root
+
+
+@_jit
+def _hinted_switch(law, mode, current, lo, hi, amp, omega, bias, p):
+    """Switch in (lo, hi] at a zero of one of the law's boundary functions, checked by
+    the mode itself: returns a bracket of a few ulps around the switch, or NaNs.
+
+    The boundary functions that change sign over the bracket are tried in the
+    order of their linearly interpolated zeros.  They only propose phases;
+    :func:`_piece` (the law of :mod:`backlash_df.models`) decides, so a wrong
+    proposal costs time, never accuracy.
+    """
+    right_lo, left_lo = _boundary_values(law, lo, amp, omega, bias, p)
+    right_hi, left_hi = _boundary_values(law, hi, amp, omega, bias, p)
+    indices = _boundaries(law, p[3])
+    tried = 0
+    while True:
+        first, f_first_lo, f_first_hi, estimate = -1, 0.0, 0.0, math.inf
+        for j in range(12):
+            i = j % 6
+            f_lo = right_lo[i] if j < 6 else left_lo[i]
+            f_hi = right_hi[i] if j < 6 else left_hi[i]
+            if indices[i] < 0 or tried & (1 << j) or (f_lo > 0.0) == (f_hi > 0.0) or f_lo == 0.0 or f_hi == 0.0:
+                continue
+            guess = (f_lo * hi - f_hi * lo) / (f_lo - f_hi)
+            if guess < estimate:
+                first, f_first_lo, f_first_hi, estimate = j, f_lo, f_hi, guess
+        if first < 0:
+            return math.nan, math.nan
+        tried |= 1 << first
+        index = indices[first % 6] + (first // 6) * _SIDE
+        root = _illinois(index, lo, hi, f_first_lo, f_first_hi, amp, omega, bias, p)
+        margin = 16.0 * 2.2e-16 * max(1.0, abs(root))
+        before = max(lo, root - margin)
+        after = min(hi, root + margin)
+        if (_piece(law, mode, before, amp, omega, bias, p)[1] == current
+                and _piece(law, mode, after, amp, omega, bias, p)[1] != current):
+            return before, after
+
+
+@_jit
+def _locate_switch(law, mode, current, lo, hi, amp, omega, bias, p):
+    """First phase in (lo, hi] of another smooth piece than ``current`` (at lo).
+
+    Bisection on the mode to round-off, from the bracket of a few ulps where a
+    boundary function locates the switch (:func:`_hinted_switch`), else from
+    (lo, hi].  Round-off matters: at a jump of the torque (contact at alpha or
+    theta*) a switch misplaced by h costs the jump times h in the integrals.
+    """
+    before, after = _hinted_switch(law, mode, current, lo, hi, amp, omega, bias, p)
+    if not math.isnan(before):
+        lo, hi = before, after
+    for _ in range(_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        if mid <= lo or mid >= hi:
+            break
+        if _piece(law, mode, mid, amp, omega, bias, p)[1] == current:
+            lo = mid
+        else:
+            hi = mid
+    return hi
+
+
+@_jit
+def _static_harmonics(law, amp, omega, bias, p, nodes, weights, samples, stack, acc):
     """Fourier integrals of a static law's torque over one period (see module docs).
 
     The walk starts at phi = pi/2, where v = 0 and the held mode does not depend
@@ -155,21 +414,12 @@ def _static_harmonics(law, amp, omega, bias, p, nodes, weights, samples, acc):
             continue
         target = _piece(law, mode, grid[j], amp, omega, bias, p)[1]
         while target != current:
-            lo = max(start, grid[j - 1])
-            hi = grid[j]
-            for _ in range(_BISECTIONS):
-                mid = 0.5 * (lo + hi)
-                if mid <= lo or mid >= hi:
-                    break
-                if _piece(law, mode, mid, amp, omega, bias, p)[1] == current:
-                    lo = mid
-                else:
-                    hi = mid
-            _integrate_piece(law, mode, start, hi, amp, omega, bias, p, nodes, weights, acc)
-            start = hi
-            mode, current = _piece(law, mode, hi, amp, omega, bias, p)
+            switch = _locate_switch(law, mode, current, max(start, grid[j - 1]), grid[j], amp, omega, bias, p)
+            _integrate_piece(law, mode, start, switch, amp, omega, bias, p, nodes, weights, stack, acc)
+            start = switch
+            mode, current = _piece(law, mode, switch, amp, omega, bias, p)
             target = _piece(law, mode, grid[j], amp, omega, bias, p)[1]
-    _integrate_piece(law, mode, start, phi0 + _TWO_PI, amp, omega, bias, p, nodes, weights, acc)
+    _integrate_piece(law, mode, start, phi0 + _TWO_PI, amp, omega, bias, p, nodes, weights, stack, acc)
     return 1.0
 
 
@@ -317,14 +567,15 @@ def _exact_harmonics(amp, omega, bias, p, scan_step, acc):
 @_jit
 def _harmonic_balance(law, p, amp, omega, bias, nodes, weights, samples, scan_step, n_out, mean_out):
     acc = np.zeros(3)
+    stack = np.empty((2 * _MAX_LEVEL + 8, 3))
     for i in range(amp.shape[0]):
         a, w, b = amp[i], omega[i], bias[i]
         if law == EXACT and p[1] > 0.0 and w > 0.0:
             periods = _exact_harmonics(a, w, b, p, scan_step, acc)
         elif law == EXACT:  # c w = 0: the shaft relaxes at once, the classical dead-zone
-            periods = _static_harmonics(DEAD_ZONE, a, w, b, p, nodes, weights, samples, acc)
+            periods = _static_harmonics(DEAD_ZONE, a, w, b, p, nodes, weights, samples, stack, acc)
         else:
-            periods = _static_harmonics(law, a, w, b, p, nodes, weights, samples, acc)
+            periods = _static_harmonics(law, a, w, b, p, nodes, weights, samples, stack, acc)
         scale = 1.0 / (math.pi * periods)
         n_out[i] = complex(acc[0] * scale / a, acc[1] * scale / a)
         mean_out[i] = 0.5 * acc[2] * scale
@@ -377,9 +628,11 @@ def _as_model(model):
     raise ValueError(f"model must be a model from make_model(), got {model!r}")
 
 
-def _evaluate(model, amplitude, omega, bias, method, samples=_SAMPLES, gauss_order=_GAUSS_ORDER, scan_step=_SCAN_STEP):
+def _evaluate(model, amplitude, omega, bias, method, samples=_SAMPLES, gauss_order=None, scan_step=_SCAN_STEP):
     """N and mean torque; ``samples``, ``gauss_order`` and ``scan_step`` set the
-    resolution of the harmonic balance (tests refine them)."""
+    resolution of the harmonic balance (tests refine them).  ``gauss_order=None``
+    integrates the smooth pieces by adaptive Gauss-Kronrod, an integer by that
+    Gauss-Legendre order on fixed sub-intervals (the reference of the tests)."""
     model = _as_model(model)
     amplitude = _validated("amplitude", amplitude, positive=True)
     omega = _validated("omega", omega)
@@ -394,7 +647,7 @@ def _evaluate(model, amplitude, omega, bias, method, samples=_SAMPLES, gauss_ord
         return np.asarray(closed, dtype=complex), np.zeros(a.shape)
     n_out = np.empty(a.size, dtype=complex)
     mean_out = np.empty(a.size)
-    nodes, weights = np.polynomial.legendre.leggauss(gauss_order)
+    nodes, weights = np.polynomial.legendre.leggauss(gauss_order) if gauss_order else (np.empty(0), np.empty(0))
     _harmonic_balance(
         model.law, model.params, np.ascontiguousarray(a, dtype=float).ravel(),
         np.ascontiguousarray(w, dtype=float).ravel(), np.ascontiguousarray(b, dtype=float).ravel(),
