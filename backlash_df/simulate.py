@@ -1,4 +1,4 @@
-"""Time simulation of drives with backlash: one compiled kernel for every loop.
+"""Time simulation of drives with backlash: compiled kernels shared by every loop.
 
 The drive is split into a linear part and the backlash::
 
@@ -6,25 +6,38 @@ The drive is split into a linear part and the backlash::
     theta_d = c_x z,   dtheta_d = c_v z,   T = law(theta_d, dtheta_d [, theta_b])
 
 ``w(t)`` are external inputs sampled on the output grid, or at half steps when
-given as functions of time (linear between samples; at half steps every RK4
-stage of an unsplit step falls on a sample, so a smooth input costs no order),
-``u_d = d z`` an optional delayed signal (dead time), the last term an optional
-smoothed Coulomb friction.  The open-loop two-mass drive
-(:func:`two_mass_system`), the PI loops of :mod:`backlash_df.loops` and the
-replay of measured data all use this form.
+given as functions of time, ``u_d = d z`` an optional delayed signal (dead
+time, linear between output samples), the last term an optional smoothed
+Coulomb friction.  The open-loop two-mass drive (:func:`two_mass_system`), the
+PI loops of :mod:`backlash_df.loops` and the replay of measured data all use
+this form.
 
-Integration is classical RK4 on a fixed grid with the law's *mode* frozen over
-each step (free, rubber band, steel contact; see :mod:`backlash_df.models`);
-a change of mode at the end of a step is located by bisection on the step
-fraction and the step is split there.  So the jump of the phase plane law at
-theta*, and the dead-zone's jump at ``|theta_d| = alpha``, are crossed exactly
-instead of being smeared or chattered over.  Contact of the phase plane law,
-once made at theta*, holds until the release condition of Theorem 1, as in the
-paper's derivation of (20) (:func:`~backlash_df.models.held_mode`): read as a
-memoryless function, (20) lets a strongly damped contact slide along the jump
-at theta* with an event every few nanoseconds.  The exact model's theta_b (14) is
-advanced by the exponential step :func:`~backlash_df.models.exact_step`, stable
-for any ``c / k``.
+Integration runs on a fixed grid with the law's *mode* frozen over each step
+(free, rubber band, steel contact; see :mod:`backlash_df.models`); a change of
+mode at the end of a step is located by bisection and the step is split there.
+So the jump of the phase plane law at theta*, and the dead-zone's jump at
+``|theta_d| = alpha``, are crossed exactly instead of being smeared or
+chattered over.  Contact of the phase plane law, once made at theta*, holds
+until the release condition of Theorem 1, as in the paper's derivation of (20)
+(:func:`~backlash_df.models.held_mode`): read as a memoryless function, (20)
+lets a strongly damped contact slide along the jump at theta* with an event
+every few nanoseconds.
+
+Two kernels share these rules:
+
+* **Exact discretisation** when the loop is linear inside every mode: the
+  dead-zone family (24)-(27), the phase plane law (19)-(23) and the exact model
+  (1), (14), without friction.  In contact ``T = k (theta_d -+ alpha) + c
+  dtheta_d``, free ``T = 0`` with the exact model's ``dtheta_b/dt = (k / c)
+  (theta_d - theta_b) + dtheta_d``; inputs and the delayed signal are quadratic
+  in time over a step (through their samples at 0, dt/2, dt).  So one step is a
+  product with ``exp(M dt)`` of an augmented state matrix, exact between events
+  whatever the step and stable for any ``c / k``; the bisection walks a ladder
+  of ``exp(M dt 2^-j)``.  Only a dead time (its linear interpolation) or inputs
+  that are not quadratic over a step leave an error depending on dt.
+* **Classical RK4** otherwise (the rubber band (36), elasto-backlash, friction),
+  every stage of an unsplit step on an input sample; the exact model's theta_b
+  by the exponential step :func:`~backlash_df.models.exact_step`.
 """
 
 import dataclasses
@@ -34,7 +47,12 @@ import numba
 import numpy as np
 
 from .models import (
+    DAMPED_DEAD_ZONE,
+    DEAD_ZONE,
     EXACT,
+    PHASE_PLANE,
+    REVISED_DEAD_ZONE,
+    RUBBER,
     BacklashModel,
     exact_step,
     held_mode,
@@ -46,22 +64,23 @@ __all__ = ["LinearPart", "SimulationResult", "simulate_linear", "two_mass_system
 _jit = numba.njit(cache=True, nogil=True)
 _MAX_EVENTS_PER_STEP = 32
 _BISECTIONS = 52
+_LEVELS = 42  # dyadic sub-steps dt 2^-j, j < _LEVELS, of the exact-discretisation kernel
 
 
-# --------------------------------------------------------------------------- kernel
+# --------------------------------------------------------------------------- RK4 kernel (any law)
 
 
 @_jit
-def _interp(series, position):
-    """Linear interpolation of ``series`` (rows on the grid) at fractional index."""
+def _lerp(series, position, col):
+    """Linear interpolation of column ``col`` of ``series`` (rows on a uniform grid) at a fractional row."""
     last = series.shape[0] - 1
     if position <= 0.0:
-        return series[0]
+        return series[0, col]
     if position >= last:
-        return series[last]
+        return series[last, col]
     i = int(position)
     frac = position - i
-    return series[i] + frac * (series[i + 1] - series[i])
+    return series[i, col] + frac * (series[i + 1, col] - series[i, col])
 
 
 @_jit
@@ -78,15 +97,11 @@ def _torque(law, mode, x, v, p):
 @_jit
 def _deriv(z, t, mode, sys, law, p, W, hist, dt, out):
     a_mat, b_t, e_mat, c_x, c_v, d_row, e_d, delay, f_row, e_f, f_level, f_eps = sys
-    x = 0.0
-    v = 0.0
-    for j in range(z.shape[0]):
-        x += c_x[j] * z[j]
-        v += c_v[j] * z[j]
+    x, v = _xv(z, c_x, c_v)
     torque = _torque(law, mode, x, v, p)
     # W spans the run uniformly: one row per output step, or two (half steps)
-    w = _interp(W, t / dt * (W.shape[0] - 1) / (hist.shape[0] - 1))
-    u_d = _interp(hist, (t - delay) / dt) if delay > 0.0 else 0.0
+    w_row = t / dt * (W.shape[0] - 1) / (hist.shape[0] - 1)
+    u_d = _lerp(hist, (t - delay) / dt, 0) if delay > 0.0 else 0.0
     fr = 0.0
     if f_level > 0.0:
         s = 0.0
@@ -94,11 +109,15 @@ def _deriv(z, t, mode, sys, law, p, W, hist, dt, out):
             s += f_row[j] * z[j]
         fr = f_level * math.tanh(s / f_eps)
     for i in range(z.shape[0]):
-        acc = b_t[i] * torque + e_d[i] * u_d - e_f[i] * fr
+        out[i] = b_t[i] * torque + e_d[i] * u_d - e_f[i] * fr
+    for j in range(W.shape[1]):
+        w = _lerp(W, w_row, j)
+        for i in range(z.shape[0]):
+            out[i] += e_mat[i, j] * w
+    for i in range(z.shape[0]):
+        acc = out[i]
         for j in range(z.shape[0]):
             acc += a_mat[i, j] * z[j]
-        for j in range(w.shape[0]):
-            acc += e_mat[i, j] * w[j]
         out[i] = acc
 
 
@@ -123,7 +142,7 @@ def _rk4(z, t, h, mode, sys, law, p, W, hist, dt, work, out):
 def _xv(z, c_x, c_v):
     x = 0.0
     v = 0.0
-    for j in range(z.shape[0]):
+    for j in range(c_x.shape[0]):
         x += c_x[j] * z[j]
         v += c_v[j] * z[j]
     return x, v
@@ -142,17 +161,27 @@ def _mode_of(law, p, mode, x, v, theta_b):
 
 
 @_jit
+def _must_leave(law, p, mode, x, v, theta_b):
+    """True if a state reached with ``mode`` frozen lies outside that mode (release, contact, or region)."""
+    if law != EXACT:
+        return held_mode(law, mode, x, v, p[0], p[1], p[2], p[3]) != mode
+    if mode > 0:
+        return p[0] * (x - p[2]) + p[1] * v < 0.0
+    if mode < 0:
+        return p[0] * (x + p[2]) + p[1] * v > 0.0
+    return abs(theta_b) >= p[2]
+
+
+@_jit
 def _advance(z, theta_b, t, h, mode, sys, law, p, W, hist, dt, work, z_out):
     """One frozen-mode step; returns (theta_b at the end, True if the mode must change)."""
     _rk4(z, t, h, mode, sys, law, p, W, hist, dt, work, z_out)
     c_x, c_v = sys[3], sys[4]
     x1, v1 = _xv(z_out, c_x, c_v)
     if law != EXACT:
-        return theta_b, held_mode(law, mode, x1, v1, p[0], p[1], p[2], p[3]) != mode
-    if mode > 0:
-        return p[2], p[0] * (x1 - p[2]) + p[1] * v1 < 0.0
-    if mode < 0:
-        return -p[2], p[0] * (x1 + p[2]) + p[1] * v1 > 0.0
+        return theta_b, _must_leave(law, p, mode, x1, v1, theta_b)
+    if mode != 0:
+        return p[2] if mode > 0 else -p[2], _must_leave(law, p, mode, x1, v1, theta_b)
     x0, v0 = _xv(z, c_x, c_v)
     theta_new = exact_step(theta_b, x0, v0, x1, v1, h, p[0], p[1], p[2])
     return theta_new, abs(theta_new) >= p[2]
@@ -162,7 +191,7 @@ def _advance(z, theta_b, t, h, mode, sys, law, p, W, hist, dt, work, z_out):
 def _run(sys, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES):
     n = z0.shape[0]
     d_row = sys[5]
-    hist = np.zeros(n_steps + 1)
+    hist = np.zeros((n_steps + 1, 1))
     work = np.empty((5, n))
     z = z0.copy()
     z_new = np.empty(n)
@@ -180,7 +209,7 @@ def _run(sys, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES):
         u = 0.0
         for j in range(n):
             u += d_row[j] * z[j]
-        hist[i] = u
+        hist[i, 0] = u
         if i == n_steps:
             break
         t = i * dt
@@ -221,6 +250,205 @@ def _run(sys, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES):
         if remaining > 1e-14 * dt:
             theta_b, _ = _advance(z, theta_b, t, remaining, mode, sys, law, p, W, hist, dt, work, z_new)
             z[:] = z_new
+    return events
+
+
+# --------------------------------------------------------------------------- exact-discretisation kernel
+
+
+@_jit
+def _taylor(powers, ratio, scaled):
+    """``sum_k ratio^k A0^k / k!`` from the powers of ``A0`` (``||A0||_1 = scaled <= 1/2``), terms down to 1e-18."""
+    out = powers[0].copy()
+    coef = 1.0
+    for k in range(1, powers.shape[0]):
+        coef *= ratio / k
+        if coef * scaled**k < 1e-18:
+            break
+        out += coef * powers[k]
+    return out
+
+
+@_jit
+def _ladder(m_aug, dt, levels):
+    """``exp(M dt 2^-j)`` for ``j = 0 .. levels - 1``, shape (levels, N, N).
+
+    Scaling and squaring: Taylor series of ``A0 = M dt 2^-j0`` (``||A0||_1 <=
+    1/2``) at the levels ``j >= j0``, repeated squaring of level ``j0`` above.
+    """
+    size = m_aug.shape[0]
+    norm = 0.0
+    for j in range(size):
+        norm = max(norm, np.abs(m_aug[:, j]).sum() * dt)
+    base = 0
+    while norm * 0.5**base > 0.5:
+        base += 1
+    scaled = norm * 0.5**base
+    powers = np.empty((25, size, size))
+    powers[0] = np.eye(size)
+    powers[1] = m_aug * (dt * 0.5**base)
+    for k in range(2, powers.shape[0]):
+        powers[k] = powers[k - 1] @ powers[1]
+    out = np.empty((levels, size, size))
+    for j in range(base, levels):
+        out[j] = _taylor(powers, 0.5 ** (j - base), scaled)
+    square = _taylor(powers, 1.0, scaled)
+    for j in range(base - 1, -1, -1):
+        square = square @ square
+        if j < levels:
+            out[j] = square
+    return out
+
+
+@_jit
+def _mode_index(mode):
+    """Row of a mode's matrices: 0 left contact, 1 free, 2 right contact."""
+    return 0 if mode < 0 else (2 if mode > 0 else 1)
+
+
+@_jit
+def _apply(phi, q, out, rows):
+    """``out = phi q`` on the first ``rows`` rows; the other entries copied from ``q``."""
+    size = q.shape[0]
+    for i in range(rows):
+        acc = 0.0
+        for j in range(size):
+            acc += phi[i, j] * q[j]
+        out[i] = acc
+    for i in range(rows, size):
+        out[i] = q[i]
+
+
+@_jit
+def _set_inputs(q, base, f0, fm, f1, dt):
+    """Value, slope and curvature of the quadratic through samples at 0, dt/2, dt."""
+    q[base] = f0
+    q[base + 1] = (4.0 * fm - 3.0 * f0 - f1) / dt
+    q[base + 2] = 4.0 * (f0 - 2.0 * fm + f1) / (dt * dt)
+
+
+@_jit
+def _advance_exactly(ladder, q, fraction, out, tmp):
+    """``q`` advanced by ``fraction * dt`` with the dyadic ladder (residual < 2^-levels dt dropped)."""
+    out[:] = q
+    for j in range(ladder.shape[0]):
+        s = 0.5**j
+        if fraction >= s:
+            _apply(ladder[j], out, tmp, q.shape[0])
+            out[:] = tmp
+            fraction -= s
+
+
+@_jit
+def _locate(ladder, q, left, law, p, mode, c_x, c_v, q_lo, trial, q_hi):
+    """Bisect for the first time the frozen-mode trajectory must leave ``mode``; returns it (fraction of dt).
+
+    Binary search on the dyadic ladder from ``q`` (a sub-step ``dt 2^-j`` is kept
+    while the trajectory stays in ``mode``); ``q_hi`` must already hold the state
+    at ``left``, outside ``mode``, and ends as the earliest state found outside.
+    """
+    n = c_x.shape[0]
+    size = q.shape[0]
+    q_lo[:] = q
+    lo = 0.0
+    hi = left
+    for j in range(1, ladder.shape[0]):
+        s = 0.5**j
+        if lo + s >= hi:
+            continue
+        _apply(ladder[j], q_lo, trial, size)
+        x, v = _xv(trial, c_x, c_v)
+        if _must_leave(law, p, mode, x, v, trial[n]):
+            q_hi[:] = trial
+            hi = lo + s
+        else:
+            q_lo[:] = trial
+            lo += s
+    return hi
+
+
+@_jit
+def _set_step_inputs(q, i, W, hist, delay, dt, n):
+    """Quadratics in time over step ``i`` of the varying inputs and of the delayed signal."""
+    rows_per_step = (W.shape[0] - 1) / (hist.shape[0] - 1)
+    row = i * rows_per_step
+    for j in range(W.shape[1]):
+        f0, fm, f1 = _lerp(W, row, j), _lerp(W, row + 0.5 * rows_per_step, j), _lerp(W, row + rows_per_step, j)
+        _set_inputs(q, n + 2 + 3 * j, f0, fm, f1, dt)
+    if delay > 0.0:
+        row = i - delay / dt
+        f0, fm, f1 = _lerp(hist, row, 0), _lerp(hist, row + 0.5, 0), _lerp(hist, row + 1.0, 0)
+        _set_inputs(q, n + 2 + 3 * W.shape[1], f0, fm, f1, dt)
+
+
+@_jit
+def _step_exactly(ladders, law, p, mode, q, c_x, c_v, work):
+    """Advance ``q`` by one step ``dt``, switching mode at every located event; returns (mode, events)."""
+    n, size = c_x.shape[0], q.shape[0]
+    q_new, q_lo, trial, q_hi = work[0], work[1], work[2], work[3]
+    left = 1.0  # fraction of the step still to go
+    events = 0
+    for _ in range(_MAX_EVENTS_PER_STEP):
+        ladder = ladders[_mode_index(mode)]
+        if left == 1.0:  # z and theta_b only: the other entries are constant or reset every step
+            _apply(ladder[0], q, q_new, n + 1)
+        else:
+            _advance_exactly(ladder, q, left, q_new, trial)
+        x, v = _xv(q_new, c_x, c_v)
+        if not _must_leave(law, p, mode, x, v, q_new[n]):
+            q[:] = q_new
+            return mode, events
+        if left == 1.0:
+            _apply(ladder[0], q, q_hi, size)
+        else:
+            q_hi[:] = q_new
+        h = _locate(ladder, q, left, law, p, mode, c_x, c_v, q_lo, trial, q_hi)
+        if law == EXACT and mode == 0:
+            q_hi[n] = p[2] if q_hi[n] > 0.0 else -p[2]
+        x, v = _xv(q_hi, c_x, c_v)
+        new_mode = _mode_of(law, p, mode, x, v, q_hi[n])
+        if new_mode == mode:  # grazing or round-off at a boundary: no real switch
+            break
+        q[:] = q_hi
+        mode = new_mode
+        left -= h
+        events += 1
+        if left <= 1e-14:
+            return mode, events
+    _advance_exactly(ladders[_mode_index(mode)], q, left, q_new, trial)
+    q[:] = q_new
+    return mode, events
+
+
+@_jit
+def _run_exactly(ladders, law, p, W, z0, theta_b0, delay, d_row, c_x, c_v, dt, n_steps, Z, T, THETA, MODES):
+    """Exact-discretisation run on the augmented state of :func:`_mode_matrices`; returns the event count."""
+    n = z0.shape[0]
+    hist = np.zeros((n_steps + 1, 1))
+    q = np.zeros(ladders.shape[2])
+    work = np.empty((4, q.shape[0]))
+    q[:n] = z0
+    q[n] = theta_b0
+    q[n + 1] = 1.0
+    x, v = _xv(q, c_x, c_v)
+    mode = _mode_of(law, p, 0, x, v, theta_b0)
+    events = 0
+    for i in range(n_steps + 1):
+        x, v = _xv(q, c_x, c_v)
+        for j in range(n):
+            Z[i, j] = q[j]
+        T[i] = _torque(law, mode, x, v, p)
+        THETA[i] = q[n]
+        MODES[i] = mode
+        u = 0.0
+        for j in range(n):
+            u += d_row[j] * q[j]
+        hist[i, 0] = u
+        if i == n_steps:
+            break
+        _set_step_inputs(q, i, W, hist, delay, dt, n)
+        mode, found = _step_exactly(ladders, law, p, mode, q, c_x, c_v, work)
+        events += found
     return events
 
 
@@ -342,6 +570,66 @@ class SimulationResult:
         return ax
 
 
+def _piecewise_affine(system, model):
+    """True if the loop is linear within every mode: no friction, torque affine in (theta_d, dtheta_d)."""
+    if system.friction > 0.0:
+        return False
+    if model.law == RUBBER:
+        return model.rubber_thickness == 0.0
+    return model.law in (DEAD_ZONE, DAMPED_DEAD_ZONE, REVISED_DEAD_ZONE, PHASE_PLANE, EXACT)
+
+
+def _mode_matrices(system, model, law, varying, constant):
+    """Augmented state matrices of the left-contact, free and right-contact modes, shape (3, N, N).
+
+    State ``[z, theta_b, 1, (w_j, dw_j/dt, d2w_j/dt2) for the inputs j in
+    varying and the delayed signal]``: in contact ``T = k (theta_d -+ alpha) +
+    c dtheta_d`` (``c = 0`` for the dead-zone (24)); free, ``T = 0`` and, for
+    the exact model, ``dtheta_b/dt = (k / c) (theta_d - theta_b) + dtheta_d``
+    (12), (14).  Inputs are quadratic in time over a step (chains of
+    integrators); those constant over the run (values ``constant``, the other
+    channels) enter with the state ``1``.
+    """
+    n = system.A.shape[0]
+    columns = [system.E[:, j] for j in varying] + ([system.e_d] if system.delay > 0.0 else [])
+    size = n + 2 + 3 * len(columns)
+    k, c, alpha = model.stiffness, model.damping, model.half_gap
+    fixed = np.delete(system.E, varying, axis=1) @ constant
+    out = np.zeros((3, size, size))
+    for m_aug, side in zip(out, (-1, 0, 1)):
+        m_aug[:n, :n] = system.A
+        m_aug[:n, n + 1] = fixed
+        if side:
+            damping = 0.0 if law == DEAD_ZONE else c
+            m_aug[:n, :n] += np.outer(system.b, k * system.c_x + damping * system.c_v)
+            m_aug[:n, n + 1] -= system.b * k * side * alpha
+        elif law == EXACT:
+            m_aug[n, :n] = k / c * system.c_x + system.c_v
+            m_aug[n, n] = -k / c
+        for j, column in enumerate(columns):
+            base = n + 2 + 3 * j
+            m_aug[:n, base] = column
+            m_aug[base, base + 1] = m_aug[base + 1, base + 2] = 1.0
+    return out
+
+
+def _simulate_exactly(system, model, w, z0, theta_b0, dt, n_steps, states, torque, theta_b, modes):
+    """Fill the outputs with the exact-discretisation kernel; returns the number of events."""
+    law = DEAD_ZONE if model.law == EXACT and model.damping == 0.0 else model.law
+    varying = [j for j in range(w.shape[1]) if np.ptp(w[:, j]) > 0.0]
+    constant = np.delete(w[0], varying)
+    matrices = _mode_matrices(system, model, law, varying, constant)
+    ladders = np.stack([_ladder(m_aug, dt, _LEVELS) for m_aug in matrices])
+    events = _run_exactly(
+        ladders, law, model.params, np.ascontiguousarray(w[:, varying]), z0, theta_b0, float(system.delay),
+        system.d, system.c_x, system.c_v, dt, n_steps, states, torque, theta_b, modes,
+    )
+    if law != model.law:  # the exact model without damping is the dead-zone (Remark 2)
+        modes //= 2
+        theta_b[:] = np.clip(states @ system.c_x, -model.half_gap, model.half_gap)
+    return events
+
+
 def simulate_linear(system, model, t_end, dt, inputs=None, z0=None, theta_b0=0.0):
     """Simulate a linear part closed through a backlash torque law.
 
@@ -398,10 +686,13 @@ def simulate_linear(system, model, t_end, dt, inputs=None, z0=None, theta_b0=0.0
     torque = np.empty(n_steps + 1)
     theta_b = np.empty(n_steps + 1)
     modes = np.empty(n_steps + 1, dtype=np.int64)
-    events = _run(
-        system._kernel_tuple(), model.law, model.params, np.ascontiguousarray(w), z0,
-        float(theta_b0), float(dt), n_steps, states, torque, theta_b, modes,
-    )
+    w = np.ascontiguousarray(w)
+    if _piecewise_affine(system, model):
+        events = _simulate_exactly(system, model, w, z0, float(theta_b0), float(dt), n_steps,
+                                   states, torque, theta_b, modes)
+    else:
+        events = _run(system._kernel_tuple(), model.law, model.params, w, z0,
+                      float(theta_b0), float(dt), n_steps, states, torque, theta_b, modes)
     if model.is_static:
         theta_b[:] = np.nan
     return SimulationResult(

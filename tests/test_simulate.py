@@ -202,3 +202,76 @@ def test_simulation_rejects_bad_steps():
         run(paper_plant(), "exact", 0.5, 1e-5, 1e-3)
     with pytest.raises(ValueError, match="theta_b0 must lie"):
         run(paper_plant(), "exact", 0.5, 0.1, 1e-3, theta_b0=1.0)
+
+
+# ---------------------------------------------------------------- closed PI loop
+
+
+def pi_rig(**controller):
+    """The load-feedback PI loop of examples/load_feedback.toml (it settles onto a limit cycle)."""
+    from backlash_df import rig_from_dict
+
+    return rig_from_dict({
+        "plant": {"motor_inertia": JM, "load_inertia": JL, "stiffness": K, "damping": 3.0, "half_gap": 0.05},
+        "controller": {"kp": 30.0, "ti": 0.5, "feedback": "load", "speed_filter": 0.002, **controller},
+    })
+
+
+def loop_reference(rig, law, kick, t_end, time):
+    """The same loop by solve_ivp (DOP853, tight tolerances) on the memoryless law, or (14) for the exact model."""
+    from backlash_df.loops import drive_loop
+    from backlash_df.models import exact_torque, static_torque
+    from backlash_df.simulate import _initial_state
+
+    part, model = drive_loop(rig).linear_part(), rig.make_model(law)
+    k, c, alpha, beta = model.params
+    z0 = _initial_state(part, None, kick)
+
+    def rhs(t, z):
+        x, v = part.c_x @ z[:-1], part.c_v @ z[:-1]
+        if law != "exact":
+            return np.append(part.A @ z[:-1] + part.b * static_torque(model.law, x, v, k, c, alpha, beta), 0.0)
+        theta_b = min(max(z[-1], -alpha), alpha)
+        rate = (k / c) * (x + c / k * v - theta_b)  # (12), limited at +-alpha (14)
+        if abs(theta_b) >= alpha and rate * theta_b > 0.0:
+            rate = 0.0
+        return np.append(part.A @ z[:-1] + part.b * exact_torque(x, v, theta_b, k, c, alpha), rate)
+
+    solution = solve_ivp(rhs, (0.0, t_end), np.append(z0, 0.0), method="DOP853", t_eval=time, rtol=1e-12, atol=1e-15)
+    return solution.y[0]
+
+
+@pytest.mark.parametrize("law", ["phase-plane", "exact"])
+def test_closed_loop_through_contacts_matches_solve_ivp(law):
+    """PI loop on the load speed, 0.3 s from a kick of 15 rad/s: about twenty contacts and releases."""
+    from backlash_df import simulate
+
+    rig = pi_rig()
+    result = simulate(rig, law, t_end=0.3, kick=15.0)
+    assert result.events > 15
+    reference = loop_reference(rig, law, 15.0, result.time[-1], result.time)
+    assert np.abs(result.theta_d - reference).max() < 1e-8 * 0.05
+
+
+@pytest.mark.parametrize("law", ["phase-plane", "exact", "damped-dead-zone", "dead-zone"])
+def test_piecewise_linear_loop_without_dead_time_does_not_depend_on_the_step(law):
+    """Within a mode these loops are linear with constant inputs: the kernel steps them exactly
+    (exponential of the mode's matrix), so only the located switching times carry round-off."""
+    from backlash_df import simulate
+
+    rig = pi_rig(torque_lag=0.001)
+    coarse, fine = (simulate(rig, law, t_end=0.5, dt=dt, kick=15.0, speed_reference=2.0) for dt in (4e-4, 1e-4))
+    assert coarse.events > 15
+    np.testing.assert_allclose(coarse.states, fine.states[::4], rtol=0.0, atol=1e-9 * np.abs(fine.states).max())
+    np.testing.assert_array_equal(coarse.mode, fine.mode[::4])
+
+
+def test_dead_time_converges_at_second_order():
+    """The delayed speed is interpolated linearly between samples: errors fall by 4 per halving."""
+    from backlash_df import simulate
+
+    rig = pi_rig(delay=0.001)
+    runs = [simulate(rig, "phase-plane", t_end=0.5, dt=1e-4 / 2**j, kick=15.0) for j in range(4)]
+    errors = np.array([np.abs(runs[j].theta_d - runs[3].theta_d[:: 2 ** (3 - j)]).max() for j in range(2)])
+    assert errors[0] < 1e-3 * 0.05
+    assert np.log2(errors[0] / errors[1]) > 1.8
