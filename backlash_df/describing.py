@@ -353,12 +353,13 @@ def _hinted_switch(law, mode, current, lo, hi, amp, omega, bias, p):
         tried |= 1 << first
         index = indices[first % 6] + (first // 6) * _SIDE
         root = _illinois(index, lo, hi, f_first_lo, f_first_hi, amp, omega, bias, p)
-        margin = 16.0 * 2.2e-16 * max(1.0, abs(root))
-        before = max(lo, root - margin)
-        after = min(hi, root + margin)
-        if (_piece(law, mode, before, amp, omega, bias, p)[1] == current
-                and _piece(law, mode, after, amp, omega, bias, p)[1] != current):
-            return before, after
+        for ulps in (2.0, 64.0):  # the law's rounding may move its switch a few ulps
+            margin = ulps * 2.2e-16 * max(1.0, abs(root))
+            before = max(lo, root - margin)
+            after = min(hi, root + margin)
+            if (_piece(law, mode, before, amp, omega, bias, p)[1] == current
+                    and _piece(law, mode, after, amp, omega, bias, p)[1] != current):
+                return before, after
 
 
 @_jit

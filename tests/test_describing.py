@@ -5,6 +5,7 @@ import pytest
 
 from backlash_df import describing_function, describing_function_grid, make_model
 from backlash_df.describing import _evaluate, phase_plane_validity
+from backlash_df.models import theta_star
 
 K, C, ALPHA, BETA = 5895.0, 3.0, 0.05, 0.05
 STATIC = ["dead-zone", "damped-dead-zone", "revised-dead-zone", "phase-plane", "rubber", "elasto-backlash"]
@@ -109,6 +110,55 @@ def test_refining_the_quadrature_changes_n_by_less_than_1e_10(name):
     fine, _ = _evaluate(model(name), amplitude, omega, 0.0, "harmonic-balance", samples=256, gauss_order=32)
     scale = np.maximum(np.abs(fine), 1e-300)
     assert np.max(np.abs(coarse - fine) / scale) < 1e-10
+
+
+def test_gauss_kronrod_rule_is_exact_to_its_degrees():
+    # the 7-15 rule integrates polynomials exactly to degree 23, its Gauss part to 13
+    # (odd degrees vanish by symmetry: the even ones tell)
+    from backlash_df.describing import _KRONROD
+
+    nodes, kronrod, gauss = _KRONROD.T
+    for degree in range(0, 26, 2):
+        exact = 2.0 / (degree + 1)
+        assert (abs(kronrod @ nodes**degree - exact) < 1e-15) == (degree <= 23)
+        assert (abs(gauss @ nodes**degree - exact) < 1e-15) == (degree <= 13)
+
+
+def boundary_distances(law, x, v):
+    """|value| of every boundary of the phase plane and rubber laws at (x, v), in rad:
+    (19)-(20) theta*, release k (x - alpha) + c v = 0, (28) both lines, v = 0; both sides."""
+    k, c, alpha, beta = law.params
+    distances = []
+    for xs, vs in ((x, v), (-x, -v)):
+        ts = float(theta_star(vs, k, c, alpha))
+        distances += [xs - ts, xs - ts - beta / 2, xs - ts + beta / 2, xs - alpha - beta / 2,
+                      xs - alpha + c * vs / k, xs - alpha + beta / 2 + 2 * c * vs / k, c * vs / k]
+    return np.abs(distances)
+
+
+@pytest.mark.parametrize("name, ratio, omega", [("phase-plane", 1.2, 2000.0), ("rubber", 1.2, 2000.0),
+                                                ("rubber", 3.0, 800.0), ("rubber", 20.0, 100.0)])
+def test_every_switch_is_located_to_the_last_ulp_on_a_boundary_of_the_law(name, ratio, omega):
+    from backlash_df.describing import _locate_switch, _piece
+    from backlash_df.models import static_mode
+
+    law = model(name)
+    amplitude = ratio * ALPHA
+    phases = np.pi / 2 + np.linspace(0.0, 2.0 * np.pi, 65)
+    mode = static_mode(law.law, amplitude, 0.0, *law.params)
+    mode, current = _piece(law.law, mode, phases[0], amplitude, omega, 0.0, law.params)
+    switches = 0
+    for lo, hi in zip(phases[:-1], phases[1:]):
+        while _piece(law.law, mode, hi, amplitude, omega, 0.0, law.params)[1] != current:
+            switch = _locate_switch(law.law, mode, current, lo, hi, amplitude, omega, 0.0, law.params)
+            # the piece changes between the float before the switch and the switch itself
+            before = np.nextafter(switch, -np.inf)
+            assert _piece(law.law, mode, before, amplitude, omega, 0.0, law.params)[1] == current
+            mode, current = _piece(law.law, mode, switch, amplitude, omega, 0.0, law.params)
+            x, v = amplitude * np.sin(switch), amplitude * omega * np.cos(switch)
+            assert boundary_distances(law, x, v).min() < 1e-14
+            lo, switches = switch, switches + 1
+    assert switches >= 4
 
 
 def test_exact_model_does_not_depend_on_its_search_step():
