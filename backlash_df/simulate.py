@@ -909,7 +909,7 @@ def _initial_state(system, initial, kick):
 
 
 def default_step(system, model):
-    """A step (s) resolving the fastest closed-loop dynamics: 0.05 / max |eigenvalue|.
+    """A step (s) resolving the fastest closed-loop dynamics: ``0.05 / max|eigenvalue|``.
 
     The eigenvalues are those of the loop with the shaft in full contact
     (``T = k theta_d + c dtheta_d``); the step never exceeds the dead time.

@@ -38,7 +38,7 @@ extensions = [
 ]
 
 source_suffix = {".rst": "restructuredtext", ".md": "myst-nb", ".ipynb": "myst-nb"}
-exclude_patterns = ["_build", "make_figures.py", "**.ipynb_checkpoints"]
+exclude_patterns = ["_build", "examples", "make_figures.py", "**.ipynb_checkpoints"]
 templates_path = []
 html_static_path = ["_static"]
 
@@ -54,6 +54,12 @@ if _NOTEBOOK_COPY.exists():
 _NOTEBOOK_COPY.mkdir()
 for _notebook in sorted((ROOT / "notebooks").glob("*.ipynb")):
     shutil.copy2(_notebook, _NOTEBOOK_COPY / _notebook.name)
+# The notebooks open their rigs as "../examples/...": give the copies the same
+# neighbour (docs/examples, git-ignored, not a page source).
+_EXAMPLES_COPY = DOCS / "examples"
+if _EXAMPLES_COPY.exists():
+    shutil.rmtree(_EXAMPLES_COPY)
+shutil.copytree(ROOT / "examples", _EXAMPLES_COPY)
 
 nb_execution_mode = os.environ.get("BACKLASH_DF_DOCS_EXECUTE", "force")
 nb_execution_timeout = 180
