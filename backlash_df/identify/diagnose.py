@@ -4,7 +4,9 @@ The record is split in time: the first 5 % are dropped (initial transient), the
 *estimation part* runs to 60 %, the *validation part* is the last 40 %, never
 used by any fit.  Each catalogue candidate (:mod:`.effects`) is calibrated on
 the estimation part (:func:`~.calibrate.calibrate`, each from the rig file's
-values), then replayed by **free-run simulation** from the initial state
+values and, being an extension of the nominal structure, also from the
+calibrated baseline with its parameter at the null value; the better fit of the
+two is kept), then replayed by **free-run simulation** from the initial state
 estimated from the data at the record's start, driven by the measured torques
 only; every number of the verdict is computed on the validation part.
 
