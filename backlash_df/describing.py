@@ -734,7 +734,7 @@ class DescribingFunctionResult:
 
     @property
     def gain(self):
-        """|N|, N m/rad."""
+        """Gain ``|N|``, N m/rad."""
         return np.abs(self.N)
 
     @property
@@ -821,7 +821,7 @@ class ValidityMap:
     rate : ndarray
         c w / k, shape (n_r,).
     relative_error : ndarray
-        |N_phase - N_exact| / |N_exact|, shape (n_A, n_r); NaN where N_exact = 0.
+        ``|N_phase - N_exact| / |N_exact|``, shape (n_A, n_r); NaN where ``N_exact = 0``.
     early_contact : ndarray of bool
         Where the phase plane law transmits torque although A < alpha: it closes
         the gap at theta* < alpha, an artefact of its approximation (ii).
