@@ -188,6 +188,20 @@ def _advance(z, theta_b, t, h, mode, sys, law, p, W, hist, dt, work, z_out):
 
 
 @_jit
+def _record(i, z, theta_b, mode, law, p, c_x, c_v, d_row, Z, T, THETA, MODES, hist):
+    """Store sample ``i`` of a run: state, shaft torque, theta_b, mode and the delayed signal."""
+    x, v = _xv(z, c_x, c_v)
+    Z[i] = z
+    T[i] = _torque(law, mode, x, v, p)
+    THETA[i] = theta_b
+    MODES[i] = mode
+    u = 0.0
+    for j in range(z.shape[0]):
+        u += d_row[j] * z[j]
+    hist[i, 0] = u
+
+
+@_jit
 def _run(sys, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES):
     n = z0.shape[0]
     d_row = sys[5]
@@ -201,15 +215,7 @@ def _run(sys, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES):
     mode = _mode_of(law, p, 0, x, v, theta_b)
     events = 0
     for i in range(n_steps + 1):
-        x, v = _xv(z, sys[3], sys[4])
-        Z[i] = z
-        T[i] = _torque(law, mode, x, v, p)
-        THETA[i] = theta_b
-        MODES[i] = mode
-        u = 0.0
-        for j in range(n):
-            u += d_row[j] * z[j]
-        hist[i, 0] = u
+        _record(i, z, theta_b, mode, law, p, sys[3], sys[4], d_row, Z, T, THETA, MODES, hist)
         if i == n_steps:
             break
         t = i * dt
@@ -434,16 +440,7 @@ def _run_exactly(ladders, law, p, W, z0, theta_b0, delay, d_row, c_x, c_v, dt, n
     mode = _mode_of(law, p, 0, x, v, theta_b0)
     events = 0
     for i in range(n_steps + 1):
-        x, v = _xv(q, c_x, c_v)
-        for j in range(n):
-            Z[i, j] = q[j]
-        T[i] = _torque(law, mode, x, v, p)
-        THETA[i] = q[n]
-        MODES[i] = mode
-        u = 0.0
-        for j in range(n):
-            u += d_row[j] * q[j]
-        hist[i, 0] = u
+        _record(i, q[:n], q[n], mode, law, p, c_x, c_v, d_row, Z, T, THETA, MODES, hist)
         if i == n_steps:
             break
         _set_step_inputs(q, i, W, hist, delay, dt, n)
