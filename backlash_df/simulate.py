@@ -849,10 +849,11 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25):
     mean, located by linear interpolation) give the frequency; the first harmonic
     ``|2/T int theta_d e^{-jwt} dt|`` over them gives the amplitude (the DF
     convention of DESIGN.md).  Steady state: the period lengths and per-period
-    peak amplitudes agree to ``rtol``.  No shaft contact over the last
-    ``window`` of the record, with the relative speed dtheta_d there below
-    ``rtol`` times its largest value, means the motion decayed in the gap (with
-    a free load the last contacts come ever more rarely): no limit cycle.
+    peak amplitudes agree to ``rtol``.  A relative speed dtheta_d below ``rtol``
+    times its largest value over the last ``window`` of the record means the
+    motion decayed: no limit cycle, whether it came to rest in the gap (with a
+    free load the last contacts come ever more rarely) or at a side of it, where
+    round-off can leave a periodic-looking wobble of 1e-15 rad.
 
     Parameters
     ----------
@@ -870,11 +871,12 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25):
     """
     time, x = result.time, result.theta_d
     tail = time >= time[-1] * (1.0 - window)
+    # decayed: the relative speed has fallen below rtol of its largest value
+    resting = np.abs(result.dtheta_d[tail]).max() < rtol * np.abs(result.dtheta_d).max()
+    if resting:
+        return MeasuredCycle(False, math.nan, math.nan, math.nan, math.nan, True, "no limit cycle")
     if np.all(result.mode[tail] == 0):
-        # decayed: the relative speed has fallen below rtol of its largest value
-        resting = np.abs(result.dtheta_d[tail]).max() < rtol * np.abs(result.dtheta_d).max()
-        return MeasuredCycle(False, math.nan, math.nan, math.nan, math.nan, resting,
-                             "no limit cycle" if resting else "drifting in the gap")
+        return MeasuredCycle(False, math.nan, math.nan, math.nan, math.nan, False, "drifting in the gap")
     half = time >= 0.5 * time[-1]
     center = 0.5 * (x[half].max() + x[half].min())
     crossings = _upward_crossings(time[half], x[half] - center)

@@ -137,3 +137,21 @@ def test_motor_feedback_settles_without_limit_cycle():
         speeds = result.state("motor_speed") - result.state("load_speed")
         assert np.abs(speeds[tail]).max() < 1e-3 * 15.0  # relative motion decayed 1000-fold from the kick
         assert np.all(result.torque[tail] == 0.0)  # no shaft contact at the end
+
+
+def test_rest_against_a_side_of_the_gap_is_no_limit_cycle():
+    """A loop that comes to rest in contact (theta_d = -alpha, no torque) has no cycle.
+
+    Round-off leaves a periodic wobble of ~1e-15 rad there; the measurement must
+    call it rest, not a limit cycle (a design-map sweep once did).
+    """
+    import dataclasses
+
+    rig = load_rig(EXAMPLES + "motor_lag_feedback.toml")
+    rig = dataclasses.replace(rig, controller=dataclasses.replace(rig.controller, kp=74.1, ti=0.652))
+    measured, result = simulated_limit_cycle(rig, "phase-plane", t_end=40.0, max_t_end=40.0, kick=12.57)
+    tail = result.time > 0.75 * result.time[-1]
+    assert np.ptp(result.theta_d[tail]) < 1e-9  # at rest ...
+    assert abs(abs(result.theta_d[-1]) - rig.plant.half_gap) < 1e-9  # ... against a side of the gap
+    assert not measured.found
+    assert measured.verdict == "no limit cycle"
