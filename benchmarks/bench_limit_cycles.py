@@ -8,11 +8,11 @@ integrators, so the speed ratio is read next to the accuracy each one reached.
 Besides RK45 (the issue's named alternative), LSODA at rtol 1e-8 is timed on the
 phase plane loop: the strongest scipy setting found, the honest worst case.
 
-Last, the full design map (the notebook draws a 4 x 3 one): over a 10 x 8 (kp, ti)
-grid around ``examples/motor_lag_feedback.toml``, where the phase plane (23) and
-dead-zone (26) DFs predict a stable cycle and where simulation with the same law
-shows one; the agreement counts are printed and the map saved to
-``build/design_map.png``.
+Last, full design maps (the notebook draws a 4 x 3 one): over 10 x 8 (kp, ti)
+grids around ``examples/load_feedback.toml`` and ``examples/motor_lag_feedback.toml``,
+where the phase plane (23) and dead-zone (26) DFs predict a stable cycle and where
+simulation with the same law shows one; the agreement counts are printed and the
+maps saved to ``build/design_map_<rig>.png``.
 """
 
 import subprocess
@@ -31,7 +31,6 @@ from backlash_df.simulate import _initial_state, default_step
 
 ROOT = Path(__file__).resolve().parents[1]
 RIG = ROOT / "examples" / "load_feedback.toml"
-MAP_RIG = ROOT / "examples" / "motor_lag_feedback.toml"
 T_END, KICK = 5.0, 15.0
 
 
@@ -69,13 +68,13 @@ def scipy_run(rig, name, rtol, t_eval, method="RK45"):
     return time.perf_counter() - start, sol.y[0]
 
 
-def design_map_sweep(kp=np.geomspace(60.0, 400.0, 10), ti=np.geomspace(0.05, 1.0, 8)):
-    """Full (kp, ti) design map of the motor-lag rig: DF against simulation, per model."""
-    rig = load_rig(MAP_RIG)
+def design_map_sweep(path, kp, ti):
+    """Full (kp, ti) design map of one rig: DF against simulation, per model."""
+    rig = load_rig(path)
     start = time.perf_counter()
     dmap = design_map(rig, kp, ti, models=("phase-plane", "damped-dead-zone"))
     wall = time.perf_counter() - start
-    print(f"design map of {MAP_RIG.name}: {kp.size} x {ti.size} tunings, 2 laws, {wall:.1f} s wall")
+    print(f"design map of {path.name}: {kp.size} x {ti.size} tunings, 2 laws, {wall:.1f} s wall")
     for name, predicted in dmap.predicted.items():
         simulated = dmap.simulated[name]
         print(f"  {name:17s} cycles predicted {predicted.sum():3d}, simulated {simulated.sum():3d}, "
@@ -83,7 +82,7 @@ def design_map_sweep(kp=np.geomspace(60.0, 400.0, 10), ti=np.geomspace(0.05, 1.0
               f"(predicted only {np.sum(predicted & ~simulated)}, simulated only {np.sum(simulated & ~predicted)})")
     (ROOT / "build").mkdir(exist_ok=True)
     axes = dmap.plot()
-    axes[0].figure.savefig(ROOT / "build" / "design_map.png", dpi=100, bbox_inches="tight")
+    axes[0].figure.savefig(ROOT / "build" / f"design_map_{path.stem}.png", dpi=100, bbox_inches="tight")
 
 
 def main():
@@ -120,7 +119,9 @@ def main():
     print(f"backlash-df predict examples/{RIG.name}: {wall:.1f} s wall end to end (target < 20 s), {status}")
     if done.returncode == 0:
         print(done.stdout.rstrip())
-    design_map_sweep()
+    design_map_sweep(RIG, np.geomspace(5.0, 200.0, 10), np.geomspace(0.02, 2.0, 8))
+    design_map_sweep(ROOT / "examples" / "motor_lag_feedback.toml", np.geomspace(60.0, 400.0, 10),
+                     np.geomspace(0.05, 1.0, 8))
 
 
 if __name__ == "__main__":
