@@ -191,9 +191,22 @@ def load_rig(path):
 
     Examples
     --------
-    >>> rig = load_rig("examples/paper_rig.toml")  # doctest: +SKIP
-    >>> rig.plant.stiffness  # doctest: +SKIP
-    5895.0
+    >>> import pathlib, tempfile
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "rig.toml"
+    >>> _ = path.write_text('''
+    ... [plant]
+    ... motor_inertia = 0.4
+    ... load_inertia = 5.6
+    ... stiffness = 5895.0
+    ... damping = 3.0
+    ... half_gap = 0.05
+    ... ''')
+    >>> rig = load_rig(path)
+    >>> rig.plant.stiffness, rig.model
+    (5895.0, 'phase-plane')
+
+    From the repository root, the bundled rigs load the same way:
+    ``load_rig("examples/paper_rig.toml")``.
     """
     path = Path(path)
     try:
