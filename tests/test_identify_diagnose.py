@@ -20,8 +20,9 @@ def rig():
 
 # (cause, seed): records of 2 s at 1 kHz, random sizes; rubber seed 10 is the bundled
 # example, diagnosed through the command line below.
-CASES = [("none", 10), ("none", 11), ("rubber", 11), ("rubber", 12), ("coulomb_friction", 10), ("coulomb_friction", 11),
-         ("viscous_friction", 10), ("viscous_friction", 11), ("actuator_delay", 10), ("actuator_delay", 11)]
+CASES = [("none", 10), ("none", 11), ("rubber", 11), ("rubber", 12),
+         ("coulomb_friction", 10), ("coulomb_friction", 11), ("viscous_friction", 10), ("viscous_friction", 11),
+         ("actuator_delay", 10), ("actuator_delay", 11)]
 
 
 @pytest.mark.parametrize(("cause", "seed"), CASES)
