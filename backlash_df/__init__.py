@@ -6,7 +6,7 @@ the rig file (:mod:`backlash_df.config`), and the stages built on them.
 
 __version__ = "0.1.0"
 
-from .config import Controller, Plant, Rig, RigError, load_rig, rig_from_dict
+from .config import Controller, Load, Plant, Rig, RigError, load_rig, rig_from_dict
 from .models import MODEL_NAMES, ExactModel, StaticModel, make_model, theta_star
 from .describing import DescribingFunctionResult, ValidityMap, describing_function, describing_function_grid, phase_plane_validity
 from .loops import DriveLoop, drive_loop
@@ -37,6 +37,7 @@ __all__ = [
     "RigError",
     "Plant",
     "Controller",
+    "Load",
     "DriveLoop",
     "drive_loop",
     "predict_limit_cycles",

@@ -9,6 +9,7 @@
     damping = 3.0              # c, N m s / rad
     half_gap = 0.05            # alpha, rad: HALF the total play
     rubber_thickness = 0.0     # beta, rad
+    gear_ratio = 1.0           # motor turns per load turn (motor-side CSV columns are reflected)
 
     [controller]               # PI speed loop (optional unless a loop is analysed)
     feedback = "load"          # "motor" or "load"
@@ -17,6 +18,10 @@
     speed_filter = 0.002       # s
     torque_lag = 0.0           # s
     delay = 0.0                # s
+
+    [load]                     # optional
+    torque = 0.0               # N m, constant torque applied to the load
+    coulomb = 0.0              # N m, Coulomb friction of the driven machine
 
     [model]
     backlash = "phase-plane"
@@ -32,7 +37,7 @@ from pathlib import Path
 
 from .models import MODEL_NAMES, make_model
 
-__all__ = ["Plant", "Controller", "Rig", "RigError", "load_rig", "rig_from_dict"]
+__all__ = ["Plant", "Controller", "Load", "Rig", "RigError", "load_rig", "rig_from_dict"]
 
 
 class RigError(ValueError):
@@ -49,6 +54,7 @@ class Plant:
     half_gap: float  #: alpha, rad (half the total play)
     damping: float = 0.0  #: c, N m s/rad
     rubber_thickness: float = 0.0  #: beta, rad
+    gear_ratio: float = 1.0  #: motor turns per load turn; the plant's values are on the load side
 
     @property
     def shaft(self):
@@ -79,11 +85,20 @@ class Controller:
 
 
 @dataclasses.dataclass(frozen=True)
+class Load:
+    """What the driven machine applies to the load (SI units, load side)."""
+
+    torque: float = 0.0  #: constant torque applied to the load, N m (gravity, process load)
+    coulomb: float = 0.0  #: Coulomb friction of the driven machine, N m
+
+
+@dataclasses.dataclass(frozen=True)
 class Rig:
     """A parsed rig file: plant, optional controller, default backlash model."""
 
     plant: Plant
     controller: Controller | None = None
+    load: Load = Load()
     model: str = "phase-plane"
     source: str = "<dict>"
 
@@ -98,8 +113,9 @@ class Rig:
         return self.controller
 
 
-_POSITIVE = {"motor_inertia", "load_inertia", "stiffness", "half_gap", "kp", "ti"}
-_TABLES = {"plant": Plant, "controller": Controller, "model": None}
+_POSITIVE = {"motor_inertia", "load_inertia", "stiffness", "half_gap", "kp", "ti", "gear_ratio"}
+_SIGNED = {"torque"}  # may be negative: a load torque acts in either direction
+_TABLES = {"plant": Plant, "controller": Controller, "load": Load, "model": None}
 
 
 def _number(source, table, key, value):
@@ -111,7 +127,7 @@ def _number(source, table, key, value):
         raise RigError(f"{where} must be finite, got {value!r}")
     if key in _POSITIVE and value <= 0.0:
         raise RigError(f"{where} must be > 0, got {value!r}")
-    if value < 0.0:
+    if value < 0.0 and key not in _SIGNED:
         raise RigError(f"{where} must be >= 0, got {value!r}")
     return value
 
@@ -153,6 +169,7 @@ def rig_from_dict(data, source="<dict>"):
         raise RigError(f"{source}: missing table [plant]")
     plant = _table(source, data, "plant", Plant)
     controller = _table(source, data, "controller", Controller) if "controller" in data else None
+    load = _table(source, data, "load", Load) if "load" in data else Load()
     model = "phase-plane"
     if "model" in data:
         section = data["model"]
@@ -168,7 +185,7 @@ def rig_from_dict(data, source="<dict>"):
         make_model(model, **plant.shaft)
     except ValueError as error:
         raise RigError(f"{source}: [plant] {error}") from None
-    return Rig(plant=plant, controller=controller, model=model, source=source)
+    return Rig(plant=plant, controller=controller, load=load, model=model, source=source)
 
 
 def load_rig(path):
@@ -177,7 +194,7 @@ def load_rig(path):
     Parameters
     ----------
     path : str or Path
-        TOML file with ``[plant]``, optional ``[controller]`` and ``[model]`` tables.
+        TOML file with ``[plant]``, optional ``[controller]``, ``[load]`` and ``[model]`` tables.
 
     Returns
     -------

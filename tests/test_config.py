@@ -2,7 +2,9 @@
 
 import pytest
 
-from backlash_df import RigError, load_rig
+from backlash_df import RigError, load_rig, rig_from_dict
+
+PLANT = dict(motor_inertia=0.4, load_inertia=5.6, stiffness=5895.0, damping=3.0, half_gap=0.05)
 
 GOOD = """
 [plant]
@@ -59,3 +61,22 @@ def test_bad_rig_is_one_line_naming_file_and_key(tmp_path, text, match):
 def test_missing_file(tmp_path):
     with pytest.raises(ValueError, match="cannot read rig file"):
         load_rig(tmp_path / "nope.toml")
+
+
+def test_load_table_and_gear_ratio():
+    rig = rig_from_dict({"plant": dict(PLANT, gear_ratio=120.0), "load": {"torque": -40.0, "coulomb": 5.0}})
+    assert rig.plant.gear_ratio == 120.0
+    assert (rig.load.torque, rig.load.coulomb) == (-40.0, 5.0)
+    assert rig_from_dict({"plant": PLANT}).load.torque == 0.0
+
+
+@pytest.mark.parametrize("table, key, value, match", [
+    ("plant", "gear_ratio", 0.0, r"\[plant\] gear_ratio must be > 0"),
+    ("load", "coulomb", -1.0, r"\[load\] coulomb must be >= 0"),
+    ("load", "force", 1.0, r"unknown key \[load\] force"),
+])
+def test_load_and_gear_ratio_errors(table, key, value, match):
+    data = {"plant": dict(PLANT), "load": {}}
+    data[table][key] = value
+    with pytest.raises(RigError, match=match):
+        rig_from_dict(data)
