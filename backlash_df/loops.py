@@ -32,7 +32,6 @@ The dead time is exact in :meth:`DriveLoop.frequency_response` and
 
 import dataclasses
 
-import control as ct
 import numpy as np
 
 from .simulate import LinearPart
@@ -86,12 +85,16 @@ class DriveLoop:
                     f"the loop has a dead time of {ctl.delay!r} s: pass pade_order for a rational model, "
                     "or use frequency_response / frd for the exact one"
                 )
+            import control as ct  # lazy: python-control takes a second to import
+
             num, den = ct.pade(ctl.delay, int(pade_order))
             k = k * ct.tf(num, den)
         return k
 
     def _rational_controller(self):
         """PI, filter and lag: K(s) without the dead time."""
+        import control as ct
+
         ctl = self.controller
         s = ct.tf("s")
         k = ctl.kp * (1 + 1 / (ctl.ti * s))
@@ -106,6 +109,8 @@ class DriveLoop:
         p_m = 1 / (self.plant.motor_inertia * s)
         p_l = 1 / (self.plant.load_inertia * s)
         if self.controller.feedback == "motor":
+            import control as ct
+
             return (ct.feedback(p_m, k) + p_l) / s
         return (p_m * (1 + k * p_l) + p_l) / s
 
@@ -123,6 +128,8 @@ class DriveLoop:
             Exact without dead time; with one, G with ``e^{-s delay}`` replaced by
             its Pade approximation.
         """
+        import control as ct
+
         g = self._assemble(self.controller_tf(pade_order), ct.tf("s"))
         return ct.minreal(g, verbose=False)
 
@@ -138,6 +145,8 @@ class DriveLoop:
         -------
         control.FrequencyResponseData
         """
+        import control as ct
+
         omega = _frequencies(omega)
         delay = self.controller.delay
         k = ct.frd(self._rational_controller(), omega)
@@ -274,6 +283,8 @@ def lti_linear_part(system):
     LinearPart
         States of ``control.ss(system)``, no external inputs.
     """
+    import control as ct
+
     sys_ss = ct.ss(system)
     if sys_ss.ninputs != 1 or sys_ss.noutputs != 1 or not sys_ss.isctime():
         raise ValueError("the linear part must be a SISO continuous-time LTI system")
@@ -309,6 +320,8 @@ def frequency_response_of(linear, omega):
     omega = np.asarray(omega, dtype=float)
     if isinstance(linear, DriveLoop):
         return linear.frequency_response(omega)
+    import control as ct  # only a user's LTI needs python-control
+
     if isinstance(linear, ct.LTI):
         if linear.ninputs != 1 or linear.noutputs != 1:
             raise ValueError("the linear part must be SISO (shaft torque -> -theta_d)")

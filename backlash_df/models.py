@@ -27,6 +27,7 @@ The scalar kernels are compiled with numba and shared by the vectorised
 there is exactly one implementation of every law.
 """
 
+import functools
 import math
 
 import numba
@@ -66,6 +67,21 @@ EQUATIONS = {
 }
 
 _jit = numba.njit(cache=True, nogil=True)
+
+
+def _lazy_ufunc(signature):
+    """``numba.vectorize([signature], cache=True)``, built at the first call instead of at import."""
+
+    def decorate(kernel):
+        build = functools.cache(lambda: numba.vectorize([signature], cache=True)(kernel))
+
+        @functools.wraps(kernel)
+        def call(*args):
+            return build()(*args)
+
+        return call
+
+    return decorate
 
 
 # --------------------------------------------------------------------------- theta*(v)
@@ -122,7 +138,7 @@ def _theta_star(v, k, c, alpha):
     return alpha - s * _contact_fraction(2.0 * alpha / s)
 
 
-@numba.vectorize(["float64(float64, float64, float64, float64)"], cache=True)
+@_lazy_ufunc("float64(float64, float64, float64, float64)")
 def _theta_star_ufunc(v, k, c, alpha):
     return _theta_star(v, k, c, alpha)
 
@@ -260,12 +276,12 @@ def static_torque(law, x, v, k, c, alpha, beta):
 _SIG = "(int64, float64, float64, float64, float64, float64, float64)"
 
 
-@numba.vectorize(["float64" + _SIG], cache=True)
+@_lazy_ufunc("float64" + _SIG)
 def _torque_ufunc(law, x, v, k, c, alpha, beta):
     return static_torque(law, x, v, k, c, alpha, beta)
 
 
-@numba.vectorize(["int64" + _SIG], cache=True)
+@_lazy_ufunc("int64" + _SIG)
 def _mode_ufunc(law, x, v, k, c, alpha, beta):
     return static_mode(law, x, v, k, c, alpha, beta)
 

@@ -29,7 +29,6 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.signal import savgol_filter
 
 from ..models import make_model
 from ..simulate import simulate_linear, two_mass_system
@@ -402,6 +401,8 @@ def _stderr(jacobian, residual, n_free, scales):
 def smoothed_speeds(measurements, window=11):
     """Measured speeds smoothed by a Savitzky-Golay filter (order 2), rad/s, shape (N, m)."""
     window = min(window, measurements.n_samples - (1 - measurements.n_samples % 2))
+    from scipy.signal import savgol_filter  # lazy: scipy.signal takes a second to import
+
     return savgol_filter(measurements.speeds, window, 2, axis=0)
 
 

@@ -20,7 +20,6 @@ residual concentrated near ``|theta_d| = alpha``.
 import dataclasses
 
 import numpy as np
-from scipy.signal import welch
 
 __all__ = ["ResidualAnalysis", "residual_analysis", "correlation", "BAND_99"]
 
@@ -186,6 +185,8 @@ def residual_analysis(time, residual, motor_torque, theta_d, shaft_torque, load_
     lags, _ = correlation(residual[:, 0], motor_torque)
     cross = np.array([correlation(residual[:, j], motor_torque)[1] for j in range(residual.shape[1])])
     fs = 1.0 / float(time[1] - time[0])
+    from scipy.signal import welch  # lazy: scipy.signal takes a second to import
+
     frequency, spectrum = welch(residual, fs=fs, nperseg=min(256, n), axis=0)
     sign_centres = np.array([-1.0, 1.0])
     sign_means = np.array([[residual[load_speed < 0, j].mean() if np.any(load_speed < 0) else np.nan,

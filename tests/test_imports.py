@@ -1,0 +1,57 @@
+"""Importing backlash_df loads only what every path needs (issue 13).
+
+python-control, ``scipy.signal`` and ``matplotlib.pyplot`` each take from a
+fraction of a second to two seconds to import; they are imported by the paths
+that use them.  Each check runs in a fresh interpreter and reads ``sys.modules``
+(no timing assertions: the times are measured by ``benchmarks/bench_startup.py``).
+"""
+
+import json
+import subprocess
+import sys
+
+HEAVY = ("control", "scipy.signal", "matplotlib.pyplot")
+
+
+def loaded_after(code):
+    """The HEAVY modules present in ``sys.modules`` after running ``code`` in a fresh interpreter."""
+    probe = f"import json, sys\n{code}\nprint(json.dumps([m for m in {HEAVY!r} if m in sys.modules]))"
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    return set(json.loads(done.stdout.splitlines()[-1]))
+
+
+def test_import_loads_no_heavy_module():
+    assert loaded_after("import backlash_df") == set()
+
+
+def test_torque_law_and_its_ufunc_need_no_heavy_module():
+    code = (
+        "import backlash_df as bd\n"
+        "law = bd.make_model('phase-plane', stiffness=5895.0, damping=3.0, half_gap=0.05)\n"
+        "assert abs(float(law.torque(0.06, 0.0)) - 5895.0 * 0.01) < 1e-9\n"
+        "assert float(bd.theta_star(0.0, 5895.0, 3.0, 0.05)) == 0.05"
+    )
+    assert loaded_after(code) == set()
+
+
+def test_frequency_response_of_the_drive_loop_needs_no_control():
+    # the predict path evaluates G(jw) from the state-space loop, not from python-control
+    code = (
+        "import backlash_df as bd\n"
+        "from backlash_df.config import Controller, Plant\n"
+        "loop = bd.DriveLoop(Plant(0.4, 5.6, 5895.0, 0.05), Controller(kp=30.0, ti=0.5))\n"
+        "loop.frequency_response([1.0, 10.0])"
+    )
+    assert "control" not in loaded_after(code)
+
+
+def test_a_path_that_needs_control_still_imports_it():
+    # the lazy import sits inside the function: a rational G(s) brings python-control in
+    code = (
+        "import backlash_df as bd\n"
+        "from backlash_df.config import Controller, Plant\n"
+        "loop = bd.DriveLoop(Plant(0.4, 5.6, 5895.0, 0.05), Controller(kp=30.0, ti=0.5))\n"
+        "g = loop.transfer_function()\n"
+        "assert abs(g(2j) - loop.frequency_response(2.0)) < 1e-12 * abs(g(2j))"
+    )
+    assert "control" in loaded_after(code)
