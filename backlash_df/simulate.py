@@ -692,11 +692,13 @@ def simulate_linear(system, model, t_end, dt, inputs=None, z0=None, theta_b0=0.0
                       float(theta_b0), float(dt), n_steps, states, torque, theta_b, modes)
     if model.is_static:
         theta_b[:] = np.nan
+    with np.errstate(over="ignore", invalid="ignore"):  # a diverged run is named by measure_limit_cycle
+        theta_d, dtheta_d = states @ system.c_x, states @ system.c_v
     return SimulationResult(
         time=time,
         states=states,
-        theta_d=states @ system.c_x,
-        dtheta_d=states @ system.c_v,
+        theta_d=theta_d,
+        dtheta_d=dtheta_d,
         torque=torque,
         theta_b=theta_b,
         mode=modes,
@@ -789,10 +791,12 @@ class MeasuredCycle:
     bias : float
         Mean of theta_d over the measured periods (rad); NaN if none.
     settled : bool
-        True if a steady state was reached (a periodic cycle, or rest in the gap).
+        True if a steady state was reached (a periodic cycle, or rest in the gap),
+        or the run diverged (longer runs cannot change that).
     verdict : str
         ``"limit cycle"``, ``"no limit cycle"`` (rest: no shaft contact at the end),
-        ``"decaying"``, ``"growing"``, ``"drifting in the gap"`` or ``"irregular"`` (not settled).
+        ``"decaying"``, ``"growing"``, ``"drifting in the gap"`` or ``"irregular"`` (not settled),
+        or ``"diverged"`` (overflow, NaN, or theta_d beyond the bound of :func:`measure_limit_cycle`).
     periods : int
         Number of periods averaged.
     """
@@ -842,7 +846,7 @@ def _window_integral(time, values, t0, t1):
     return np.trapezoid(y, t)
 
 
-def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25):
+def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None):
     """Measure the limit cycle at the end of a closed-loop simulation.
 
     The last ``periods`` full periods of theta_d (between upward crossings of its
@@ -864,12 +868,19 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25):
         Relative tolerance of the steady-state test.
     window : float
         Fraction of the record (at its end) examined for shaft contact.
+    bound : float, optional
+        Largest |theta_d| (rad) of a run that has not diverged (default ``1e3
+        alpha``, five times the largest amplitude the DF search considers).  A run
+        that exceeds it, overflows or turns NaN is ``"diverged"``: never a cycle or rest.
 
     Returns
     -------
     MeasuredCycle
     """
     time, x = result.time, result.theta_d
+    bound = 1e3 * result.model.half_gap if bound is None else bound
+    if not (np.all(np.isfinite(result.states)) and np.abs(x).max() <= bound):
+        return MeasuredCycle(False, math.nan, math.nan, math.nan, math.nan, True, "diverged")
     tail = time >= time[-1] * (1.0 - window)
     # decayed: the relative speed has fallen below rtol of its largest value
     resting = np.abs(result.dtheta_d[tail]).max() < rtol * np.abs(result.dtheta_d).max()
