@@ -47,8 +47,6 @@ __all__ = [
     "prediction_rows",
     "prediction_json",
     "prediction_report",
-    "DesignMap",
-    "design_map",
 ]
 
 _NEWTON_TOL = 1e-11
@@ -669,96 +667,3 @@ def prediction_report(predictions, title="Limit-cycle prediction", rig_text=""):
         ("Predicted and simulated limit cycles", table_html(header, rows, text_columns=(0, 3, 4))),
     ]
     return html_page(title, sections)
-
-
-# --------------------------------------------------------------------------- design map
-
-
-@dataclasses.dataclass(frozen=True)
-class DesignMap:
-    """Where each model's DF predicts a stable limit cycle over a (kp, ti) grid, and where simulation shows one.
-
-    Attributes
-    ----------
-    kp, ti : ndarray
-        Grid values, N m s/rad and s.
-    predicted : dict
-        Model name -> bool array (len(kp), len(ti)): a stable cycle is predicted.
-    simulated : dict
-        Model name -> bool array: the simulation with that law settled onto a cycle
-        (absent if not simulated).
-    """
-
-    kp: np.ndarray
-    ti: np.ndarray
-    predicted: dict
-    simulated: dict
-
-    def plot(self, ax=None):
-        """One panel per model: filled = predicted, ring = simulated; returns the axes."""
-        import matplotlib.pyplot as plt
-
-        names = list(self.predicted)
-        if ax is None:
-            _, ax = plt.subplots(1, len(names), figsize=(4.2 * len(names), 3.8), squeeze=False, sharey=True)
-            ax = ax[0]
-        kp, ti = np.meshgrid(self.kp, self.ti, indexing="ij")
-        for axis, name in zip(ax, names):
-            pred = self.predicted[name]
-            axis.scatter(kp[pred], ti[pred], s=40, color="C3", label="DF predicts a cycle")
-            axis.scatter(kp[~pred], ti[~pred], s=40, color="C2", alpha=0.4, label="DF: none")
-            if name in self.simulated:
-                sim = self.simulated[name]
-                axis.scatter(kp[sim], ti[sim], s=110, facecolors="none", edgecolors="k", label="simulation cycles")
-            axis.set_xscale("log")
-            axis.set_yscale("log")
-            axis.set_xlabel("kp (N m s/rad)")
-            axis.set_title(name)
-        ax[0].set_ylabel("ti (s)")
-        ax[-1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
-        return ax
-
-
-def design_map(rig, kp_values, ti_values, models=("phase-plane", "damped-dead-zone"), simulate=True,
-               grid=(40, 60), t_end=10.0, max_t_end=40.0, describing=None):
-    """Scan PI tunings: DF predictions of each model and, optionally, time simulation.
-
-    Parameters
-    ----------
-    rig : Rig
-        Plant and controller; ``kp`` and ``ti`` are replaced by the grid values.
-    kp_values, ti_values : array_like
-        Gains (N m s/rad) and integral times (s).
-    models : sequence of str
-        Torque laws.
-    simulate : bool
-        Also simulate each tuning with each law (kick ``2 alpha w_n``, or the
-        predicted cycle's ``A w`` when one is predicted).
-    grid : (int, int)
-        Scan grid of :func:`solve_harmonic_balance` (small keeps the map quick).
-    t_end, max_t_end : float
-        Simulated times, s.
-    describing : callable, optional
-        ``describing(model) -> N(A, w)`` replacing the package's describing function.
-
-    Returns
-    -------
-    DesignMap
-    """
-    kp_values = np.asarray(kp_values, dtype=float)
-    ti_values = np.asarray(ti_values, dtype=float)
-    shape = (kp_values.size, ti_values.size)
-    predicted = {name: np.zeros(shape, dtype=bool) for name in models}
-    simulated = {name: np.zeros(shape, dtype=bool) for name in models} if simulate else {}
-    for i, kp in enumerate(kp_values):
-        for j, ti in enumerate(ti_values):
-            tuned = dataclasses.replace(rig, controller=dataclasses.replace(rig.require_controller(), kp=kp, ti=ti))
-            for name in models:
-                model = tuned.make_model(name)
-                n_of = None if describing is None else describing(model)
-                prediction = predict_limit_cycles(tuned, model, grid=grid, describing=n_of)
-                predicted[name][i, j] = bool(prediction.stable_cycles)
-                if simulate:
-                    checked = verify_limit_cycles(tuned, prediction, t_end=t_end, max_t_end=max_t_end)
-                    simulated[name][i, j] = bool(checked.simulation is not None and checked.simulation.found)
-    return DesignMap(kp_values, ti_values, predicted, simulated)

@@ -24,7 +24,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from backlash_df import load_rig, simulate
-from backlash_df.limit_cycles import design_map
+from backlash_df.sweeps import design_map
 from backlash_df.loops import drive_loop
 from backlash_df.models import exact_torque, static_torque
 from backlash_df.simulate import _initial_state, default_step
@@ -81,8 +81,7 @@ def design_map_sweep(path, kp, ti):
               f"agree {np.mean(predicted == simulated):6.1%} "
               f"(predicted only {np.sum(predicted & ~simulated)}, simulated only {np.sum(simulated & ~predicted)})")
     (ROOT / "build").mkdir(exist_ok=True)
-    axes = dmap.plot()
-    axes[0].figure.savefig(ROOT / "build" / f"design_map_{path.stem}.png", dpi=100, bbox_inches="tight")
+    dmap.plot()["figure"].savefig(ROOT / "build" / f"design_map_{path.stem}.png", dpi=100, bbox_inches="tight")
 
 
 def main():

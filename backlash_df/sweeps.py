@@ -1,0 +1,407 @@
+"""Design maps: DF predictions and time simulation over a grid of two rig values.
+
+Each cell of a map is a pure function of (rig, the two values): the rig with
+those values (:func:`rig_with`) is analysed by the describing function
+(:func:`~backlash_df.limit_cycles.predict_limit_cycles`; with a load torque the
+biased prediction of :mod:`backlash_df.loaded`) and, optionally, simulated in
+closed loop.  The cells run on any :class:`concurrent.futures.Executor` (a
+process pool, or ``dask.distributed.Client.get_executor()``); ``None`` runs
+them one after the other.  The results do not depend on the executor.
+
+Every cell gets a verdict per model, the classes of ``predict``:
+
+``no oscillation``
+    the DF finds no cycle (and the loop with the shaft in contact is stable),
+    or the simulation comes to rest;
+``limit cycle``
+    a stable cycle and nothing below it that a small motion must cross;
+``bistable``
+    an unstable cycle below the smallest stable one: small motions die out,
+    larger ones grow to the stable cycle (DF only: the simulation starts from
+    the predicted cycle and cannot tell);
+``unstable``
+    the loop with the shaft in contact (``T = k theta_d + c dtheta_d``) is
+    unstable and no stable cycle caps the growth, or the simulated amplitude grows;
+``undetermined``
+    the DF finds only unstable cycles, or the simulation does not settle.
+"""
+
+import dataclasses
+import functools
+import math
+
+import numpy as np
+
+__all__ = ["VERDICTS", "rig_with", "DesignMap", "design_map", "design_map_plot", "prediction_verdict",
+           "simulation_verdict"]
+
+VERDICTS = ("no oscillation", "limit cycle", "bistable", "unstable", "undetermined")
+_COLOURS = ("#d9f0d3", "#d6604d", "#f4a582", "#762a83", "#bababa")
+
+
+# --------------------------------------------------------------------------- rig values
+
+
+def _table_of(rig, parameter):
+    """(table name, key) of a rig value: ``"kp"``, ``"controller.kp"``, ``"load.torque"``."""
+    tables = {"plant": rig.plant, "controller": rig.controller, "load": rig.load}
+    if "." in parameter:
+        table, key = parameter.split(".", 1)
+        found = [(table, key)] if table in tables and tables[table] is not None and hasattr(tables[table], key) else []
+    else:
+        found = [(table, parameter) for table, value in tables.items()
+                 if value is not None and parameter in {f.name for f in dataclasses.fields(value)}]
+    numeric = [(t, k) for t, k in found if isinstance(getattr(tables[t], k), float)]
+    if len(numeric) != 1:
+        names = [f"{t}.{f.name}" for t, v in tables.items() if v is not None for f in dataclasses.fields(v)
+                 if isinstance(getattr(v, f.name), float)]
+        raise ValueError(f"parameter {parameter!r}: not a numeric value of rig {rig.source}; "
+                         f"choose one of: {', '.join(names)}")
+    return numeric[0]
+
+
+def rig_with(rig, parameter, value):
+    """A copy of ``rig`` with one plant, controller or load value replaced.
+
+    Parameters
+    ----------
+    rig : Rig
+    parameter : str
+        A key of ``[plant]``, ``[controller]`` or ``[load]`` (``"kp"``,
+        ``"stiffness"``, ``"torque"``), or ``"table.key"`` (``"load.torque"``).
+    value : float
+        The new value, in the rig file's unit.
+
+    Returns
+    -------
+    Rig
+
+    Raises
+    ------
+    ValueError
+        Unknown or non-numeric parameter, or a value the rig file would reject
+        (one line naming the parameter).
+
+    Examples
+    --------
+    >>> from backlash_df import rig_from_dict
+    >>> rig = rig_from_dict({"plant": {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0,
+    ...     "half_gap": 0.05}, "controller": {"kp": 30.0, "ti": 0.5}})
+    >>> rig_with(rig, "kp", 60.0).controller.kp
+    60.0
+    """
+    from .config import rig_from_dict
+
+    table, key = _table_of(rig, parameter)
+    data = {name: dataclasses.asdict(getattr(rig, name)) for name in ("plant", "controller", "load")
+            if getattr(rig, name) is not None}
+    data["model"] = {"backlash": rig.model}
+    data[table][key] = value
+    return rig_from_dict(data, source=f"{rig.source} with {table}.{key} = {value!r}")
+
+
+# --------------------------------------------------------------------------- verdicts
+
+
+def prediction_verdict(rig, prediction):
+    """Verdict class of a DF prediction (module docs).
+
+    Parameters
+    ----------
+    rig : Rig
+    prediction : LimitCyclePrediction
+
+    Returns
+    -------
+    str
+        One of :data:`VERDICTS`.
+    """
+    from .loops import drive_loop
+
+    stable = prediction.stable_cycles
+    if stable:
+        lowest = stable[0].amplitude
+        below = any(not cycle.stable and cycle.amplitude < lowest for cycle in prediction.cycles)
+        return "bistable" if below else "limit cycle"
+    model = rig.make_model(prediction.model)
+    loop = drive_loop(rig)
+    contact_unstable = rig.controller.delay == 0.0 and bool(
+        np.any(loop.linear_poles(model.stiffness, model.damping).real > 0.0))
+    if contact_unstable:
+        return "unstable"
+    return "undetermined" if prediction.cycles else "no oscillation"
+
+
+def simulation_verdict(measured):
+    """Verdict class of a simulated run (:class:`~backlash_df.simulate.MeasuredCycle`)."""
+    if measured is None:
+        return "undetermined"
+    if measured.found:
+        return "limit cycle"
+    return {"no limit cycle": "no oscillation", "growing": "unstable"}.get(measured.verdict, "undetermined")
+
+
+# --------------------------------------------------------------------------- the map
+
+
+@dataclasses.dataclass(frozen=True)
+class DesignMap:
+    """Verdicts and cycle amplitudes over a grid of two rig values, DF and simulation.
+
+    Attributes
+    ----------
+    x_name, y_name : str
+        The swept rig values (e.g. ``"kp"``, ``"ti"``).
+    x, y : ndarray
+        Grid values, in the rig file's units.
+    df_verdict, sim_verdict : dict
+        Model name -> array of str, shape (len(x), len(y)): :data:`VERDICTS`
+        (``sim_verdict`` is empty without simulation).
+    df_amplitude, sim_amplitude : dict
+        Model name -> float array: amplitude A (rad, first harmonic of
+        theta_d) of the largest stable predicted cycle / of the simulated cycle,
+        NaN where there is none.
+    df_bias, sim_bias : dict
+        Model name -> float array: mean of theta_d (rad) of those cycles.
+    """
+
+    x_name: str
+    x: np.ndarray
+    y_name: str
+    y: np.ndarray
+    df_verdict: dict
+    df_amplitude: dict
+    df_bias: dict
+    sim_verdict: dict
+    sim_amplitude: dict
+    sim_bias: dict
+
+    @property
+    def models(self):
+        """Model names, in the order they were analysed."""
+        return tuple(self.df_verdict)
+
+    @property
+    def predicted(self):
+        """Model name -> bool array: the DF predicts a stable cycle."""
+        return {name: np.isin(v, ("limit cycle", "bistable")) for name, v in self.df_verdict.items()}
+
+    @property
+    def simulated(self):
+        """Model name -> bool array: the simulation settled onto a cycle."""
+        return {name: v == "limit cycle" for name, v in self.sim_verdict.items()}
+
+    def agreement(self, name):
+        """Fraction of cells where the DF and the simulation agree on whether there is a cycle."""
+        return float(np.mean(self.predicted[name] == self.simulated[name]))
+
+    def to_dict(self):
+        """JSON-ready: grid, then per model the verdict and amplitude tables (rows along ``x``)."""
+        def table(values):
+            return [[None if isinstance(v, float) and math.isnan(v) else v for v in row]
+                    for row in np.asarray(values).tolist()]
+
+        return {
+            "x": {"parameter": self.x_name, "values": self.x.tolist()},
+            "y": {"parameter": self.y_name, "values": self.y.tolist()},
+            "verdicts": list(VERDICTS),
+            "models": [
+                {"model": name,
+                 "df": {"verdict": table(self.df_verdict[name]), "amplitude": table(self.df_amplitude[name]),
+                        "bias": table(self.df_bias[name])},
+                 "simulated": None if name not in self.sim_verdict else {
+                     "verdict": table(self.sim_verdict[name]), "amplitude": table(self.sim_amplitude[name]),
+                     "bias": table(self.sim_bias[name]), "agreement": self.agreement(name)}}
+                for name in self.models
+            ],
+        }
+
+    def plot(self, axes=None):
+        """Verdict colours and amplitude contours, DF and simulation side by side; see :func:`design_map_plot`."""
+        return design_map_plot(self, axes=axes)
+
+    def report_html(self, title="Design map", rig_text=""):
+        """A self-contained HTML page: the map and the agreement per model."""
+        from .report import figure_html, html_page, table_html
+
+        rows = []
+        for name in self.models:
+            counts = [int(np.sum(self.df_verdict[name] == v)) for v in VERDICTS]
+            agree = f"{self.agreement(name):.1%}" if name in self.sim_verdict else ""
+            rows.append([name, *counts, agree])
+        plotted = self.plot()
+        sections = [("", '<div class="summary"><p>Each cell: the describing-function verdict (left) and the '
+                         "closed-loop simulation with the same law (right); contours: amplitude A (rad, first "
+                         "harmonic of theta_d) of the stable cycle.</p></div>")]
+        if rig_text:
+            sections.append(("Rig", f"<pre>{rig_text}</pre>"))
+        sections += [("Map", figure_html(plotted["figure"], f"{self.x_name} x {self.y_name}")),
+                     ("DF verdicts (cells) and agreement with simulation",
+                      table_html(["model", *VERDICTS, "agreement"], rows))]
+        return html_page(title, sections)
+
+
+def _scale(values):
+    values = np.asarray(values)
+    return "log" if values.size > 2 and np.all(values > 0) and values.max() / values.min() > 20 else "linear"
+
+
+def design_map_plot(dmap, axes=None, levels=6):
+    """Draw a design map: one row per model, DF verdicts left, simulation right.
+
+    Colours are the verdict classes (:data:`VERDICTS`), black contours the
+    amplitude A (rad) of the stable cycle.
+
+    Parameters
+    ----------
+    dmap : DesignMap
+    axes : array of Axes, optional
+        Shape (n_models, 2) (or (n_models, 1) without simulation).
+    levels : int
+        Number of amplitude contour levels.
+
+    Returns
+    -------
+    dict
+        ``{"axes": ndarray of Axes, "figure": Figure, "contours": list}``.
+    """
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.patches import Patch
+
+    columns = 2 if dmap.sim_verdict else 1
+    if axes is None:
+        _, axes = plt.subplots(len(dmap.models), columns, figsize=(4.6 * columns, 3.8 * len(dmap.models)),
+                               squeeze=False, sharex=True, sharey=True)
+    axes = np.asarray(axes).reshape(len(dmap.models), columns)
+    cmap, norm = ListedColormap(_COLOURS), BoundaryNorm(np.arange(len(VERDICTS) + 1) - 0.5, len(VERDICTS))
+    contours = []
+    for row, name in enumerate(dmap.models):
+        panels = [("DF", dmap.df_verdict, dmap.df_amplitude), ("simulation", dmap.sim_verdict, dmap.sim_amplitude)]
+        for ax, (kind, verdicts, amplitudes) in zip(axes[row], panels[:columns]):
+            codes = np.vectorize(VERDICTS.index)(verdicts[name])
+            ax.pcolormesh(dmap.x, dmap.y, codes.T, cmap=cmap, norm=norm, shading="nearest")
+            amplitude = np.ma.masked_invalid(amplitudes[name].T)
+            if amplitude.count() > 3 and np.ptp(amplitude.compressed()) > 0:
+                drawn = ax.contour(dmap.x, dmap.y, amplitude, levels=levels, colors="k", linewidths=0.8)
+                ax.clabel(drawn, fontsize=7, fmt="%.3g")
+                contours.append(drawn)
+            ax.set_xscale(_scale(dmap.x))
+            ax.set_yscale(_scale(dmap.y))
+            ax.set_title(f"{name}: {kind}", fontsize="medium")
+        axes[row, 0].set_ylabel(dmap.y_name)
+    for ax in axes[-1]:
+        ax.set_xlabel(dmap.x_name)
+    handles = [Patch(color=c, label=v) for c, v in zip(_COLOURS, VERDICTS)]
+    axes[0, -1].legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    return {"axes": axes, "figure": axes[0, 0].figure, "contours": contours}
+
+
+# --------------------------------------------------------------------------- cells
+
+
+@dataclasses.dataclass(frozen=True)
+class _Settings:
+    """What every cell of one map shares (picklable)."""
+
+    rig: object
+    x_name: str
+    y_name: str
+    models: tuple
+    simulate: bool
+    grid: tuple
+    t_end: float
+    max_t_end: float
+
+
+def _largest_stable(prediction):
+    stable = prediction.stable_cycles
+    return (stable[-1].amplitude, getattr(stable[-1], "bias", 0.0)) if stable else (math.nan, math.nan)
+
+
+def _cell(settings, point):
+    """One cell: per model (DF verdict, A, bias, simulated verdict, A, bias); a pure function of its inputs."""
+    from .limit_cycles import predict_limit_cycles, verify_limit_cycles
+
+    tuned = rig_with(rig_with(settings.rig, settings.x_name, point[0]), settings.y_name, point[1])
+    out = []
+    for name in settings.models:
+        prediction = predict_limit_cycles(tuned, name, grid=settings.grid)
+        result = (prediction_verdict(tuned, prediction), *_largest_stable(prediction))
+        if settings.simulate:
+            checked = verify_limit_cycles(tuned, prediction, t_end=settings.t_end, max_t_end=settings.max_t_end)
+            sims = [c.simulated for c in checked.stable_cycles if c.simulated is not None and c.simulated.found]
+            measured = sims[-1] if sims else checked.simulation
+            found = measured is not None and measured.found
+            result += (simulation_verdict(measured), measured.amplitude if found else math.nan,
+                       measured.bias if found else math.nan)
+        out.append(result)
+    return out
+
+
+def run_cells(function, items, executor=None):
+    """``[function(item) for item in items]``, on ``executor`` if given (order kept).
+
+    Parameters
+    ----------
+    function : callable
+        A picklable function (module level, or a :func:`functools.partial` of one).
+    items : iterable
+    executor : concurrent.futures.Executor, optional
+        ``None`` runs serially in this process.
+
+    Returns
+    -------
+    list
+    """
+    if executor is None:
+        return [function(item) for item in items]
+    return list(executor.map(function, items))
+
+
+def design_map(rig, x_values, y_values, x="kp", y="ti", models=("phase-plane", "damped-dead-zone"), simulate=True,
+               grid=(30, 40), t_end=10.0, max_t_end=40.0, executor=None):
+    """Scan two rig values: DF verdicts and amplitudes of each model and, optionally, time simulation.
+
+    Parameters
+    ----------
+    rig : Rig
+        Plant, controller, load; ``x`` and ``y`` are replaced by the grid values.
+    x_values, y_values : array_like
+        Grid values of ``x`` and ``y`` (the rig file's units).
+    x, y : str
+        Rig values to sweep (:func:`rig_with`); default the PI tuning (kp, ti).
+    models : sequence of str
+        Torque laws.
+    simulate : bool
+        Also simulate each cell with each law
+        (:func:`~backlash_df.limit_cycles.verify_limit_cycles`).
+    grid : (int, int)
+        Scan grid of :func:`~backlash_df.limit_cycles.solve_harmonic_balance`.
+    t_end, max_t_end : float
+        Simulated times, s.
+    executor : concurrent.futures.Executor, optional
+        Runs the cells (a ``ProcessPoolExecutor``, or a Dask client's
+        ``get_executor()``); ``None``: serially.  Results are identical.
+
+    Returns
+    -------
+    DesignMap
+    """
+    x_values = np.atleast_1d(np.asarray(x_values, dtype=float))
+    y_values = np.atleast_1d(np.asarray(y_values, dtype=float))
+    settings = _Settings(rig, x, y, tuple(models), bool(simulate), tuple(grid), float(t_end), float(max_t_end))
+    rig_with(rig_with(rig, x, x_values[0]), y, y_values[0])  # bad names fail here, not in a worker
+    points = [(float(a), float(b)) for a in x_values for b in y_values]
+    cells = run_cells(functools.partial(_cell, settings), points, executor)
+    shape = (x_values.size, y_values.size)
+    fields = [{}, {}, {}, {}, {}, {}]
+    for m, name in enumerate(settings.models):
+        columns = list(zip(*(cell[m] for cell in cells)))
+        for k, column in enumerate(columns):
+            dtype = object if k % 3 == 0 else float
+            fields[k][name] = np.array(column, dtype=dtype).reshape(shape)
+    for k in (0, 3):
+        for name in fields[k]:
+            fields[k][name] = fields[k][name].astype(str)
+    return DesignMap(x, x_values, y, y_values, fields[0], fields[1], fields[2], fields[3], fields[4], fields[5])
