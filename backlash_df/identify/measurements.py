@@ -1,24 +1,42 @@
-"""Measurement files of a drive: loading, checks with one-line errors, writing.
+"""Measurement files of a drive: loading, reflection through the gear, checks, writing.
 
 The file is a CSV with a header row, SI units and uniform sampling (DESIGN.md):
 
-=================  ======  ========================================================
-column             unit    holds
-=================  ======  ========================================================
-``time``           s       sample instants, increasing, uniformly spaced
-``motor_torque``   N m     torque commanded to the motor (controller + test signal)
-``motor_speed``    rad/s   measured motor speed
-``load_speed``     rad/s   measured load speed (optional)
-``load_torque``    N m     known torque applied to the load (optional)
-=================  ======  ========================================================
+=================  ======  ===========  ==============================================
+column             unit    side (file)  holds
+=================  ======  ===========  ==============================================
+``time``           s                    sample instants, increasing, uniformly spaced
+``motor_torque``   N m     motor        torque commanded to (or produced by) the motor
+``motor_speed``    rad/s   motor        measured motor speed
+``load_speed``     rad/s   load         measured load speed (optional)
+``load_torque``    N m     load         known torque applied to the load (optional)
+``motor_angle``    rad     motor        motor encoder angle (optional)
+``load_angle``     rad     load         load (secondary) encoder angle (optional)
+=================  ======  ===========  ==============================================
 
-A file with bad rows is refused with one line naming the column and the file
-lines; it is never silently trimmed.
+**Sides.** The rig file's plant is on the load side (``[plant] gear_ratio`` n
+motor turns per load turn).  The motor columns of the file are on the motor side
+and are reflected when the record is loaded: torque times n, speed and angle
+divided by n (a lossless gear).  Every array of a :class:`Measurements` is
+therefore on the **load side**; :attr:`Measurements.gear_ratio` says how it was
+reflected, :meth:`Measurements.file_columns` gives the file's values back and
+:meth:`Measurements.check_gear_ratio` refuses a record reflected with another
+ratio than the rig's.  With gear ratio 1 (the default) nothing changes.
+
+**Twist.** With both angle columns the shaft twist theta_d is measured:
+``motor_angle / n - load_angle`` (:attr:`Measurements.twist`, rad, load side).
+Encoders are zeroed independently, so it holds up to a constant offset.
+
+A file with bad rows is refused with one line naming the file, the column and the
+file lines; it is never silently trimmed.  A record longer than
+:data:`MAX_SAMPLES` is decimated by block means, with a note in
+:attr:`Measurements.notes`, or refused when decimation would sample it too slowly.
 """
 
 import csv
 import dataclasses
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -30,37 +48,63 @@ __all__ = [
     "write_measurements",
     "REQUIRED_COLUMNS",
     "OPTIONAL_COLUMNS",
+    "MOTOR_SIDE_COLUMNS",
     "MIN_SAMPLES",
+    "MAX_SAMPLES",
+    "MAX_SAMPLING_INTERVAL",
+    "MAX_DECIMATED_INTERVAL",
     "MAX_PLAUSIBLE_SPEED",
+    "ANGLE_TOLERANCE",
 ]
 
 REQUIRED_COLUMNS = ("time", "motor_torque", "motor_speed")
-OPTIONAL_COLUMNS = ("load_speed", "load_torque")
+OPTIONAL_COLUMNS = ("load_speed", "load_torque", "motor_angle", "load_angle")
+#: Motor-side columns and the power of the gear ratio n that reflects them to the load side.
+MOTOR_SIDE_COLUMNS = {"motor_torque": 1, "motor_speed": -1, "motor_angle": -1}
 #: Fewest samples a record may have: estimation and validation parts need room.
 MIN_SAMPLES = 200
+#: Most samples kept; longer records are decimated (block means) or refused.
+MAX_SAMPLES = 20_000
+#: Longest sampling interval taken as seconds (s); longer steps look like milliseconds.
+MAX_SAMPLING_INTERVAL = 0.02
+#: Longest sampling interval decimation may produce (s, 250 Hz as the KUKA record).
+MAX_DECIMATED_INTERVAL = 0.004
 #: Speeds above this (rad/s, about 9550 rpm) are taken as a file written in rpm.
 MAX_PLAUSIBLE_SPEED = 1000.0
+#: Largest mismatch between an angle and its integrated speed, relative to the angle's range.
+ANGLE_TOLERANCE = 0.05
 _UNIFORM_TOLERANCE = 0.01  # relative deviation of a time step from the median step
+_ANGLE_SPEEDS = {"motor_angle": "motor_speed", "load_angle": "load_speed"}
+_UNITS = {"time": "s", "motor_torque": "N m", "load_torque": "N m", "motor_speed": "rad/s",
+          "load_speed": "rad/s", "motor_angle": "rad", "load_angle": "rad"}
 
 
 @dataclasses.dataclass(frozen=True, repr=False)
 class Measurements:
-    """A checked measurement record of a two-mass drive (SI units).
+    """A checked measurement record of a two-mass drive, every value on the load side (SI).
 
     Attributes
     ----------
     time : ndarray
         Sample instants, s, uniformly spaced.
     motor_torque : ndarray
-        Commanded motor torque, N m.
+        Motor torque reflected to the load side, N m (file value times ``gear_ratio``).
     motor_speed : ndarray
-        Measured motor speed, rad/s.
+        Motor speed reflected to the load side, rad/s (file value / ``gear_ratio``).
     load_speed : ndarray or None
         Measured load speed, rad/s, if the file has it.
     load_torque : ndarray or None
         Known load torque, N m, if the file has it (otherwise taken as zero).
+    motor_angle : ndarray or None
+        Motor angle reflected to the load side, rad (file value / ``gear_ratio``).
+    load_angle : ndarray or None
+        Load angle, rad.
     source : str
         Where the record came from (file name), for messages.
+    gear_ratio : float
+        Motor turns per load turn n used to reflect the motor columns (1: none).
+    notes : tuple of str
+        What was done to the record on loading (decimation), for reports.
     """
 
     time: np.ndarray
@@ -68,7 +112,11 @@ class Measurements:
     motor_speed: np.ndarray
     load_speed: np.ndarray | None = None
     load_torque: np.ndarray | None = None
+    motor_angle: np.ndarray | None = None
+    load_angle: np.ndarray | None = None
     source: str = "<arrays>"
+    gear_ratio: float = 1.0
+    notes: tuple = ()
 
     @property
     def dt(self):
@@ -92,7 +140,7 @@ class Measurements:
 
     @property
     def speeds(self):
-        """Measured speeds as columns, shape (N, 1 or 2), rad/s."""
+        """Measured speeds as columns, shape (N, 1 or 2), rad/s, load side."""
         return np.column_stack([getattr(self, name) for name in self.speed_names])
 
     @property
@@ -100,23 +148,74 @@ class Measurements:
         """The known load torque (N m), zeros when the file has none."""
         return np.zeros_like(self.time) if self.load_torque is None else self.load_torque
 
+    @property
+    def twist(self):
+        """Measured shaft twist theta_d = motor_angle / n - load_angle (rad, load side), or None.
+
+        None unless the file has both angle columns.  The encoders' zeros are
+        independent, so the twist holds up to a constant offset.
+        """
+        if self.motor_angle is None or self.load_angle is None:
+            return None
+        return self.motor_angle - self.load_angle
+
     def columns(self):
-        """The present columns as a name -> array dictionary, in file order."""
+        """The present columns as a name -> array dictionary (load side), in file order."""
         names = REQUIRED_COLUMNS + OPTIONAL_COLUMNS
         return {name: getattr(self, name) for name in names if getattr(self, name) is not None}
+
+    def file_columns(self):
+        """The present columns as the file holds them (motor columns on the motor side)."""
+        return {name: values * self.gear_ratio ** -MOTOR_SIDE_COLUMNS.get(name, 0)
+                for name, values in self.columns().items()}
+
+    def sides(self):
+        """Where each present column's values are, as a name -> phrase dictionary."""
+        reflected = f"load side (reflected from the motor side through gear ratio {self.gear_ratio:g})"
+        return {name: reflected if name in MOTOR_SIDE_COLUMNS and self.gear_ratio != 1.0 else "load side"
+                for name in self.columns() if name != "time"}
+
+    def check_gear_ratio(self, gear_ratio, where="the rig"):
+        """Refuse a record reflected through another gear ratio than ``gear_ratio``.
+
+        Raises
+        ------
+        ValueError
+            One line naming both ratios and how to load the record for the rig.
+        """
+        if not math.isclose(self.gear_ratio, gear_ratio, rel_tol=1e-9):
+            raise ValueError(
+                f"{self.source}: the record was reflected with gear ratio {self.gear_ratio:g} but {where} has "
+                f"gear_ratio = {gear_ratio:g}; load it with load_measurements(path, gear_ratio={gear_ratio:g})"
+            )
+
+    def decimated(self, factor):
+        """The record averaged over blocks of ``factor`` samples (a boxcar anti-alias filter).
+
+        A trailing part shorter than a block is dropped; the time of a block is its
+        mean.  The reason is added to :attr:`notes`.
+        """
+        factor = int(factor)
+        n_blocks = self.n_samples // factor
+        means = {name: values[: n_blocks * factor].reshape(n_blocks, factor).mean(axis=1)
+                 for name, values in self.columns().items()}
+        note = (f"decimated by {factor} (block means): {self.n_samples} samples at {self.dt:.6g} s "
+                f"to {n_blocks} at {self.dt * factor:.6g} s")
+        return dataclasses.replace(self, **means, notes=self.notes + (note,))
 
     def __repr__(self):
         return (
             f"Measurements({self.source!r}, {self.n_samples} samples, dt={self.dt:.6g} s, "
-            f"columns={list(self.columns())})"
+            f"gear_ratio={self.gear_ratio:g}, columns={list(self.columns())})"
         )
 
     def plot(self, axes=None):
-        """Plot torques and speeds against time; returns the two axes."""
+        """Plot torques, speeds and (if measured) the twist against time, load side; returns the axes."""
         import matplotlib.pyplot as plt
 
+        rows = 3 if self.twist is not None else 2
         if axes is None:
-            _, axes = plt.subplots(2, 1, sharex=True, figsize=(8, 4.5))
+            _, axes = plt.subplots(rows, 1, sharex=True, figsize=(8, 2.2 * rows))
         axes[0].plot(self.time, self.motor_torque, label="motor_torque")
         if self.load_torque is not None:
             axes[0].plot(self.time, self.load_torque, label="load_torque")
@@ -124,10 +223,18 @@ class Measurements:
         for name in self.speed_names:
             axes[1].plot(self.time, getattr(self, name), label=name)
         axes[1].set_ylabel("speed (rad/s)")
-        axes[1].set_xlabel("time (s)")
+        if rows == 3:
+            axes[2].plot(self.time, 1e3 * self.twist, label="twist")
+            axes[2].set_ylabel("twist (mrad)")
+        axes[-1].set_xlabel("time (s)")
         for ax in axes:
             ax.legend(loc="upper right", fontsize="small")
         return axes
+
+
+def _num(value):
+    """A number for a message: plain digits, never a numpy repr."""
+    return f"{float(value):.9g}"
 
 
 def _line_list(bad_rows, header_lines=1):
@@ -145,17 +252,33 @@ def _check_time(time, source):
         row = backwards[0] + 1
         raise ValueError(
             f"{source}: time is not increasing at {_line_list([row])} "
-            f"({time[row - 1]!r} s then {time[row]!r} s)"
+            f"({_num(time[row - 1])} s then {_num(time[row])} s)"
         )
     median = float(np.median(steps))
     uneven = np.flatnonzero(np.abs(steps - median) > _UNIFORM_TOLERANCE * median)
     if uneven.size:
         row = uneven[0] + 1
         raise ValueError(
-            f"{source}: time is not uniformly sampled: step {steps[row - 1]:.6g} s before "
-            f"{_line_list([row])}, median step {median:.6g} s ({uneven.size} uneven steps); "
+            f"{source}: time is not uniformly sampled: step {_num(steps[row - 1])} s before "
+            f"{_line_list([row])}, median step {_num(median)} s ({uneven.size} uneven steps); "
             f"resample the record to a uniform grid"
         )
+    if median > MAX_SAMPLING_INTERVAL:
+        raise ValueError(
+            f"{source}: time steps of {_num(median)} s over a record of {_num(time[-1] - time[0])} s: "
+            f"time looks like milliseconds, it must be in seconds (a drive record samples faster "
+            f"than every {MAX_SAMPLING_INTERVAL:g} s)"
+        )
+
+
+def _check_excitation(arrays, source):
+    for name in ("motor_torque", "motor_speed", "load_speed"):
+        values = arrays.get(name)
+        if values is not None and np.ptp(values) <= 1e-12 * np.max(np.abs(values)):
+            raise ValueError(
+                f"{source}: {name} is constant ({_num(values[0])} {_UNITS[name]} in all {values.size} rows): "
+                f"no excitation; a diagnosis needs a record where torque and speeds vary"
+            )
 
 
 def _check_speed_units(name, values, source):
@@ -167,41 +290,95 @@ def _check_speed_units(name, values, source):
         )
 
 
-def measurements_from_arrays(time, motor_torque, motor_speed, load_speed=None, load_torque=None, source="<arrays>"):
-    """Check measurement arrays and bundle them as :class:`Measurements`.
+def _check_angle(name, angle, speed, dt, source):
+    """The angle's increments must match the trapezoidal integral of its speed (same side)."""
+    integral = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1])) * dt])
+    mismatch = np.abs(angle - angle[0] - integral)
+    worst = int(np.argmax(mismatch))
+    scale = max(np.ptp(angle), np.ptp(integral))
+    if mismatch[worst] > ANGLE_TOLERANCE * scale:
+        raise ValueError(
+            f"{source}: {name} does not match the integrated {_ANGLE_SPEEDS[name]}: they differ by "
+            f"{mismatch[worst]:.3g} rad at {_line_list([worst])}, {100 * mismatch[worst] / scale:.0f} % of "
+            f"the angle's range (tolerance {100 * ANGLE_TOLERANCE:g} %); angles must be in rad, speeds in "
+            f"rad/s, each angle on the side of its speed"
+        )
+
+
+def _check_gear_ratio(gear_ratio, source):
+    if isinstance(gear_ratio, bool) or not isinstance(gear_ratio, (int, float)) or not (
+            math.isfinite(gear_ratio) and gear_ratio > 0.0):
+        raise ValueError(f"{source}: gear_ratio must be a finite number > 0, got {gear_ratio!r}")
+
+
+def _bounded(measurements, max_samples):
+    """The record itself, decimated to at most ``max_samples`` samples, or a refusal."""
+    n = measurements.n_samples
+    if n <= max_samples:
+        return measurements
+    factor = math.ceil(n / max_samples)
+    if factor * measurements.dt > MAX_DECIMATED_INTERVAL:
+        longest = max_samples * max(measurements.dt, MAX_DECIMATED_INTERVAL)
+        raise ValueError(
+            f"{measurements.source}: {n} samples over {measurements.duration:.6g} s, more than the limit of "
+            f"{max_samples} samples even when decimated to every {MAX_DECIMATED_INTERVAL:g} s; "
+            f"cut a window of at most {longest:.6g} s"
+        )
+    return measurements.decimated(factor)
+
+
+def measurements_from_arrays(time, motor_torque, motor_speed, load_speed=None, load_torque=None,
+                             motor_angle=None, load_angle=None, source="<arrays>", gear_ratio=1.0,
+                             max_samples=MAX_SAMPLES):
+    """Check measurement arrays, reflect the motor side and bundle them as :class:`Measurements`.
 
     Parameters
     ----------
     time : array_like
         Sample instants, s: increasing and uniformly spaced (1 % tolerance).
     motor_torque, motor_speed : array_like
-        Commanded motor torque (N m) and measured motor speed (rad/s).
+        Motor torque (N m) and measured motor speed (rad/s), **motor side**.
     load_speed, load_torque : array_like, optional
-        Measured load speed (rad/s) and known load torque (N m).
+        Measured load speed (rad/s) and known load torque (N m), load side.
+    motor_angle, load_angle : array_like, optional
+        Encoder angles (rad), motor angle on the motor side.  Each must match its
+        integrated speed (:data:`ANGLE_TOLERANCE`); with both, :attr:`~Measurements.twist`
+        is measured.
     source : str
         Name used in error messages.
+    gear_ratio : float
+        Motor turns per load turn n (``[plant] gear_ratio``): motor torque is
+        multiplied by n, motor speed and angle divided by n.
+    max_samples : int
+        Longer records are decimated by block means (noted in ``notes``), or refused
+        when the decimated sampling would be slower than :data:`MAX_DECIMATED_INTERVAL`.
 
     Returns
     -------
     Measurements
+        Every array on the load side.
 
     Raises
     ------
     ValueError
         One line naming the problem: lengths differ, NaN or infinite values (with
-        the file lines), time not increasing or not uniform, fewer than
-        :data:`MIN_SAMPLES` samples, speeds beyond :data:`MAX_PLAUSIBLE_SPEED`
-        (probably rpm).
+        the file lines), fewer than :data:`MIN_SAMPLES` samples, time not
+        increasing, not uniform or in milliseconds, a constant torque or speed (no
+        excitation), speeds beyond :data:`MAX_PLAUSIBLE_SPEED` (probably rpm),
+        angles that do not match the speeds, a non-positive gear ratio, a record
+        too long to decimate.
 
     Examples
     --------
     >>> t = np.arange(400) * 1e-3
-    >>> m = measurements_from_arrays(t, np.zeros(400), np.ones(400))
-    >>> m.n_samples, m.dt
-    (400, 0.001)
+    >>> m = measurements_from_arrays(t, np.sin(t), 100.0 * np.cos(t), gear_ratio=100.0)
+    >>> m.n_samples, m.dt, float(m.motor_speed[0]), m.twist is None
+    (400, 0.001, 1.0, True)
     """
+    _check_gear_ratio(gear_ratio, source)
     given = {"time": time, "motor_torque": motor_torque, "motor_speed": motor_speed,
-             "load_speed": load_speed, "load_torque": load_torque}
+             "load_speed": load_speed, "load_torque": load_torque, "motor_angle": motor_angle,
+             "load_angle": load_angle}
     arrays = {name: np.asarray(value, dtype=float) for name, value in given.items() if value is not None}
     n = arrays["time"].size
     for name, values in arrays.items():
@@ -217,20 +394,41 @@ def measurements_from_arrays(time, motor_torque, motor_speed, load_speed=None, l
     if n < MIN_SAMPLES:
         raise ValueError(f"{source}: only {n} samples; a diagnosis needs at least {MIN_SAMPLES}")
     _check_time(arrays["time"], source)
+    _check_excitation(arrays, source)
     for name in ("motor_speed", "load_speed"):
         if name in arrays:
             _check_speed_units(name, arrays[name], source)
-    return Measurements(source=source, **arrays)
+    dt = (arrays["time"][-1] - arrays["time"][0]) / (n - 1)
+    for name, speed in _ANGLE_SPEEDS.items():
+        if name in arrays and speed in arrays:
+            _check_angle(name, arrays[name], arrays[speed], dt, source)
+    reflected = {name: values * gear_ratio ** MOTOR_SIDE_COLUMNS.get(name, 0) for name, values in arrays.items()}
+    return _bounded(Measurements(source=source, gear_ratio=float(gear_ratio), **reflected), max_samples)
 
 
-def _parse_rows(reader, header, path):
-    data = {name: [] for name in header}
+def _check_header(header, path):
+    missing = [name for name in REQUIRED_COLUMNS if name not in header]
+    if missing:
+        raise ValueError(
+            f"{path}: missing column{'s' if len(missing) > 1 else ''} {', '.join(missing)}; "
+            f"the header must name {', '.join(REQUIRED_COLUMNS)} (optional: {', '.join(OPTIONAL_COLUMNS)})"
+        )
+    duplicated = sorted({name for name in header if header.count(name) > 1})
+    if duplicated:
+        raise ValueError(f"{path}: column {duplicated[0]} appears more than once in the header")
+
+
+def _parse_rows(reader, header, known, path):
+    """The known columns row by row (the slow path): names the line of the first bad row."""
+    data = {name: [] for name in known}
+    indices = [header.index(name) for name in known]
     for row_index, row in enumerate(reader):
         if len(row) != len(header):
             raise ValueError(
                 f"{path}: {_line_list([row_index])} has {len(row)} fields, the header has {len(header)}"
             )
-        for name, cell in zip(header, row):
+        for name, index in zip(known, indices):
+            cell = row[index]
             try:
                 data[name].append(float(cell) if cell.strip() else math.nan)
             except ValueError:
@@ -240,52 +438,67 @@ def _parse_rows(reader, header, path):
     return data
 
 
-def load_measurements(path):
-    """Read and check a measurement CSV file (see the module docs for the columns).
+def _read_columns(path):
+    """The known columns of a CSV file as arrays: numpy's C parser, the slow path to locate errors."""
+    with path.open(newline="", encoding="utf-8-sig") as handle:
+        header = [name.strip() for name in next(csv.reader([handle.readline()]), [])]
+        _check_header(header, path)
+        known = [name for name in REQUIRED_COLUMNS + OPTIONAL_COLUMNS if name in header]
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # "input contained no data": too few samples, said below
+                table = np.loadtxt(handle, delimiter=",", comments=None, ndmin=2, dtype=float)
+            return {name: table[:, header.index(name)] for name in known}
+        except ValueError:  # a bad cell, a short row, a text column: find and name it
+            handle.seek(0)
+            reader = csv.reader(handle)
+            next(reader)
+            return _parse_rows(reader, header, known, path)
+
+
+def load_measurements(path, gear_ratio=1.0, max_samples=MAX_SAMPLES):
+    """Read and check a measurement CSV file and reflect it to the load side.
 
     Parameters
     ----------
     path : str or Path
-        CSV file with a header row; extra columns are ignored.
+        CSV file (UTF-8, a byte-order mark is accepted) with a header row; the
+        columns are in the module docs, extra columns are ignored.
+    gear_ratio : float
+        The rig's ``[plant] gear_ratio`` (motor turns per load turn): the motor
+        columns are reflected through it.  Pass ``rig.plant.gear_ratio``.
+    max_samples : int
+        Longer records are decimated by block means, with a note (see
+        :func:`measurements_from_arrays`).
 
     Returns
     -------
     Measurements
+        Every array on the load side.
 
     Raises
     ------
     ValueError
-        One line naming the file and the problem: unreadable file, missing
-        columns, a cell that is not a number, NaN or infinite values (naming the
-        file lines), time not increasing or not uniform, too few samples, speeds
-        that look like rpm.
+        One line naming the file and the problem: unreadable or not UTF-8,
+        missing or duplicated columns, a cell that is not a number, and every
+        problem :func:`measurements_from_arrays` names.
     """
     path = Path(path)
     try:
-        with path.open(newline="", encoding="utf-8") as handle:
-            reader = csv.reader(handle)
-            header = [name.strip() for name in next(reader, [])]
-            missing = [name for name in REQUIRED_COLUMNS if name not in header]
-            if missing:
-                raise ValueError(
-                    f"{path}: missing column{'s' if len(missing) > 1 else ''} {', '.join(missing)}; "
-                    f"the header must name {', '.join(REQUIRED_COLUMNS)} "
-                    f"(optional: {', '.join(OPTIONAL_COLUMNS)})"
-                )
-            duplicated = sorted({name for name in header if header.count(name) > 1})
-            if duplicated:
-                raise ValueError(f"{path}: column {duplicated[0]} appears more than once in the header")
-            data = _parse_rows(reader, header, path)
+        columns = _read_columns(path)
     except OSError as error:
         raise ValueError(f"{path}: cannot read measurement file ({error.strerror})") from None
-    except UnicodeDecodeError:
-        raise ValueError(f"{path}: not a UTF-8 text file") from None
-    columns = {name: data[name] for name in REQUIRED_COLUMNS + OPTIONAL_COLUMNS if name in data}
-    return measurements_from_arrays(source=str(path), **columns)
+    except UnicodeDecodeError as error:
+        raise ValueError(f"{path}: not a UTF-8 text file (byte {error.object[error.start]:#04x} cannot be "
+                         f"decoded); save it as UTF-8 CSV") from None
+    return measurements_from_arrays(source=str(path), gear_ratio=gear_ratio, max_samples=max_samples, **columns)
 
 
 def write_measurements(path, measurements, precision=9):
     """Write a record as a measurement CSV file (the format :func:`load_measurements` reads).
+
+    The motor columns are written on the motor side, so that
+    ``load_measurements(path, gear_ratio=measurements.gear_ratio)`` gives the record back.
 
     Parameters
     ----------
@@ -294,7 +507,7 @@ def write_measurements(path, measurements, precision=9):
     precision : int
         Significant digits per value.
     """
-    columns = measurements.columns()
+    columns = measurements.file_columns()
     table = np.column_stack(list(columns.values()))
     lines = [",".join(columns)]
     lines += [",".join(f"{value:.{precision}g}" for value in row) for row in table]
