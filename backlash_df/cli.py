@@ -1,47 +1,73 @@
 """The ``backlash-df`` command line.
 
 Every command turns a ``ValueError`` from the library (bad rig file, bad CSV,
-bad argument) into one line on stderr and exit code 2, like click's own usage
-errors; nothing half-written is left behind (outputs are written last, through
-:func:`write_output`).
+bad argument) and every click usage error into one line on stderr,
+``backlash-df: error: ...``, and exit code 2.  Output paths are checked before
+anything is computed, and a command writes all its outputs or none
+(:class:`~backlash_df.report.Outputs`).
 """
 
+import math
 import os
 import sys
-import tempfile
 from pathlib import Path
 
 import click
 
 from . import __version__
+from .models import MODEL_NAMES
+from .report import Outputs
+from .reproduce import LAW_NAMES, SETUPS
+
+
+def _fail(message, code=2):
+    """Print ``message`` as one ``backlash-df: error:`` line and exit with ``code``."""
+    click.echo(f"backlash-df: error: {' '.join(str(message).split())}", err=True)
+    sys.exit(code)
 
 
 class _Group(click.Group):
-    """A click group whose commands report ``ValueError`` as one line, exit code 2."""
+    """A click group whose errors are one line: ``ValueError`` and usage errors, exit code 2."""
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        try:
+            value = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except click.ClickException as error:
+            command = error.ctx.command_path if getattr(error, "ctx", None) else "backlash-df"
+            hint = f" (see '{command} --help')" if isinstance(error, click.UsageError) else ""
+            _fail(f"{error.format_message()}{hint}", error.exit_code)
+        except click.Abort:
+            _fail("aborted", 1)
+        sys.exit(value if isinstance(value, int) else 0)
 
     def invoke(self, ctx):
         try:
             return super().invoke(ctx)
         except ValueError as error:
-            message = " ".join(str(error).split())
-            click.echo(f"backlash-df: error: {message}", err=True)
-            sys.exit(2)
+            _fail(error)
 
 
-def write_output(path, text):
-    """Write ``text`` to ``path`` atomically: a reader never sees half a file."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".", prefix=f".{path.name}.")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as handle:
-            handle.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise
+_MODEL = click.Choice(MODEL_NAMES)
 
 
-@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
+class _FiniteFloat(click.ParamType):
+    """A finite float (click's FLOAT accepts nan and inf)."""
+
+    name = "float"
+
+    def convert(self, value, param, ctx):
+        number = click.FLOAT.convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"must be finite, got {value}", param, ctx)
+        return number
+
+
+_FINITE = _FiniteFloat()
+
+
+@click.group(name="backlash-df", cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="backlash-df")
 def main():
     """Describing functions and limit cycles of drives with backlash.
@@ -54,7 +80,7 @@ def main():
 
 @main.command()
 @click.argument("rig_file", type=click.Path(dir_okay=False))
-@click.option("--model", "models", multiple=True, metavar="NAME",
+@click.option("--model", "models", multiple=True, type=_MODEL,
               help="Torque law to analyse (repeatable; default: the rig's [model] backlash).")
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), help="Write the results as JSON.")
 @click.option("--report", "report_out", type=click.Path(dir_okay=False), help="Write a self-contained HTML report.")
@@ -68,14 +94,14 @@ def predict(rig_file, models, json_out, report_out):
     from .config import load_rig
     from .limit_cycles import predict_limit_cycles, prediction_json, prediction_report, prediction_rows
     from .limit_cycles import verify_limit_cycles
-    from .models import MODEL_NAMES
 
+    outputs = Outputs({"--json": json_out, "--report": report_out})
     rig = load_rig(rig_file)
     rig.require_controller()
     models = list(dict.fromkeys(models or [rig.model]))
     for name in models:
-        if name not in MODEL_NAMES:
-            raise ValueError(f"--model: unknown model {name!r} (rig {rig_file}); choose one of: {', '.join(MODEL_NAMES)}")
+        rig.make_model(name)  # a law the rig cannot describe (rubber without beta) stops here
+    rig_text = html.escape(Path(rig_file).read_text(encoding="utf-8")) if "--report" in outputs else ""
     predictions = [predict_limit_cycles(rig, name) for name in models]
     total = sum(max(1, len(p.stable_cycles)) for p in predictions)
     with tqdm(total=total, desc="simulating", unit="run", file=sys.stderr, leave=False) as bar:
@@ -84,49 +110,46 @@ def predict(rig_file, models, json_out, report_out):
     widths = [max(len(str(cell)) for cell in column) for column in zip(header, *rows)]
     for row in [header] + rows:
         click.echo("  ".join(str(cell).ljust(width) for cell, width in zip(row, widths)).rstrip())
-    if json_out:
-        write_output(json_out, json.dumps(prediction_json(predictions, source=str(rig_file)), indent=2) + "\n")
-    if report_out:
-        rig_text = html.escape(Path(rig_file).read_text(encoding="utf-8"))
-        write_output(report_out, prediction_report(predictions, title=f"Limit cycles: {rig_file}", rig_text=rig_text))
+    texts = {}
+    if "--json" in outputs:
+        texts["--json"] = json.dumps(prediction_json(predictions, source=str(rig_file)), indent=2) + "\n"
+    if "--report" in outputs:
+        texts["--report"] = prediction_report(predictions, title=f"Limit cycles: {rig_file}", rig_text=rig_text)
+    outputs.write(texts)
 
 
 @main.command()
 @click.argument("what", type=click.Choice(["figure2", "figure3", "table1"]))
 @click.option("--out", "out", type=click.Path(dir_okay=False), default=None,
               help="Write the result: PNG for figure2/figure3, .csv or .json for table1.")
-@click.option("--setup", default="one-sided", show_default=True, help="figure3: the Table I setup to plot.")
-@click.option("--driver", default="phase-plane", show_default=True,
+@click.option("--setup", default="one-sided", show_default=True, type=click.Choice(list(SETUPS)),
+              help="figure3: the Table I setup to plot.")
+@click.option("--driver", default="phase-plane", show_default=True, type=click.Choice(LAW_NAMES),
               help="figure3/table1: the law that drives the simulation (the others are evaluated along it).")
-@click.option("--dt", type=float, default=2e-5, show_default=True, help="figure3/table1: simulation step, s.")
+@click.option("--dt", type=click.FloatRange(0.0, 1e-3, min_open=True, max_open=True), default=2e-5,
+              show_default=True, help="figure3/table1: simulation step, s, in (0, 1e-3).")
 def reproduce(what, out, setup, driver, dt):
     """Recompute the paper's Figure 2, Figure 3 or Table I and print it as text."""
     from . import reproduce as paper
+    from .report import figure_png
 
     suffixes = {"figure2": (".png",), "figure3": (".png",), "table1": (".csv", ".json")}[what]
     if out is not None and Path(out).suffix.lower() not in suffixes:
         raise ValueError(f"--out {out}: {what} is written as {' or '.join(suffixes)}")
-    if not (dt > 0.0 and dt < 1e-3):
-        raise ValueError(f"--dt must lie in (0, 1e-3) s, got {dt!r}")
+    outputs = Outputs({"--out": out})
     if what == "figure2":
         maps = paper.figure2_maps()
         click.echo(paper.figure2_summary(maps))
-        if out:
-            paper.save_figure(paper.figure2(maps=maps)[0], out)
+        text = figure_png(paper.figure2(maps=maps)[0], dpi=120) if out else None
     elif what == "figure3":
-        comparison, ax = paper.figure3(setup=setup, driver=driver, dt=dt)
+        comparison = paper.compare_torques(setup, driver=driver, dt=dt)
         click.echo(paper.TableOne((comparison,)).to_text())
-        if out:
-            paper.save_figure(ax.figure, out)
-        else:
-            import matplotlib.pyplot as plt
-
-            plt.close(ax.figure)
+        text = figure_png(comparison.plot().figure, dpi=120) if out else None
     else:
         table = paper.table1(driver=driver, dt=dt)
         click.echo(table.to_text())
-        if out:
-            write_output(out, table.to_json() if Path(out).suffix.lower() == ".json" else table.to_csv())
+        text = (table.to_json() if Path(out).suffix.lower() == ".json" else table.to_csv()) if out else None
+    outputs.write({"--out": text})
 
 
 @main.command()
@@ -141,44 +164,53 @@ def diagnose(data, rig_file, json_out, report_out):
     from .identify import diagnose as run_diagnosis
     from .identify import load_measurements
 
+    outputs = Outputs({"--json": json_out, "--report": report_out})
     rig = load_rig(rig_file)
-    measurements = load_measurements(data)
+    measurements = load_measurements(data, gear_ratio=rig.plant.gear_ratio)
+    for note in measurements.notes:
+        click.echo(f"note: {note}", err=True)
     result = run_diagnosis(measurements, rig, workers=min(2, os.cpu_count() or 1))
     click.echo(f"cause: {result.cause}")
     click.echo(result.sentence)
     for candidate in result.candidates:
         click.echo(f"  {candidate.cause:17s} validation fit {candidate.mean_fit_percent:7.2f} %  "
                    f"{'accepted' if candidate.accepted else ''}")
-    report = result.report_html() if report_out else None  # build everything before writing anything
-    if json_out:
-        write_output(json_out, result.to_json() + "\n")
-    if report_out:
-        write_output(report_out, report)
+    texts = {}
+    if "--json" in outputs:
+        texts["--json"] = result.to_json() + "\n"
+    if "--report" in outputs:
+        texts["--report"] = result.report_html()
+    outputs.write(texts)
 
 
-def _floats(name, values):
-    """Numbers from repeated options, each possibly a comma-separated list."""
-    numbers = []
-    for value in values:
-        for item in str(value).split(","):
+def _numbers(positive):
+    """A click callback: finite numbers from repeated options, each possibly comma-separated.
+
+    ``positive``: each must be > 0 (else >= 0).  A bad item is a usage error naming the option.
+    """
+    def parse(ctx, param, values):
+        numbers = []
+        for item in (item.strip() for value in values for item in str(value).split(",")):
             try:
-                numbers.append(float(item))
+                number = float(item)
             except ValueError:
-                raise ValueError(f"--{name}: not a number: {item!r}") from None
-    if not numbers:
-        raise ValueError(f"--{name}: give at least one value")
-    return numbers
+                raise click.BadParameter(f"not a number: {item!r}") from None
+            if not math.isfinite(number) or number < 0.0 or (positive and number == 0.0):
+                raise click.BadParameter(f"must be {'> 0' if positive else '>= 0'} and finite, got {item}")
+            numbers.append(number)
+        return numbers
+    return parse
 
 
 @main.command("df")
 @click.option("--rig", "rig_file", required=True, type=click.Path(dir_okay=False), help="Rig file (TOML).")
-@click.option("--model", "model_name", default=None, metavar="NAME",
+@click.option("--model", "model_name", default=None, type=_MODEL,
               help="Torque law (default: the rig's [model] backlash).")
-@click.option("--amplitude", "amplitudes", multiple=True, required=True, metavar="A",
-              help="Amplitude of theta_d, rad; repeat or comma-separate for several.")
-@click.option("--omega", "omegas", multiple=True, required=True, metavar="W",
-              help="Angular frequency, rad/s; repeat or comma-separate for several.")
-@click.option("--bias", type=float, default=0.0, show_default=True, help="Mean of theta_d, rad.")
+@click.option("--amplitude", "amplitudes", multiple=True, required=True, metavar="A", callback=_numbers(True),
+              help="Amplitude of theta_d, rad, > 0; repeat or comma-separate for several.")
+@click.option("--omega", "omegas", multiple=True, required=True, metavar="W", callback=_numbers(False),
+              help="Angular frequency, rad/s, >= 0; repeat or comma-separate for several.")
+@click.option("--bias", type=_FINITE, default=0.0, show_default=True, help="Mean of theta_d, rad.")
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="Write the table as JSON.")
 def describing(rig_file, model_name, amplitudes, omegas, bias, json_out):
     """Describing function N(A, w, bias) of a torque law: gain and phase.
@@ -188,14 +220,13 @@ def describing(rig_file, model_name, amplitudes, omegas, bias, json_out):
     """
     import json
 
-    import numpy as np
-
     from .config import load_rig
     from .describing import describing_function_grid
 
+    outputs = Outputs({"--json": json_out})
     rig = load_rig(rig_file)
     model = rig.make_model(model_name)
-    result = describing_function_grid(model, _floats("amplitude", amplitudes), _floats("omega", omegas), bias)
+    result = describing_function_grid(model, amplitudes, omegas, bias)
     rows = []
     for i, amplitude in enumerate(result.amplitude):
         for j, omega in enumerate(result.omega):
@@ -203,9 +234,7 @@ def describing(rig_file, model_name, amplitudes, omegas, bias, json_out):
                 "amplitude": float(amplitude), "omega": float(omega),
                 "gain": float(result.gain[i, j]), "phase_deg": float(result.phase_deg[i, j]),
                 "real": float(result.N[i, j].real), "imag": float(result.N[i, j].imag),
-                # round-off of a symmetric law's zero mean is printed as 0
-                "mean_torque": float(np.where(abs(result.mean_torque[i, j]) < 1e-12 * model.stiffness
-                                              * model.half_gap, 0.0, result.mean_torque[i, j])),
+                "mean_torque": float(result.mean_torque[i, j]),
             })
     click.echo(f"describing function of {model.name} (k = {model.stiffness:g} N m/rad, c = {model.damping:g} "
                f"N m s/rad, alpha = {model.half_gap:g} rad, bias = {bias:g} rad)")
@@ -215,6 +244,5 @@ def describing(rig_file, model_name, amplitudes, omegas, bias, json_out):
         rate = model.damping * row["omega"] / model.stiffness
         click.echo(f"{row['amplitude']:12.6g} {row['omega']:12.6g} {row['amplitude'] / model.half_gap:9.4g} "
                    f"{rate:9.3g} {row['gain']:15.8g} {row['phase_deg']:12.6f} {row['mean_torque']:13.6g}")
-    if json_out:
-        payload = {"model": model.name, "rig": str(rig_file), "bias": bias, "points": rows}
-        write_output(json_out, json.dumps(payload, indent=2) + "\n")
+    payload = {"model": model.name, "rig": str(rig_file), "bias": bias, "points": rows}
+    outputs.write({"--json": json.dumps(payload, indent=2) + "\n"})

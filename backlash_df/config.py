@@ -28,6 +28,33 @@
 
 Every problem is reported as one line naming the file and the key, raised as
 :class:`RigError` (a ``ValueError``).
+
+**Accepted ranges.**  Values must be finite; the signs are fixed by the physics (inertias, stiffness,
+gap, gains and time constants positive or zero, a load torque of either sign).
+Beyond that, each value must lie in a range (:data:`RANGES`) wide enough for
+every real drive, from a miniature servo (rotor inertia ~1e-7 kg m^2) to a wind
+turbine or rolling mill (load inertia ~1e8 kg m^2, shaft stiffness ~1e10 N m/rad),
+and narrow enough that the analysis stays in floating point: a shaft mode of
+w = sqrt(k / J) <= 1e11 rad/s, a total play below one turn, a dead time below 10 s.
+A value outside its range is refused with the key, the value and the range (a
+value of 1e300 is a typing error, not a drive).
+
+=============================  ====================  ==========================================
+key                            range                 why
+=============================  ====================  ==========================================
+motor_inertia, load_inertia    [1e-10, 1e10] kg m^2  miniature motors to wind-turbine rotors
+stiffness                      [1e-6, 1e12] N m/rad  torsion springs to the stiffest drive trains
+damping                        [0, 1e12] N m s/rad   as the stiffness, times 1 s
+half_gap                       [1e-9, pi] rad        the total play 2 alpha is below one turn
+rubber_thickness               [0, 2 half_gap] rad   the rubber band lies inside the gap (28)
+gear_ratio                     [1e-4, 1e5]           motor turns per load turn, gear-ups included
+kp                             (0, 1e10] N m s/rad   the loop gain kp / J of any drive above
+ti                             [1e-6, 1e6] s         integral action from microseconds to days
+speed_filter, torque_lag       [0, 100] s            first-order lags
+delay                          [0, 10] s             dead time of a speed loop
+[load] torque                  [-1e9, 1e9] N m       load torque of either sign
+[load] coulomb                 [0, 1e9] N m          Coulomb friction of the driven machine
+=============================  ====================  ==========================================
 """
 
 import dataclasses
@@ -37,7 +64,7 @@ from pathlib import Path
 
 from .models import MODEL_NAMES, make_model
 
-__all__ = ["Plant", "Controller", "Load", "Rig", "RigError", "load_rig", "rig_from_dict"]
+__all__ = ["Plant", "Controller", "Load", "Rig", "RigError", "RANGES", "load_rig", "rig_from_dict"]
 
 
 class RigError(ValueError):
@@ -103,8 +130,16 @@ class Rig:
     source: str = "<dict>"
 
     def make_model(self, name=None):
-        """The rig's shaft as a torque law (default: the ``[model] backlash`` name)."""
-        return make_model(name or self.model, **self.plant.shaft)
+        """The rig's shaft as a torque law (default: the ``[model] backlash`` name).
+
+        Raises
+        ------
+        RigError
+            ``rubber`` on a rig without ``rubber_thickness``: with beta = 0 the
+            rubber law (40) is the phase plane law (23), and a result labelled
+            ``rubber`` would silently be that one.
+        """
+        return _model(self.source, self.plant, name or self.model)
 
     def require_controller(self):
         """The controller, or a :class:`RigError` saying the rig has none."""
@@ -115,6 +150,24 @@ class Rig:
 
 _POSITIVE = {"motor_inertia", "load_inertia", "stiffness", "half_gap", "kp", "ti", "gear_ratio"}
 _SIGNED = {"torque"}  # may be negative: a load torque acts in either direction
+
+#: Accepted range of each rig value: (low, high, unit); see the module notes.
+RANGES = {
+    "motor_inertia": (1e-10, 1e10, "kg m^2"),
+    "load_inertia": (1e-10, 1e10, "kg m^2"),
+    "stiffness": (1e-6, 1e12, "N m/rad"),
+    "damping": (0.0, 1e12, "N m s/rad"),
+    "half_gap": (1e-9, math.pi, "rad"),
+    "rubber_thickness": (0.0, 2.0 * math.pi, "rad"),
+    "gear_ratio": (1e-4, 1e5, ""),
+    "kp": (0.0, 1e10, "N m s/rad"),
+    "ti": (1e-6, 1e6, "s"),
+    "speed_filter": (0.0, 100.0, "s"),
+    "torque_lag": (0.0, 100.0, "s"),
+    "delay": (0.0, 10.0, "s"),
+    "torque": (-1e9, 1e9, "N m"),
+    "coulomb": (0.0, 1e9, "N m"),
+}
 _TABLES = {"plant": Plant, "controller": Controller, "load": Load, "model": None}
 
 
@@ -129,6 +182,10 @@ def _number(source, table, key, value):
         raise RigError(f"{where} must be > 0, got {value!r}")
     if value < 0.0 and key not in _SIGNED:
         raise RigError(f"{where} must be >= 0, got {value!r}")
+    low, high, unit = RANGES[key]
+    if not low <= value <= high:
+        unit = f" {unit}" if unit else ""
+        raise RigError(f"{where} = {value:g}{unit} is outside the accepted range [{low:g}, {high:g}]{unit}")
     return value
 
 
@@ -152,6 +209,17 @@ def _table(source, data, name, cls):
         else:
             values[key] = _number(source, name, key, value)
     return cls(**values)
+
+
+def _model(source, plant, name):
+    """The torque law ``name`` on ``plant``'s shaft, or a :class:`RigError` naming ``source``."""
+    if name == "rubber" and plant.rubber_thickness == 0.0:
+        raise RigError(f"{source}: model 'rubber' needs [plant] rubber_thickness > 0 (beta, rad); with beta = 0 "
+                       f"the rubber law (40) is the phase plane law (23): set beta or choose 'phase-plane'")
+    try:
+        return make_model(name, **plant.shaft)
+    except ValueError as error:
+        raise RigError(f"{source}: [plant] {error}") from None
 
 
 def rig_from_dict(data, source="<dict>"):
@@ -181,10 +249,7 @@ def rig_from_dict(data, source="<dict>"):
         model = section.get("backlash", model)
         if model not in MODEL_NAMES:
             raise RigError(f"{source}: [model] backlash: unknown model {model!r}; choose one of: {', '.join(MODEL_NAMES)}")
-    try:
-        make_model(model, **plant.shaft)
-    except ValueError as error:
-        raise RigError(f"{source}: [plant] {error}") from None
+    _model(source, plant, model)
     return Rig(plant=plant, controller=controller, load=load, model=model, source=source)
 
 
@@ -203,8 +268,9 @@ def load_rig(path):
     Raises
     ------
     RigError
-        Missing file, malformed TOML, unknown or missing keys, values negative or
-        non-finite: one line naming the file and the key.
+        Missing file, not UTF-8, malformed TOML, unknown or missing keys, values
+        negative, non-finite or outside :data:`RANGES`, ``rubber`` without
+        ``rubber_thickness``: one line naming the file and the key.
 
     Examples
     --------
@@ -230,6 +296,9 @@ def load_rig(path):
         text = path.read_text(encoding="utf-8")
     except OSError as error:
         raise RigError(f"{path}: cannot read rig file ({error.strerror})") from None
+    except UnicodeDecodeError as error:
+        raise RigError(f"{path}: not a UTF-8 text file (byte 0x{error.object[error.start]:02x} at offset "
+                       f"{error.start}); save the rig file as UTF-8") from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:

@@ -1,13 +1,23 @@
-"""Self-contained HTML reports: figures inline, no external files or scripts.
+"""What users read: self-contained HTML reports and the files the command line writes.
 
-Shared by ``backlash-df predict --report`` and ``backlash-df diagnose --report``.
+Reports have their figures inline and no external files or scripts; they are
+shared by ``backlash-df predict --report`` and ``backlash-df diagnose --report``.
+Output files go through :class:`Outputs`: every path is checked before anything
+is computed, and a command writes all its files or none.
 """
 
 import base64
+import contextlib
 import html
 import io
+import os
+import re
+import stat
+import sys
+import tempfile
+from pathlib import Path
 
-__all__ = ["figure_html", "table_html", "html_page"]
+__all__ = ["figure_png", "figure_html", "table_html", "html_page", "Outputs", "check_output_path", "write_output"]
 
 _STYLE = """
 body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 60em; color: #222; }
@@ -21,14 +31,19 @@ figcaption { font-size: 0.9em; color: #555; }
 """
 
 
-def figure_html(fig, caption="", dpi=110):
-    """A matplotlib figure as an inline PNG ``<figure>`` element; closes the figure."""
+def figure_png(fig, dpi=110):
+    """A matplotlib figure as PNG bytes (tight bounding box); closes the figure."""
     import matplotlib.pyplot as plt
 
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", dpi=dpi, bbox_inches="tight")
     plt.close(fig)
-    data = base64.b64encode(buffer.getvalue()).decode("ascii")
+    return buffer.getvalue()
+
+
+def figure_html(fig, caption="", dpi=110):
+    """A matplotlib figure as an inline PNG ``<figure>`` element; closes the figure."""
+    data = base64.b64encode(figure_png(fig, dpi)).decode("ascii")
     alt = html.escape(caption or "figure")
     caption_html = f"<figcaption>{html.escape(caption)}</figcaption>" if caption else ""
     return f'<figure><img alt="{alt}" src="data:image/png;base64,{data}">{caption_html}</figure>'
@@ -53,3 +68,184 @@ def html_page(title, sections):
         f"<title>{html.escape(title)}</title><style>{_STYLE}</style></head>\n"
         f"<body><h1>{html.escape(title)}</h1>\n" + "\n".join(parts) + "\n</body></html>\n"
     )
+
+
+# --------------------------------------------------------------------------- output files
+
+
+def check_output_path(path, option="output"):
+    """Check that ``path`` can be written, before anything is computed.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write.  A symbolic link is followed (``/dev/stdout`` works);
+        an existing device or pipe is written as it is.
+    option : str
+        The option or argument that named the path, for the message.
+
+    Raises
+    ------
+    ValueError
+        One line naming ``option`` and ``path``: a directory, a missing or
+        unwritable parent directory, or an existing file that cannot be written.
+    """
+    where = f"{option} {path}"
+    if _descriptor(path) is not None:
+        try:
+            os.fstat(_descriptor(path))
+        except OSError:
+            raise ValueError(f"{where}: no such open file descriptor") from None
+        return
+    target, stream = _target(path)
+    if target.is_dir():
+        raise ValueError(f"{where}: is a directory, give a file name")
+    if stream:
+        if not os.access(target, os.W_OK):
+            raise ValueError(f"{where}: cannot write to it (permission denied)")
+        return
+    parent = target.parent
+    if not parent.is_dir():
+        raise ValueError(f"{where}: directory {Path(path).parent} does not exist")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise ValueError(f"{where}: directory {Path(path).parent} is not writable")
+    if target.exists() and not os.access(target, os.W_OK):
+        raise ValueError(f"{where}: file exists and is not writable")
+
+
+_STANDARD_STREAMS = {"/dev/stdin": 0, "/dev/stdout": 1, "/dev/stderr": 2}
+_FD_PATH = re.compile(r"/(?:dev/fd|proc/self/fd)/(\d+)")
+
+
+def _descriptor(path):
+    """The open file descriptor that ``/dev/stdout``, ``/dev/fd/N`` or ``/proc/self/fd/N`` names, or None."""
+    name = os.path.abspath(path)
+    match = _FD_PATH.fullmatch(name)
+    return int(match[1]) if match else _STANDARD_STREAMS.get(name)
+
+
+def _target(path):
+    """The file ``path`` names, and whether it is a stream.
+
+    A symbolic link is followed to the file it names (written through, not
+    replaced).  An existing device or pipe is a stream, kept as given and
+    written in place.
+    """
+    path = Path(path)
+    if path.exists() and not path.is_file() and not path.is_dir():
+        return path, True
+    return Path(os.path.realpath(path)), False
+
+
+def _new_file_mode(target):
+    """Mode of a file that ``open`` would create (umask applied) or that exists already."""
+    if target.exists():
+        return stat.S_IMODE(target.stat().st_mode)
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
+
+
+def _write_descriptor(fd, data):
+    """Write to an open descriptor: stdout and stderr through Python's streams (in order
+    with what the command printed), others directly."""
+    stream = {1: sys.stdout, 2: sys.stderr}.get(fd)
+    if stream is None:
+        os.write(fd, data if isinstance(data, bytes) else data.encode("utf-8"))
+    elif isinstance(data, bytes):
+        stream.flush()
+        stream.buffer.write(data)
+        stream.buffer.flush()
+    else:
+        stream.write(data)
+        stream.flush()
+
+
+def write_output(path, data):
+    """Write ``data`` (str or bytes) to ``path``; a reader never sees half a file.
+
+    A regular file is written to a temporary file beside it and renamed into
+    place, with the mode ``open`` would give it (the umask applies; an existing
+    file keeps its mode).  A symbolic link is written through, not replaced; a
+    device or pipe is written directly; ``/dev/stdout``, ``/dev/stderr`` and
+    ``/dev/fd/N`` write to the process's open descriptor.
+    """
+    if _descriptor(path) is not None:
+        _write_descriptor(_descriptor(path), data)
+        return
+    target, stream = _target(path)
+    mode = "wb" if isinstance(data, bytes) else "w"
+    encoding = None if isinstance(data, bytes) else "utf-8"
+    if stream:
+        with open(target, mode, encoding=encoding) as handle:
+            handle.write(data)
+        return
+    file_mode = _new_file_mode(target)
+    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.")
+    try:
+        with os.fdopen(fd, mode, encoding=encoding) as handle:
+            handle.write(data)
+        os.chmod(tmp, file_mode)
+        os.replace(tmp, target)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+class Outputs:
+    """The output files of one command: checked first, then all written or none.
+
+    Parameters
+    ----------
+    paths : dict of str to path or None
+        Option name (``"--json"``) to path; ``None`` entries (option not given)
+        are skipped.
+
+    Raises
+    ------
+    ValueError
+        A path that cannot be written (:func:`check_output_path`), or one file
+        named by two options.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> outputs = Outputs({"--json": folder / "a.json", "--report": None})
+    >>> outputs.write({"--json": "{}"})
+    >>> (folder / "a.json").read_text()
+    '{}'
+    """
+
+    def __init__(self, paths):
+        self.paths = {option: path for option, path in paths.items() if path is not None}
+        seen = {}
+        for option, path in self.paths.items():
+            check_output_path(path, option)
+            target, stream = _target(path)
+            if target in seen and not stream and _descriptor(path) is None:
+                raise ValueError(f"{option} {path}: same file as {seen[target]}")
+            seen[target] = option
+
+    def __contains__(self, option):
+        return option in self.paths
+
+    def write(self, texts):
+        """Write ``texts[option]`` to each option's path; on a failure remove what this call wrote.
+
+        Build every text before calling: nothing is computed between two writes.
+        """
+        written = []
+        for option, path in self.paths.items():
+            existed = os.path.exists(path)
+            try:
+                write_output(path, texts[option])
+            except OSError as error:
+                for done in written:
+                    with contextlib.suppress(OSError):
+                        os.unlink(done)
+                raise ValueError(f"{option} {path}: cannot write ({error.strerror}); "
+                                 f"the files written before it were removed") from None
+            if not existed:
+                written.append(path)

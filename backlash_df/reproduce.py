@@ -38,14 +38,12 @@ import dataclasses
 import io
 import json
 import math
-import os
-import tempfile
-from pathlib import Path
 
 import numpy as np
 
 from .config import Plant
 from .models import exact_step, make_model, mode_torque
+from .report import figure_png, write_output
 from .simulate import simulate_two_mass
 
 __all__ = [
@@ -564,18 +562,5 @@ def figure2_summary(maps):
 
 
 def save_figure(fig, path):
-    """Write a matplotlib figure as PNG atomically (a reader never sees half a file)."""
-    import matplotlib.pyplot as plt
-
-    path = Path(path)
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=120)
-    plt.close(fig)
-    fd, tmp = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".", prefix=f".{path.name}.")
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(buffer.getvalue())
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise
+    """Write a matplotlib figure as PNG atomically (a reader never sees half a file); closes it."""
+    write_output(path, figure_png(fig, dpi=120))

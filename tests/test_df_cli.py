@@ -49,10 +49,10 @@ def test_json_holds_every_combination_and_matches_the_closed_form(rig, tmp_path)
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["--amplitude", "-0.1", "--omega", "10"], "amplitude must be > 0"),
-        (["--amplitude", "0.1", "--omega", "-10"], "omega must be >= 0"),
-        (["--amplitude", "abc", "--omega", "10"], "--amplitude: not a number"),
-        (["--model", "hysteresis", "--amplitude", "0.1", "--omega", "10"], "unknown model 'hysteresis'"),
+        (["--amplitude", "-0.1", "--omega", "10"], "'--amplitude': must be > 0"),
+        (["--amplitude", "0.1", "--omega", "-10"], "'--omega': must be >= 0"),
+        (["--amplitude", "abc", "--omega", "10"], "'--amplitude': not a number"),
+        (["--model", "hysteresis", "--amplitude", "0.1", "--omega", "10"], "'hysteresis' is not one of"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_code_2(rig, tmp_path, args, message):

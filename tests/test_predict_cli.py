@@ -35,7 +35,7 @@ def run(tmp_path, text, *args):
         (GOOD.replace('feedback = "load"', 'feedback = "both"'), (), ["[controller] feedback"]),
         (GOOD.replace("half_gap = 0.05", "half_gap = 0.05\n[[oops"), (), ["malformed TOML"]),
         (GOOD.split("[controller]")[0], (), ["no [controller] table"]),
-        (GOOD, ("--model", "coulomb"), ["--model", "unknown model 'coulomb'"]),
+        (GOOD, ("--model", "coulomb"), ["'--model'", "'coulomb' is not one of", "phase-plane"]),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(tmp_path, text, args, words):
@@ -43,7 +43,7 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, text, args, words):
     assert result.exit_code == 2
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("backlash-df: error:")
-    assert str(path) in lines[0]
+    assert str(path) in lines[0] or args  # a bad option is named instead of the file
     for word in words:
         assert word in lines[0]
 
