@@ -1,11 +1,13 @@
 """Measurement files: reflection through the gear, the measured twist, one-line errors."""
 
 import codecs
+import importlib.util
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from backlash_df.config import Plant
+from backlash_df.config import Plant, load_rig
 from backlash_df.identify import load_measurements, measurements_from_arrays, write_measurements
 from backlash_df.identify.measurements import MAX_DECIMATED_INTERVAL, MIN_SAMPLES
 from backlash_df.simulate import simulate_two_mass
@@ -261,3 +263,37 @@ def test_extra_columns_are_ignored_even_text(tmp_path):
     loaded = load_measurements(path)
     assert list(loaded.columns()) == list(columns)
     np.testing.assert_array_equal(loaded.motor_angle, columns["motor_angle"])
+
+
+# ---- the real record: KUKA KR300 axis 1 (examples/kuka)
+
+KUKA = Path(__file__).resolve().parent.parent / "examples" / "kuka"
+
+
+def _converter():
+    spec = importlib.util.spec_from_file_location("convert_kuka", KUKA / "convert_kuka.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_kuka_csv_is_the_converted_mat_record(tmp_path):
+    _converter().main([str(KUKA / "record_A.mat"), str(tmp_path / "axis1.csv")])
+    assert (tmp_path / "axis1.csv").read_bytes() == (KUKA / "kuka_axis1.csv").read_bytes()
+
+
+def test_kuka_record_reflected_through_the_rig_gear_ratio():
+    rig = load_rig(KUKA / "kuka_rig.toml")
+    record = load_measurements(KUKA / "kuka_axis1.csv", gear_ratio=rig.plant.gear_ratio)
+    record.check_gear_ratio(rig.plant.gear_ratio)
+    assert record.n_samples == 2501 and record.dt == pytest.approx(0.004, rel=1e-6)
+    # two independent encoders: reflected through 1798/7, the motor turns with the link (a stiff gear),
+    # least-squares slope 1 to 0.1 % in speed and in angle, and to 2.5 % RMS sample by sample
+    speed_slope = np.dot(record.motor_speed, record.load_speed) / np.dot(record.load_speed, record.load_speed)
+    angle_slope = np.polyfit(record.load_angle, record.motor_angle, 1)[0]
+    assert speed_slope == pytest.approx(1.0, abs=1e-3) and angle_slope == pytest.approx(1.0, abs=1e-3)
+    rms = np.sqrt(np.mean((record.motor_speed - record.load_speed) ** 2)) / np.sqrt(np.mean(record.load_speed ** 2))
+    assert rms < 0.025
+    # the measured twist: positive offset of the encoders' zeros, elastic part a fraction of a mrad
+    twist = record.twist
+    assert 0.0 < twist.min() and np.ptp(twist) < 3e-3
