@@ -151,6 +151,9 @@ class LimitCyclePrediction:
 
     model: str
     cycles: tuple
+    verdict : LoopVerdict or None
+        After :func:`backlash_df.verdict.judge`: no oscillation, limit cycle,
+        bistable, unstable or undetermined, with its evidence.
     near_misses: tuple
     amplitude_range: tuple
     omega_range: tuple
@@ -159,6 +162,7 @@ class LimitCyclePrediction:
     describing: object = dataclasses.field(repr=False, default=None)
     half_gap: float = dataclasses.field(repr=False, default=0.0)
 
+    verdict: object = None
     @property
     def stable_cycles(self):
         """The cycles Loeb's criterion calls stable (those a simulation can show)."""
