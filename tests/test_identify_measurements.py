@@ -223,6 +223,13 @@ def test_file_that_is_not_utf8_is_named(tmp_path):
     assert "\n" not in str(info.value)
 
 
+def test_header_without_rows(tmp_path):
+    path = tmp_path / "empty.csv"
+    path.write_text("time,motor_torque,motor_speed\n")
+    with pytest.raises(ValueError, match=f"empty.csv: only 0 samples; a diagnosis needs at least {MIN_SAMPLES}"):
+        load_measurements(path)
+
+
 def test_unreadable_file(tmp_path):
     with pytest.raises(ValueError, match=r"absent.csv: cannot read measurement file \(No such file"):
         load_measurements(tmp_path / "absent.csv")

@@ -446,8 +446,10 @@ def _read_columns(path):
         known = [name for name in REQUIRED_COLUMNS + OPTIONAL_COLUMNS if name in header]
         try:
             with warnings.catch_warnings():
-                warnings.simplefilter("ignore")  # "input contained no data": too few samples, said below
+                warnings.simplefilter("ignore")  # "input contained no data"
                 table = np.loadtxt(handle, delimiter=",", comments=None, ndmin=2, dtype=float)
+            if table.size == 0:  # a header without rows: too few samples, said below
+                table = np.empty((0, len(header)))
             return {name: table[:, header.index(name)] for name in known}
         except ValueError:  # a bad cell, a short row, a text column: find and name it
             handle.seek(0)
