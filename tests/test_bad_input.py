@@ -1,0 +1,401 @@
+"""A corpus of bad inputs and output paths for every command.
+
+Each bad case must end with exit code 2 and ONE line on the terminal,
+``backlash-df: error: ...``, naming the file, key or option and the problem; no
+traceback, and no output file left behind.  Output paths are checked before any
+computation (the heavy stages are replaced by a function that fails the test if
+it is reached).  Accepted inputs exit 0, and the files written honour the umask
+and symbolic links.  Most cases run in-process through click's ``CliRunner``; a
+few run the installed console script.
+"""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+import backlash_df.identify
+import backlash_df.limit_cycles
+import backlash_df.reproduce
+from backlash_df.cli import main
+from backlash_df.report import Outputs
+
+RIG = """
+[plant]
+motor_inertia = 0.4
+load_inertia = 5.6
+stiffness = 5895.0
+damping = 3.0
+half_gap = 0.05
+
+[controller]
+feedback = "load"
+kp = 30.0
+ti = 0.5
+speed_filter = 0.002
+delay = 0.0
+"""
+
+CSV = "time,motor_torque,motor_speed\n" + "".join(f"{0.001 * i:.3f},{(-1) ** i},{0.1 * i}\n" for i in range(50))
+
+
+def _never(*args, **kwargs):
+    raise AssertionError("computation reached although the input is bad")
+
+
+@pytest.fixture
+def work(tmp_path, monkeypatch):
+    """A scratch directory holding rig.toml and data.csv, as the working directory."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "rig.toml").write_text(RIG)
+    (tmp_path / "data.csv").write_text(CSV)
+    (tmp_path / "folder").mkdir()
+    return tmp_path
+
+
+@pytest.fixture
+def no_computation(monkeypatch):
+    """Fail the test if a command gets as far as its heavy stage."""
+    monkeypatch.setattr(backlash_df.limit_cycles, "predict_limit_cycles", _never)
+    monkeypatch.setattr(backlash_df.identify, "diagnose", _never)
+    monkeypatch.setattr(backlash_df.reproduce, "table1", _never)
+    monkeypatch.setattr(backlash_df.reproduce, "compare_torques", _never)
+    monkeypatch.setattr(backlash_df.reproduce, "figure2_maps", _never)
+
+
+def rig_with(old, new):
+    """The good rig with one line replaced."""
+    assert old in RIG
+    return RIG.replace(old, new)
+
+
+def assert_refused(result, words, folder):
+    """Exit 2, one ``backlash-df: error:`` line holding every word, no traceback, no new file."""
+    assert result.exit_code == 2, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1, result.output
+    assert lines[0].startswith("backlash-df: error: "), lines[0]
+    assert "Traceback" not in result.output
+    for word in words:
+        assert word in lines[0], (word, lines[0])
+    left = sorted(path.name for path in folder.rglob("*") if path.name not in {"rig.toml", "data.csv", "folder"})
+    assert left == [], left
+
+
+# --------------------------------------------------------------------------- rig files
+
+RIG_CASES = {
+    "empty file": ("", ["rig.toml", "missing table [plant]"]),
+    "malformed TOML": (RIG + "\n[plant\n", ["rig.toml", "malformed TOML"]),
+    "duplicate key": (rig_with("kp = 30.0", "kp = 30.0\nkp = 31.0"), ["rig.toml", "malformed TOML"]),
+    "unknown table": (RIG + "\n[extras]\nx = 1\n", ["rig.toml", "unknown table [extras]"]),
+    "plant not a table": ("plant = 1\n", ["rig.toml", "[plant] must be a table"]),
+    "unknown plant key": (rig_with("half_gap = 0.05", "half_gap = 0.05\nbacklash = 0.1"),
+                          ["rig.toml", "unknown key [plant] backlash"]),
+    "unknown controller key": (rig_with("kp = 30.0", "kp = 30.0\ngain = 2.0"), ["unknown key [controller] gain"]),
+    "missing stiffness": (rig_with("stiffness = 5895.0", ""), ["missing key [plant] stiffness"]),
+    "missing kp": (rig_with("kp = 30.0", ""), ["missing key [controller] kp"]),
+    "negative inertia": (rig_with("motor_inertia = 0.4", "motor_inertia = -0.4"),
+                         ["[plant] motor_inertia", "must be > 0"]),
+    "zero stiffness": (rig_with("stiffness = 5895.0", "stiffness = 0.0"), ["[plant] stiffness", "must be > 0"]),
+    "negative damping": (rig_with("damping = 3.0", "damping = -3.0"), ["[plant] damping", "must be >= 0"]),
+    "nan damping": (rig_with("damping = 3.0", "damping = nan"), ["[plant] damping", "must be finite"]),
+    "inf stiffness": (rig_with("stiffness = 5895.0", "stiffness = inf"), ["[plant] stiffness", "must be finite"]),
+    "string kp": (rig_with("kp = 30.0", 'kp = "fast"'), ["[controller] kp", "must be a number"]),
+    "boolean ti": (rig_with("ti = 0.5", "ti = true"), ["[controller] ti", "must be a number"]),
+    "stiffness 1e300": (rig_with("stiffness = 5895.0", "stiffness = 1e300"),
+                        ["[plant] stiffness = 1e+300", "outside the accepted range [1e-06, 1e+12]"]),
+    "kp 1e300": (rig_with("kp = 30.0", "kp = 1e300"), ["[controller] kp = 1e+300", "outside the accepted range"]),
+    "motor inertia 1e-300": (rig_with("motor_inertia = 0.4", "motor_inertia = 1e-300"),
+                             ["[plant] motor_inertia = 1e-300", "[1e-10, 1e+10] kg m^2"]),
+    "load inertia 1e30": (rig_with("load_inertia = 5.6", "load_inertia = 1e30"), ["[plant] load_inertia = 1e+30"]),
+    "half gap 1e300": (rig_with("half_gap = 0.05", "half_gap = 1e300"), ["[plant] half_gap = 1e+300", "rad"]),
+    "half gap 4 rad": (rig_with("half_gap = 0.05", "half_gap = 4.0"), ["[plant] half_gap = 4", "3.14159"]),
+    "delay 1e300": (rig_with("delay = 0.0", "delay = 1e300"), ["[controller] delay = 1e+300", "[0, 10] s"]),
+    "ti 1e-300": (rig_with("ti = 0.5", "ti = 1e-300"), ["[controller] ti = 1e-300"]),
+    "speed filter 1e9": (rig_with("speed_filter = 0.002", "speed_filter = 1e9"), ["[controller] speed_filter"]),
+    "gear ratio 1e9": (rig_with("half_gap = 0.05", "half_gap = 0.05\ngear_ratio = 1e9"), ["[plant] gear_ratio = 1e+09"]),
+    "load torque 1e300": (RIG + "\n[load]\ntorque = -1e300\n", ["[load] torque = -1e+300"]),
+    "rubber wider than the gap": (rig_with("half_gap = 0.05", "half_gap = 0.05\nrubber_thickness = 0.5"),
+                                  ["[plant] rubber_thickness must be <="]),
+    "bad feedback": (rig_with('feedback = "load"', 'feedback = "both"'), ["[controller] feedback"]),
+    "unknown model": (RIG + '\n[model]\nbacklash = "hysteresis"\n', ["[model] backlash", "'hysteresis'"]),
+    "rubber model without beta": (RIG + '\n[model]\nbacklash = "rubber"\n',
+                                  ["rig.toml", "'rubber' needs [plant] rubber_thickness > 0"]),
+    "unknown model key": (RIG + '\n[model]\nlaw = "rubber"\n', ["unknown key [model] law"]),
+    "no controller": (RIG.split("[controller]")[0], ["rig.toml", "no [controller] table"]),
+}
+
+
+@pytest.mark.parametrize("text, words", list(RIG_CASES.values()), ids=list(RIG_CASES))
+def test_predict_refuses_bad_rig(work, no_computation, text, words):
+    (work / "rig.toml").write_text(text)
+    result = CliRunner().invoke(main, ["predict", "rig.toml", "--json", "out.json", "--report", "out.html"])
+    assert_refused(result, words, work)
+
+
+def test_rig_not_utf8_names_the_file(work, no_computation):
+    (work / "rig.toml").write_bytes(RIG.replace("load_inertia", "# Tr\xe4gheit\nload_inertia").encode("latin-1"))
+    result = CliRunner().invoke(main, ["df", "--rig", "rig.toml", "--amplitude", "0.1", "--omega", "10"])
+    assert_refused(result, ["rig.toml", "not a UTF-8 text file", "0xe4"], work)
+
+
+@pytest.mark.parametrize("args, words", [
+    (["predict", "nope.toml"], ["nope.toml", "cannot read rig file"]),
+    (["predict", "folder"], ["folder", "is a directory"]),
+    (["predict", "rig.toml", "--model", "rubber"], ["rig.toml", "'rubber' needs [plant] rubber_thickness"]),
+    (["predict", "rig.toml", "--model", "coulomb"], ["'--model'", "'coulomb' is not one of", "phase-plane"]),
+    (["predict"], ["Missing argument 'RIG_FILE'"]),
+    (["predict", "rig.toml", "--jsn", "x.json"], ["No such option", "--jsn"]),
+], ids=["missing rig", "rig is a directory", "rubber without beta", "unknown model", "no rig", "misspelt option"])
+def test_predict_refuses_bad_arguments(work, no_computation, args, words):
+    assert_refused(CliRunner().invoke(main, args), words, work)
+
+
+# --------------------------------------------------------------------------- output paths
+
+OUTPUT_CASES = {
+    "predict json in missing dir": (["predict", "rig.toml", "--json", "nodir/out.json"],
+                                    ["--json nodir/out.json", "directory nodir does not exist"]),
+    "predict json under /proc": (["predict", "rig.toml", "--json", "/proc/x/out.json"],
+                                 ["--json /proc/x/out.json", "does not exist"]),
+    "predict report in missing dir": (["predict", "rig.toml", "--report", "nodir/r.html"],
+                                      ["--report nodir/r.html", "does not exist"]),
+    "predict json fine, report not": (["predict", "rig.toml", "--json", "out.json", "--report", "nodir/out.html"],
+                                      ["--report nodir/out.html"]),
+    "predict json is a directory": (["predict", "rig.toml", "--json", "folder"], ["'--json'", "is a directory"]),
+    "predict one file twice": (["predict", "rig.toml", "--json", "out.txt", "--report", "out.txt"],
+                               ["--report out.txt", "same file as --json"]),
+    "df json in missing dir": (["df", "--rig", "rig.toml", "--amplitude", "0.1", "--omega", "10", "--json",
+                                "nodir/df.json"], ["--json nodir/df.json", "does not exist"]),
+    "df json is a directory": (["df", "--rig", "rig.toml", "--amplitude", "0.1", "--omega", "10", "--json",
+                                "folder"], ["'--json'", "is a directory"]),
+    "diagnose json in missing dir": (["diagnose", "data.csv", "--rig", "rig.toml", "--json", "nodir/d.json"],
+                                     ["--json nodir/d.json", "does not exist"]),
+    "diagnose report in missing dir": (["diagnose", "data.csv", "--rig", "rig.toml", "--json", "d.json",
+                                        "--report", "nodir/d.html"], ["--report nodir/d.html"]),
+    "reproduce table in missing dir": (["reproduce", "table1", "--out", "nodir/t.csv"],
+                                       ["--out nodir/t.csv", "does not exist"]),
+    "reproduce figure in missing dir": (["reproduce", "figure2", "--out", "nodir/f.png"], ["--out nodir/f.png"]),
+    "reproduce table as text": (["reproduce", "table1", "--out", "t.txt"], ["--out t.txt", ".csv or .json"]),
+    "reproduce figure as csv": (["reproduce", "figure3", "--out", "f.csv"], ["--out f.csv", ".png"]),
+    "reproduce out is a directory": (["reproduce", "figure2", "--out", "folder"], ["'--out'", "is a directory"]),
+}
+
+
+@pytest.mark.parametrize("args, words", list(OUTPUT_CASES.values()), ids=list(OUTPUT_CASES))
+def test_bad_output_path_is_refused_before_computing(work, no_computation, args, words):
+    assert_refused(CliRunner().invoke(main, args), words, work)
+
+
+def test_a_failed_write_removes_the_files_written_before_it(tmp_path):
+    """All or none: the second file cannot be written (a directory appeared), so the first goes too."""
+    first, second = tmp_path / "a.json", tmp_path / "b.html"
+    outputs = Outputs({"--json": first, "--report": second})
+    second.mkdir()
+    with pytest.raises(ValueError, match=r"--report .*b\.html: cannot write .*removed"):
+        outputs.write({"--json": "{}", "--report": "<html></html>"})
+    assert not first.exists()
+    assert [path.name for path in tmp_path.iterdir()] == ["b.html"]
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root may write anywhere")
+def test_unwritable_directory_is_refused(work, no_computation):
+    locked = work / "folder"
+    locked.chmod(0o500)
+    try:
+        result = CliRunner().invoke(main, ["predict", "rig.toml", "--json", "folder/out.json"])
+    finally:
+        locked.chmod(0o700)
+    assert_refused(result, ["--json folder/out.json", "not writable"], work)
+
+
+# --------------------------------------------------------------------------- df
+
+DF_CASES = {
+    "negative amplitude": (["--amplitude", "-0.1", "--omega", "10"], ["'--amplitude'", "must be > 0", "-0.1"]),
+    "zero amplitude": (["--amplitude", "0", "--omega", "10"], ["'--amplitude'", "must be > 0"]),
+    "amplitude not a number": (["--amplitude", "abc", "--omega", "10"], ["'--amplitude'", "not a number: 'abc'"]),
+    "empty item in a list": (["--amplitude", "0.1,", "--omega", "10"], ["'--amplitude'", "not a number: ''"]),
+    "nan amplitude": (["--amplitude", "nan", "--omega", "10"], ["'--amplitude'", "finite"]),
+    "inf amplitude": (["--amplitude", "0.1,inf", "--omega", "10"], ["'--amplitude'", "finite"]),
+    "negative omega": (["--amplitude", "0.1", "--omega", "-10"], ["'--omega'", "must be >= 0"]),
+    "nan omega": (["--amplitude", "0.1", "--omega", "nan"], ["'--omega'", "finite"]),
+    "nan bias": (["--amplitude", "0.1", "--omega", "10", "--bias", "nan"], ["'--bias'", "finite"]),
+    "bias not a number": (["--amplitude", "0.1", "--omega", "10", "--bias", "x"], ["'--bias'"]),
+    "unknown model": (["--model", "hysteresis", "--amplitude", "0.1", "--omega", "10"],
+                      ["'--model'", "'hysteresis' is not one of"]),
+    "rubber without beta": (["--model", "rubber", "--amplitude", "0.1", "--omega", "10"],
+                            ["rig.toml", "rubber_thickness > 0"]),
+    "no amplitude": (["--omega", "10"], ["Missing option '--amplitude'"]),
+    "misspelt option": (["--amplitude", "0.1", "--omeg", "10"], ["No such option '--omeg'"]),
+}
+
+
+@pytest.mark.parametrize("args, words", list(DF_CASES.values()), ids=list(DF_CASES))
+def test_df_refuses_bad_arguments(work, args, words):
+    result = CliRunner().invoke(main, ["df", "--rig", "rig.toml", *args, "--json", "df.json"])
+    assert_refused(result, words, work)
+
+
+def test_df_without_rig_and_with_a_bad_rig(work):
+    assert_refused(CliRunner().invoke(main, ["df", "--amplitude", "0.1", "--omega", "1"]),
+                   ["Missing option '--rig'"], work)
+    (work / "rig.toml").write_text(rig_with("stiffness = 5895.0", "stiffness = 1e300"))
+    result = CliRunner().invoke(main, ["df", "--rig", "rig.toml", "--amplitude", "0.1", "--omega", "1"])
+    assert_refused(result, ["rig.toml", "[plant] stiffness"], work)
+
+
+# --------------------------------------------------------------------------- reproduce
+
+REPRODUCE_CASES = {
+    "unknown figure": (["table2"], ["'table2' is not one of", "figure2"]),
+    "unknown setup": (["figure3", "--setup", "foo"], ["'--setup'", "'foo' is not one of", "one-sided"]),
+    "unknown driver": (["table1", "--driver", "rubber"], ["'--driver'", "'rubber' is not one of"]),
+    "zero step": (["table1", "--dt", "0"], ["'--dt'", "0<x<0.001"]),
+    "large step": (["table1", "--dt", "1"], ["'--dt'"]),
+    "negative step": (["figure3", "--dt", "-1e-5"], ["'--dt'"]),
+    "step not a number": (["figure3", "--dt", "fast"], ["'--dt'", "not a valid float"]),
+}
+
+
+@pytest.mark.parametrize("args, words", list(REPRODUCE_CASES.values()), ids=list(REPRODUCE_CASES))
+def test_reproduce_refuses_bad_arguments(work, no_computation, args, words):
+    assert_refused(CliRunner().invoke(main, ["reproduce", *args]), words, work)
+
+
+def test_reproduce_step_that_does_not_divide_the_cycle(work):
+    """3e-5 s does not divide the 0.05 s disturbance cycle: refused before the simulation."""
+    result = CliRunner().invoke(main, ["reproduce", "figure3", "--dt", "3e-5", "--out", "f.png"])
+    assert_refused(result, ["dt = 3e-05 s must divide the cycle"], work)
+
+
+# --------------------------------------------------------------------------- diagnose
+
+DIAGNOSE_CASES = {
+    "missing csv": ("nope.csv", None, ["nope.csv", "cannot read measurement file"]),
+    "missing column": ("time,motor_torque\n0,1\n0.001,2\n", None, ["data.csv", "motor_speed"]),
+    "empty csv": ("", None, ["data.csv"]),
+    "text in a number column": (CSV.replace("0.002,1,", "0.002,one,"), None, ["data.csv", "one"]),
+    "missing rig": (CSV, "nope.toml", ["nope.toml", "cannot read rig file"]),
+    "bad rig": (CSV, rig_with("damping = 3.0", "damping = -1.0"), ["rig.toml", "[plant] damping"]),
+}
+
+
+@pytest.mark.parametrize("csv_text, rig, words", list(DIAGNOSE_CASES.values()), ids=list(DIAGNOSE_CASES))
+def test_diagnose_refuses_bad_input(work, no_computation, csv_text, rig, words):
+    data = "data.csv"
+    if csv_text == "nope.csv":
+        data = csv_text
+    else:
+        (work / "data.csv").write_text(csv_text)
+    rig_file = "rig.toml"
+    if rig == "nope.toml":
+        rig_file = rig
+    elif rig is not None:
+        (work / "rig.toml").write_text(rig)
+    result = CliRunner().invoke(main, ["diagnose", data, "--rig", rig_file, "--json", "d.json", "--report", "d.html"])
+    assert_refused(result, words, work)
+
+
+def test_diagnose_without_rig(work, no_computation):
+    assert_refused(CliRunner().invoke(main, ["diagnose", "data.csv"]), ["Missing option '--rig'"], work)
+
+
+def test_unknown_command_and_option(work):
+    assert_refused(CliRunner().invoke(main, ["simulate", "rig.toml"]), ["No such command 'simulate'"], work)
+    assert_refused(CliRunner().invoke(main, ["--verbose"]), ["No such option", "--verbose"], work)
+
+
+# --------------------------------------------------------------------------- accepted inputs
+
+
+def test_accepted_df_run_writes_json_with_the_umask(work):
+    """Exit 0, no warning (numba's FutureWarning on broadcast views is gone), mode 0644 under umask 022."""
+    old = os.umask(0o022)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            result = CliRunner().invoke(main, ["df", "--rig", "rig.toml", "--amplitude", "0.06,0.1", "--omega",
+                                               "10", "--json", "df.json"])
+    finally:
+        os.umask(old)
+    assert result.exit_code == 0, result.output
+    assert len(json.loads((work / "df.json").read_text())["points"]) == 2
+    assert (work / "df.json").stat().st_mode & 0o777 == 0o644
+
+
+def test_a_symlink_given_as_output_is_written_through(work):
+    (work / "link.json").symlink_to(work / "folder" / "target.json")
+    result = CliRunner().invoke(main, ["df", "--rig", "rig.toml", "--amplitude", "0.1", "--omega", "10",
+                                       "--json", "link.json"])
+    assert result.exit_code == 0, result.output
+    assert (work / "link.json").is_symlink()
+    assert json.loads((work / "folder" / "target.json").read_text())["model"] == "phase-plane"
+
+
+def test_an_existing_file_keeps_its_mode(work):
+    out = work / "df.json"
+    out.write_text("old")
+    out.chmod(0o640)
+    result = CliRunner().invoke(main, ["df", "--rig", "rig.toml", "--amplitude", "0.1", "--omega", "10",
+                                       "--json", "df.json"])
+    assert result.exit_code == 0, result.output
+    assert out.stat().st_mode & 0o777 == 0o640 and out.read_text().startswith("{")
+
+
+def test_reproduce_figure2_writes_a_png(work):
+    result = CliRunner().invoke(main, ["reproduce", "figure2", "--out", "f.png"])
+    assert result.exit_code == 0, result.output
+    assert (work / "f.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+# --------------------------------------------------------------------------- real processes
+
+
+def _script():
+    script = shutil.which("backlash-df", path=str(Path(sys.executable).parent)) or shutil.which("backlash-df")
+    assert script, "the backlash-df console script is not installed (pip install -e .)"
+    return script
+
+
+def _run(work, *args, umask=None):
+    return subprocess.run([_script(), *args], cwd=work, capture_output=True, text=True, timeout=300,
+                          stdin=subprocess.DEVNULL, env={**os.environ, "MPLBACKEND": "Agg"},
+                          preexec_fn=None if umask is None else (lambda: os.umask(umask)))
+
+
+def test_process_json_to_dev_stdout_follows_the_table(work):
+    result = _run(work, "df", "--rig", "rig.toml", "--amplitude", "0.1", "--omega", "10", "--json", "/dev/stdout")
+    assert result.returncode == 0, result.stderr
+    assert result.stderr == ""  # no warnings either
+    table, _, payload = result.stdout.partition("{")
+    assert "gain (N m/rad)" in table
+    assert json.loads("{" + payload)["points"][0]["amplitude"] == 0.1
+
+
+@pytest.mark.parametrize("args, words", [
+    (["predict", "rig.toml", "--json", "nodir/x.json"], ["--json nodir/x.json"]),
+    (["df", "--rig", "rig.toml", "--amplitude", "-0.1", "--omega", "1"], ["'--amplitude'"]),
+    (["reproduce", "table1", "--out", "nodir/t.csv"], ["--out nodir/t.csv"]),
+], ids=["predict output path", "df usage error", "reproduce output path"])
+def test_process_error_is_one_line_on_stderr(work, args, words):
+    result = _run(work, *args)
+    assert result.returncode == 2
+    assert result.stdout == ""
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("backlash-df: error: "), result.stderr
+    assert all(word in lines[0] for word in words)
+
+
+def test_process_file_honours_a_strict_umask(work):
+    result = _run(work, "df", "--rig", "rig.toml", "--amplitude", "0.1", "--omega", "10", "--json", "df.json",
+                  umask=0o077)
+    assert result.returncode == 0, result.stderr
+    assert (work / "df.json").stat().st_mode & 0o777 == 0o600
