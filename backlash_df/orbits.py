@@ -1,0 +1,888 @@
+"""Exact periodic orbits of the closed loop by shooting, and their Floquet multipliers.
+
+The describing function keeps the first harmonic only; this module finds the limit
+cycle of the piecewise-smooth loop itself.  With the shaft torque of a piecewise-affine
+law (dead-zone (24)-(25), (26), (27), phase plane (19)-(23), exact model (1), (14))
+the PI loop of :mod:`backlash_df.loops` is affine inside each *mode* (left contact,
+free, right contact)::
+
+    dq/dt = F_m q + g_m,   m in {-1, 0, +1}
+
+so the flow inside a mode is a matrix exponential of the augmented matrix
+``[[F_m, g_m], [0, 0]]``.  A mode is left when its boundary function crosses zero
+(contact: ``theta_d = alpha`` for (24)-(26), ``theta_d = theta*(dtheta_d)`` for (19)-(23),
+``theta_b = alpha`` for (14); release: ``theta_d = alpha`` for (24)-(26),
+``k (theta_d - alpha) + c dtheta_d = 0`` (Theorem 1) otherwise); each crossing is
+bracketed on a sampled trajectory and located by the Illinois method on the exact
+flow down to round-off, the state kept just past the boundary.
+
+**Shooting.**  The unknowns are the state ``q0`` on the Poincare section
+``dtheta_d = 0`` (an extremum of theta_d) and the period ``T``; the residual
+
+    R(q0, T) = [phi_T(q0) - q0,  c_v q0]
+
+vanishes on a periodic orbit.  Its Jacobian ``[[M - I, f(phi_T(q0))], [c_v, 0]]`` is
+exact: the monodromy matrix ``M`` is the product of the mode flows ``exp(F_m t_m)``
+and, at every contact and release, the saltation matrix (Aizerman and Gantmacher,
+1958; Leine and Nijmeijer, 2004)
+
+    S = I + (f_after - f_before) n^T / (n^T f_before),
+
+with ``n`` the gradient of the boundary function at the event.  Damped Newton
+(Armijo backtracking on the scaled residual) solves ``R = 0``.  The eigenvalues of
+``M`` are the Floquet multipliers: one is the trivial 1 of an autonomous orbit
+(its distance from 1 measures the accuracy), the orbit is stable iff all others
+lie inside the unit circle.  Unstable orbits are found as easily as stable ones.
+
+**State.**  ``q`` holds the loop states of
+:meth:`~backlash_df.loops.DriveLoop.linear_part` (``theta_d``, ``motor_speed``,
+``load_speed``, ``integrator``, then ``filtered_speed`` and ``motor_torque`` if
+present), then ``pade_1 .. pade_p`` if the loop has a dead time, then ``theta_b``
+for the exact model.  :func:`orbit_state_names` lists them.
+
+**Dead time.**  An orbit with a delay is infinite-dimensional; here the delay of the
+measured speed is replaced by its Pade approximant of order ``pade_order``
+(``control.pade``, default 6) in the loop's state space.  At ``w tau`` below 0.5 the
+order-6 approximant's phase error is below 1e-12 rad; the tests check convergence
+with the order.
+
+**Not supported** (a ``ValueError`` says so): the rubber law with ``beta > 0`` (36)
+and elasto-backlash (torque not affine inside a mode), Coulomb friction of the load.
+A constant load torque (``[load] torque``) is included.
+"""
+
+import dataclasses
+import functools
+import math
+
+import control as ct
+import numpy as np
+from scipy import linalg, optimize
+
+from .loops import drive_loop
+from .models import (
+    DAMPED_DEAD_ZONE,
+    DEAD_ZONE,
+    EXACT,
+    PHASE_PLANE,
+    REVISED_DEAD_ZONE,
+    RUBBER,
+    BacklashModel,
+    theta_star,
+)
+from .simulate import _ladder
+
+__all__ = [
+    "OrbitNotFound",
+    "PeriodicOrbit",
+    "periodic_orbit",
+    "orbit_residual",
+    "orbit_state_names",
+    "exact_orbits",
+]
+
+DEFAULT_PADE_ORDER = 6
+_SAMPLES_PER_PERIOD = 128  # at least this many boundary checks per period
+_RATE_STEP = 0.25  # and a sample step of at most 0.25 / (fastest loop eigenvalue)
+_MAX_EVENTS = 200  # per period: more means chattering (Zeno) or a lost orbit
+_LEVELS = 53  # dyadic rungs step 2^-j: events located to 2^-52 of a sample step
+
+
+class OrbitNotFound(ValueError):
+    """Shooting found no periodic orbit; the message says why in one line."""
+
+
+# --------------------------------------------------------------------------- boundary functions
+
+
+def _theta_star_slope(v, k, c, alpha):
+    """``theta*(v)`` (19) and ``d theta*/dv`` for ``v > 0``.
+
+    With ``s = c v / k``, ``K = 2 alpha / s`` and ``u = (alpha - theta*) / s`` the root of
+    ``u - ln u = 1 + K``: ``d theta*/ds = -u (1 + K / (1 - u))`` (implicit derivative).
+    """
+    ts = float(theta_star(v, k, c, alpha))
+    s = c * v / k
+    u = (alpha - ts) / s
+    if u <= 0.0:  # theta* rounds to alpha: the slope is below 1e-19
+        return ts, 0.0
+    return ts, -(c / k) * u * (1.0 + (2.0 * alpha / s) / (1.0 - u))
+
+
+def _contact_right(law, k, c, alpha, x, v, tb):
+    """Right-contact function (>= 0: contact made) and its gradient in (theta_d, dtheta_d, theta_b)."""
+    if law in (DEAD_ZONE, DAMPED_DEAD_ZONE):
+        return x - alpha, (1.0, 0.0, 0.0)
+    if law == REVISED_DEAD_ZONE:
+        return k * (x - alpha) + c * v, (k, c, 0.0)
+    if law == EXACT:
+        return tb - alpha, (0.0, 0.0, 1.0)
+    if v > 0.0:  # phase plane: theta_d reaches theta*(v), (19)-(20)
+        ts, slope = _theta_star_slope(v, k, c, alpha)
+        return x - ts, (1.0, -slope, 0.0)
+    return x - alpha + c * v / k, (1.0, c / k, 0.0)  # (20) second line, divided by k
+
+
+def _release_right(law, k, c, alpha, x, v, tb):
+    """Right-contact holding function (< 0: released) and its gradient."""
+    if law in (DEAD_ZONE, DAMPED_DEAD_ZONE):
+        return x - alpha, (1.0, 0.0, 0.0)
+    return k * (x - alpha) + c * v, (k, c, 0.0)  # Theorem 1
+
+
+def _mirrored(function, law, k, c, alpha, x, v, tb):
+    """The left-side function of a right-side one by the odd symmetry of the laws."""
+    value, grad = function(law, k, c, alpha, -x, -v, -tb)
+    return value, tuple(-g for g in grad)
+
+
+# --------------------------------------------------------------------------- the loop as a hybrid system
+
+
+class _Loop:
+    """The closed loop as a piecewise-affine hybrid system (see module docs)."""
+
+    def __init__(self, rig, model, pade_order):
+        law = model.law
+        if law == RUBBER and model.rubber_thickness == 0.0:
+            law = PHASE_PLANE
+        if law == EXACT and model.damping == 0.0:
+            law = DEAD_ZONE  # Remark 2: the exact model without damping is the dead-zone
+        if law not in (DEAD_ZONE, DAMPED_DEAD_ZONE, REVISED_DEAD_ZONE, PHASE_PLANE, EXACT):
+            raise ValueError(
+                f"periodic_orbit: the {model.name!r} law is not affine inside its modes; "
+                "exact orbits need dead-zone, damped-dead-zone, revised-dead-zone, phase-plane, exact "
+                "(or rubber with rubber_thickness = 0)"
+            )
+        if getattr(rig.load, "coulomb", 0.0) > 0.0:
+            raise ValueError("periodic_orbit: [load] coulomb > 0 is not supported (Coulomb friction is not affine)")
+        self.model, self.law = model, law
+        self.k, self.c, self.alpha = model.stiffness, model.damping, model.half_gap
+        part = drive_loop(rig).linear_part()
+        a_mat, b, c_x, c_v, names = part.A, part.b, part.c_x, part.c_v, list(part.state_names)
+        self.pade_order = 0
+        if part.delay > 0.0:
+            a_mat, b, c_x, c_v, names = self._with_pade(part, int(pade_order))
+            self.pade_order = int(pade_order)
+        n_loop = a_mat.shape[0]
+        self.fast = max(np.abs(np.linalg.eigvals(
+            part.A + np.outer(part.b, self.k * part.c_x + self.c * part.c_v))).max(), 1e-3)
+        if part.delay > 0.0:
+            self.fast = max(self.fast, 1.0 / part.delay)
+        self.exact = law == EXACT
+        size = n_loop + (1 if self.exact else 0)
+        self.size = size
+        self.names = tuple(names + (["theta_b"] if self.exact else []))
+        pad = np.zeros(size - n_loop)
+        self.c_x = np.concatenate([c_x, pad])
+        self.c_v = np.concatenate([c_v, pad])
+        self.e_b = np.zeros(size)
+        if self.exact:
+            self.e_b[-1] = 1.0
+        self.rows = np.array([self.c_x, self.c_v, self.e_b])  # (theta_d, dtheta_d, theta_b) = rows @ q
+        fixed = np.zeros(size)
+        fixed[:part.A.shape[0]] = part.E[:, 1] * rig.load.torque  # constant load torque; reference r = 0
+        b_full = np.concatenate([b, pad])
+        self.b = b_full
+        self.damping_on = 0.0 if law == DEAD_ZONE else self.c
+        self.aug = {}
+        for side in (-1, 0, 1):
+            m_aug = np.zeros((size + 1, size + 1))
+            m_aug[:n_loop, :n_loop] = a_mat
+            m_aug[:size, size] = fixed
+            if side:
+                m_aug[:size, :size] += np.outer(b_full, self.k * self.c_x + self.damping_on * self.c_v)
+                m_aug[:size, size] -= b_full * self.k * side * self.alpha
+            elif self.exact:  # (12), (14): d theta_b/dt = (k / c) (theta_d - theta_b) + dtheta_d
+                m_aug[-2, :size] = self.k / self.c * self.c_x + self.c_v
+                m_aug[-2, -2] = -self.k / self.c
+            self.aug[side] = m_aug
+        self.free_matrix = a_mat
+        self._ladders = {}
+
+    @staticmethod
+    def _with_pade(part, order):
+        """Loop matrices with the measured speed's delay replaced by a Pade approximant of ``order``."""
+        if order < 1:
+            raise ValueError(f"pade_order must be an integer >= 1, got {order!r}")
+        num, den = ct.pade(part.delay, order)
+        pade = ct.ss(ct.tf(num, den))
+        ap, bp, cp, dp = (np.asarray(m, dtype=float) for m in (pade.A, pade.B, pade.C, pade.D))
+        n, p = part.A.shape[0], ap.shape[0]
+        a_mat = np.zeros((n + p, n + p))
+        a_mat[:n, :n] = part.A + dp[0, 0] * np.outer(part.e_d, part.d)
+        a_mat[:n, n:] = np.outer(part.e_d, cp[0])
+        a_mat[n:, :n] = np.outer(bp[:, 0], part.d)
+        a_mat[n:, n:] = ap
+        pad = np.zeros(p)
+        names = list(part.state_names) + [f"pade_{i + 1}" for i in range(p)]
+        return a_mat, np.concatenate([part.b, pad]), np.concatenate([part.c_x, pad]), np.concatenate([part.c_v, pad]), names
+
+    # ------------------------------------------------------------------ modes and boundaries
+
+    def field(self, mode, q):
+        """Vector field dq/dt of ``mode`` at ``q``."""
+        m_aug = self.aug[mode]
+        return m_aug[:-1, :-1] @ q + m_aug[:-1, -1]
+
+    def torque(self, mode, q):
+        """Shaft torque (N m) of ``mode`` at ``q``."""
+        if mode == 0:
+            return 0.0
+        x, v = self.c_x @ q, self.c_v @ q
+        return self.k * (x - mode * self.alpha) + self.damping_on * v
+
+    def exits(self, mode, q):
+        """``[(target mode, value, gradient in q)]``: the mode is left where a value turns > 0."""
+        x, v, tb = self.rows @ q
+        args = (self.law, self.k, self.c, self.alpha, x, v, tb)
+        if mode == 0:
+            items = [(1, _contact_right(*args)), (-1, _mirrored(_contact_right, *args))]
+            return [(target, value, np.asarray(grad) @ self.rows) for target, (value, grad) in items]
+        value, grad = _release_right(*args) if mode > 0 else _mirrored(_release_right, *args)
+        return [(0, -value, -(np.asarray(grad) @ self.rows))]
+
+    def initial_mode(self, q):
+        """Mode at a section point: contact where both the contact and the holding function allow it."""
+        x, v, tb = self.rows @ q
+        args = (self.law, self.k, self.c, self.alpha, x, v, tb)
+        if _contact_right(*args)[0] >= 0.0 and _release_right(*args)[0] >= 0.0:
+            return 1
+        if _mirrored(_contact_right, *args)[0] >= 0.0 and _mirrored(_release_right, *args)[0] >= 0.0:
+            return -1
+        return 0
+
+    def after_event(self, target, q):
+        """State continued into ``target``: the exact model's theta_b set on its stop (14)."""
+        if self.exact and target != 0:
+            q = q.copy()
+            q[-1] = target * self.alpha
+        return q
+
+    def saltation(self, before, after, q, normal):
+        """Saltation matrix ``I + (f_after - f_before) n^T / (n^T f_before)`` at an event."""
+        f_before, f_after = self.field(before, q), self.field(after, q)
+        rate = normal @ f_before
+        if not abs(rate) > 1e-300:
+            raise OrbitNotFound("the orbit grazes a contact boundary (zero crossing rate): no saltation matrix")
+        return np.eye(self.size) + np.outer(f_after - f_before, normal) / rate
+
+    # ------------------------------------------------------------------ flow
+
+    def ladder(self, mode, step):
+        """``exp(M_m step 2^-j)``, ``j < 53``, of the augmented mode matrix (cached per step)."""
+        key = (mode, step)
+        if key not in self._ladders:
+            self._ladders[key] = _ladder(self.aug[mode], step, _LEVELS)
+        return self._ladders[key]
+
+    @staticmethod
+    def dyadic(ladder, fraction):
+        """``exp(M step fraction)`` for ``0 <= fraction <= 1`` as a product of ladder rungs (error < 2^-53 step)."""
+        out = np.eye(ladder.shape[1])
+        for j in range(ladder.shape[0]):
+            s = 0.5**j
+            if fraction >= s:
+                out = ladder[j] @ out
+                fraction -= s
+        return out
+
+    @staticmethod
+    def apply(e_aug, q):
+        """Affine map of an augmented transition matrix on a state."""
+        return e_aug[:-1, :-1] @ q + e_aug[:-1, -1]
+
+    def segment(self, mode, q, remaining, step, track):
+        """Flow in ``mode`` for at most ``remaining`` s; returns (duration, state, exit or None, transition).
+
+        Samples every ``step`` s check the exit functions (and, by a cubic Hermite
+        fit of value and slope, an excursion past zero between two samples); a
+        crossing is located by :meth:`locate`.  ``track`` collects ``(t, q, mode)``;
+        the transition is the augmented matrix from ``q`` to the returned state.
+        """
+        ladder = self.ladder(mode, step)
+        transition = np.eye(self.size + 1)
+        t_a, q_a, ex_a = 0.0, q, self.exits(mode, q)
+        if any(value > 0.0 for _, value, _ in ex_a):
+            raise OrbitNotFound("a mode is left as soon as it is entered (chattering at a contact boundary)")
+        while True:
+            last = t_a + step >= remaining
+            e_step = self.dyadic(ladder, (remaining - t_a) / step) if last else ladder[0]
+            q_b = self.apply(e_step, q_a)
+            ex_b = self.exits(mode, q_b)
+            width = (remaining - t_a) / step if last else 1.0
+            crossing = self._crossing(mode, ladder, q_a, ex_a, ex_b, e_step, width, step)
+            if crossing is not None:
+                index, hi, e_hi = crossing
+                fraction, e_event = self.locate(ladder, q_a, lambda z: self.exits(mode, z)[index][1], hi, e_hi)
+                return t_a + fraction * step, self.apply(e_event, q_a), (ex_a[index][0], index), e_event @ transition
+            transition = e_step @ transition
+            if track is not None:
+                track.append((t_a + (remaining - t_a if last else step), q_b, mode))
+            if last:
+                return remaining, q_b, None, transition
+            t_a, q_a, ex_a = t_a + step, q_b, ex_b
+
+    def _crossing(self, mode, ladder, q_a, ex_a, ex_b, e_step, width, step):
+        """(exit index, bracket end as a fraction of the step, its transition) of the first exit crossed, or None.
+
+        The sample interval is ``width`` steps of ``step`` s (1, or less at the end of the flow).
+        """
+        q_b = self.apply(e_step, q_a)
+        length = width * step
+        for index, ((_, v_a, n_a), (_, v_b, n_b)) in enumerate(zip(ex_a, ex_b)):
+            if v_b > 0.0:
+                return index, width, e_step
+            slope_a, slope_b = n_a @ self.field(mode, q_a), n_b @ self.field(mode, q_b)
+            if slope_a > 0.0 > slope_b:  # a maximum between the samples: could it peek past zero?
+                if _hermite_max(v_a, v_b, slope_a * length, slope_b * length) > 0.25 * min(v_a, v_b):
+                    found = self._excursion(mode, ladder, q_a, index, width)
+                    if found is not None:
+                        return (index, *found)
+        return None
+
+    def _excursion(self, mode, ladder, q_a, index, width):
+        """Where an exit function between two negative samples peaks above zero: (fraction, transition) or None."""
+        def minus(s):
+            return -self.exits(mode, self.apply(self.dyadic(ladder, s), q_a))[index][1]
+
+        best = optimize.minimize_scalar(minus, bounds=(0.0, width), method="bounded", options={"xatol": 1e-12})
+        return (best.x, self.dyadic(ladder, best.x)) if -best.fun > 0.0 else None
+
+    def locate(self, ladder, q_a, value, hi, e_hi):
+        """First crossing of ``value`` (<= 0 at ``q_a``, > 0 at fraction ``hi`` of the step) to round-off.
+
+        Binary search on the dyadic ladder (a rung is kept while ``value`` stays
+        <= 0), as the simulation kernel locates its events; returns the fraction of
+        the step and the transition to the earliest state found past the crossing.
+        """
+        lo, e_lo = 0.0, np.eye(ladder.shape[1])
+        for j in range(1, ladder.shape[0]):
+            s = 0.5**j
+            if lo + s >= hi:
+                continue
+            trial = ladder[j] @ e_lo
+            if value(self.apply(trial, q_a)) > 0.0:
+                hi, e_hi = lo + s, trial
+            else:
+                lo, e_lo = lo + s, trial
+        return hi, e_hi
+
+    def step_for(self, period):
+        """Sample step (s): a power of 2 below ``T / 128`` and ``0.25 / |fastest eigenvalue|``."""
+        return 2.0 ** math.floor(math.log2(min(period / _SAMPLES_PER_PERIOD, _RATE_STEP / self.fast)))
+
+    def period_map(self, q0, period, track=None):
+        """``phi_T(q0)``, the monodromy ``d phi_T / d q0`` and the events; ``track`` collects samples.
+
+        Returns
+        -------
+        q_end : ndarray
+        monodromy : ndarray
+        f_end : ndarray
+            Vector field at ``q_end`` (``d phi_T / dT``).
+        events : list of (time, from mode, to mode)
+        segments : list of (start time, mode, start state, duration)
+        """
+        if not (period > 0.0 and math.isfinite(period)):
+            raise OrbitNotFound(f"the period left the positive reals ({period!r} s)")
+        step = self.step_for(period)
+        q, t, mode = np.asarray(q0, dtype=float), 0.0, self.initial_mode(q0)
+        monodromy = np.eye(self.size)
+        events, segments = [], []
+        if track is not None:
+            track.append((0.0, q, mode))
+        while True:
+            duration, q_end, exit_, transition = self.segment(mode, q, period - t, step, track)
+            segments.append((t, mode, q, duration))
+            monodromy = transition[:-1, :-1] @ monodromy
+            t += duration
+            if exit_ is None:
+                return q_end, monodromy, self.field(mode, q_end), events, segments
+            target, index = exit_
+            normal = self.exits(mode, q_end)[index][2]
+            monodromy = self.saltation(mode, target, q_end, normal) @ monodromy
+            q = self.after_event(target, q_end)
+            events.append((t, mode, target))
+            mode = target
+            if track is not None:
+                track.append((t, q, mode))
+            if len(events) > _MAX_EVENTS:
+                raise OrbitNotFound(f"more than {_MAX_EVENTS} contact events in one period (chattering)")
+
+    def residual(self, unknowns, track=None):
+        """Shooting residual and its exact Jacobian (module docs) at ``unknowns = (q0, T)``."""
+        q0, period = unknowns[:-1], unknowns[-1]
+        q_end, monodromy, f_end, events, segments = self.period_map(q0, period, track)
+        residual = np.concatenate([q_end - q0, [self.c_v @ q0]])
+        jacobian = np.zeros((self.size + 1, self.size + 1))
+        jacobian[:-1, :-1] = monodromy - np.eye(self.size)
+        jacobian[:-1, -1] = f_end
+        jacobian[-1, :-1] = self.c_v
+        return residual, jacobian, monodromy, events, segments
+
+    # ------------------------------------------------------------------ seeds
+
+    def harmonic_seed(self, amplitude, omega, bias):
+        """State on the section (the maximum of theta_d) of ``bias + A sin(w t)`` through the linear part.
+
+        The torque's first harmonic is the one the linear part needs to produce that
+        theta_d; the other states follow from it; the mean state is the loop's
+        equilibrium with theta_d = bias.
+        """
+        n = self.free_matrix.shape[0]
+        a_mat, b, c_x = self.free_matrix, self.b[:n], self.c_x[:n]
+        response = np.linalg.solve(1j * omega * np.eye(n) - a_mat, b)
+        phasor = response * (amplitude / (c_x @ response))
+        border = np.zeros((n + 1, n + 1))
+        border[:n, :n], border[:n, n], border[n, :n] = a_mat, b, c_x
+        rhs = np.concatenate([-self.aug[0][:n, -1], [bias]])
+        mean = np.linalg.lstsq(border, rhs, rcond=None)[0][:n]
+        q = mean + phasor.real  # omega t = pi / 2: theta_d = bias + A, dtheta_d = 0
+        if self.exact:
+            q = np.append(q, math.copysign(self.alpha, amplitude))
+        return q
+
+
+@functools.lru_cache(maxsize=32)
+def _loop(rig, model, pade_order):
+    return _Loop(rig, model, pade_order)
+
+
+def _hermite_max(v0, v1, d0, d1):
+    """Largest value on [0, 1] of the cubic with values v0, v1 and slopes d0, d1 (per unit interval)."""
+    # p(s) = v0 + d0 s + (3 (v1 - v0) - 2 d0 - d1) s^2 + (d0 + d1 - 2 (v1 - v0)) s^3
+    c2 = 3.0 * (v1 - v0) - 2.0 * d0 - d1
+    c3 = d0 + d1 - 2.0 * (v1 - v0)
+    roots = np.roots([3.0 * c3, 2.0 * c2, d0]) if (c3 or c2) else np.array([])
+    points = [0.0, 1.0] + [r.real for r in np.atleast_1d(roots) if abs(r.imag) < 1e-12 and 0.0 < r.real < 1.0]
+    return max(v0 + d0 * s + c2 * s * s + c3 * s**3 for s in points)
+
+
+def _resolve_model(rig, model):
+    return model if isinstance(model, BacklashModel) else rig.make_model(model)
+
+
+# --------------------------------------------------------------------------- results
+
+
+@dataclasses.dataclass(frozen=True, repr=False)
+class PeriodicOrbit:
+    """A periodic orbit of the closed loop, found by shooting, with its Floquet multipliers.
+
+    Attributes
+    ----------
+    period : float
+        T, s.
+    omega : float
+        2 pi / T, rad/s.
+    amplitude : float
+        First-harmonic amplitude of theta_d, ``|2/T int theta_d e^{-j w t} dt|`` (rad):
+        the describing function's ``A``, integrated exactly per mode.
+    peak : float
+        ``max |theta_d - bias|`` over the orbit, rad.
+    bias : float
+        Mean of theta_d over a period, rad.
+    multipliers : ndarray of complex
+        Floquet multipliers, eigenvalues of the monodromy matrix: ``multipliers[0]``
+        is the trivial one (1 for an autonomous orbit; its distance from 1 is an
+        accuracy check), the others by decreasing modulus.
+    stable : bool
+        All non-trivial multipliers inside the unit circle.
+    state : ndarray
+        State on the section ``dtheta_d = 0`` (a maximum or minimum of theta_d),
+        ordered as :func:`orbit_state_names`.
+    residual : float
+        ``max |phi_T(state) - state|`` scaled by each state's range over the orbit.
+    events : tuple of (float, int, int)
+        ``(time after the section in s, mode before, mode after)`` for every contact
+        and release (modes: -1 left contact, 0 free, +1 right contact).
+    model : str
+        Torque-law name.
+    state_names : tuple of str
+    pade_order : int
+        Order of the dead time's Pade approximant (0: no dead time).
+    time, theta_d, dtheta_d, torque : ndarray
+        One period sampled from the section (s, rad, rad/s, N m), for plots.
+    """
+
+    period: float
+    omega: float
+    amplitude: float
+    peak: float
+    bias: float
+    multipliers: np.ndarray
+    stable: bool
+    state: np.ndarray
+    residual: float
+    events: tuple
+    model: str
+    state_names: tuple = ()
+    pade_order: int = 0
+    time: np.ndarray = dataclasses.field(default=None, compare=False)
+    theta_d: np.ndarray = dataclasses.field(default=None, compare=False)
+    dtheta_d: np.ndarray = dataclasses.field(default=None, compare=False)
+    torque: np.ndarray = dataclasses.field(default=None, compare=False)
+
+    @property
+    def max_multiplier(self):
+        """Largest modulus of the non-trivial Floquet multipliers (< 1: stable)."""
+        return float(np.abs(self.multipliers[1:]).max()) if self.multipliers.size > 1 else 0.0
+
+    def __repr__(self):
+        kind = "stable" if self.stable else "unstable"
+        return (f"PeriodicOrbit({self.model}: A={self.amplitude:.6g} rad, peak={self.peak:.6g} rad, "
+                f"omega={self.omega:.6g} rad/s, bias={self.bias:.3g} rad, {kind}, "
+                f"|mu|max={self.max_multiplier:.4g})")
+
+    def to_dict(self):
+        """JSON-ready summary: rad, rad/s, s; multipliers as ``[re, im]`` pairs, the trivial one first."""
+        return {
+            "model": self.model,
+            "amplitude": float(self.amplitude),
+            "peak": float(self.peak),
+            "omega": float(self.omega),
+            "period": float(self.period),
+            "bias": float(self.bias),
+            "stable": bool(self.stable),
+            "max_multiplier": self.max_multiplier,
+            "multipliers": [[float(mu.real), float(mu.imag)] for mu in self.multipliers],
+            "residual": float(self.residual),
+            "events": len(self.events),
+            "pade_order": int(self.pade_order),
+        }
+
+    def plot(self, ax=None):
+        """theta_d and shaft torque over one period, and the orbit in the (theta_d, dtheta_d) plane.
+
+        Parameters
+        ----------
+        ax : sequence of 3 matplotlib axes, optional
+
+        Returns
+        -------
+        ndarray of matplotlib axes
+            ``[theta_d(t), T(t), phase plane]``.
+        """
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            figure = plt.figure(figsize=(10, 4.5))
+            grid = figure.add_gridspec(2, 2)
+            ax = np.array([figure.add_subplot(grid[0, 0]), figure.add_subplot(grid[1, 0]),
+                           figure.add_subplot(grid[:, 1])])
+        ax[0].plot(self.time, self.theta_d)
+        ax[0].set_ylabel("theta_d (rad)")
+        ax[1].plot(self.time, self.torque)
+        ax[1].set_ylabel("shaft torque T (N m)")
+        ax[1].set_xlabel("time from the section (s)")
+        ax[2].plot(self.theta_d, self.dtheta_d)
+        ax[2].set_xlabel("theta_d (rad)")
+        ax[2].set_ylabel("dtheta_d (rad/s)")
+        ax[0].set_title(f"{self.model}: {'stable' if self.stable else 'unstable'} orbit, "
+                        f"T = {self.period:.5g} s")
+        return np.asarray(ax)
+
+
+# --------------------------------------------------------------------------- API
+
+
+def orbit_state_names(rig, model=None, *, pade_order=DEFAULT_PADE_ORDER):
+    """Names of the section state ``q`` of :func:`orbit_residual` and :attr:`PeriodicOrbit.state`.
+
+    Returns
+    -------
+    tuple of str
+        The loop's states, then ``pade_1 ..`` (dead time), then ``theta_b`` (exact model).
+    """
+    return _loop(rig, _resolve_model(rig, model), pade_order).names
+
+
+def orbit_residual(rig, model, unknowns, *, pade_order=DEFAULT_PADE_ORDER):
+    """Shooting residual of a periodic orbit and its exact Jacobian (for continuation).
+
+    Parameters
+    ----------
+    rig : Rig
+    model : str or BacklashModel or None
+        Torque law (``None``: the rig's).
+    unknowns : array_like, shape (n + 1,)
+        Packed ``(q0, T)``: the state ``q0`` on the section, ordered as
+        :func:`orbit_state_names` (n entries), then the period ``T`` (s).
+    pade_order : int
+        Pade order of the dead time (ignored without one).
+
+    Returns
+    -------
+    residual : ndarray, shape (n + 1,)
+        ``[phi_T(q0) - q0, dtheta_d(q0)]``: zero on a periodic orbit whose section
+        point is an extremum of theta_d.
+    jacobian : ndarray, shape (n + 1, n + 1)
+        ``d residual / d unknowns = [[M - I, f(phi_T(q0))], [c_v, 0]]`` with the
+        monodromy ``M`` including the saltation matrices of every event.
+
+    Raises
+    ------
+    OrbitNotFound
+        The flow chatters at a boundary, grazes it, or ``T <= 0``.
+    """
+    loop = _loop(rig, _resolve_model(rig, model), pade_order)
+    unknowns = np.asarray(unknowns, dtype=float)
+    if unknowns.shape != (loop.size + 1,):
+        raise ValueError(f"orbit_residual: unknowns must hold {loop.size} states ({', '.join(loop.names)}) "
+                         f"and the period, got shape {unknowns.shape}")
+    residual, jacobian, *_ = loop.residual(unknowns)
+    return residual, jacobian
+
+
+def _seed_unknowns(loop, seed):
+    """Packed (q0, T) from a seed: LimitCycle, MeasuredCycle, tuple, PeriodicOrbit or SimulationResult."""
+    from .simulate import MeasuredCycle, SimulationResult, measure_limit_cycle
+
+    if isinstance(seed, PeriodicOrbit):
+        if seed.state.shape != (loop.size,):
+            raise ValueError("seed: a PeriodicOrbit of another loop (different states)")
+        return np.append(seed.state, seed.period)
+    if isinstance(seed, SimulationResult):
+        return _simulation_seed(loop, seed, measure_limit_cycle(seed))
+    if isinstance(seed, MeasuredCycle):
+        if not seed.found:
+            raise ValueError(f"seed: the simulation measured no limit cycle ({seed.verdict})")
+        seed = (seed.amplitude, seed.omega, seed.bias)
+    elif hasattr(seed, "amplitude") and hasattr(seed, "omega"):
+        seed = (seed.amplitude, seed.omega, getattr(seed, "bias", 0.0))
+    try:
+        values = [float(value) for value in seed]
+    except (TypeError, ValueError):
+        raise ValueError(f"seed: expected a LimitCycle, (amplitude, omega[, bias]), a PeriodicOrbit or a "
+                         f"SimulationResult, got {seed!r}") from None
+    if len(values) not in (2, 3) or not all(map(math.isfinite, values)) or values[1] <= 0.0:
+        raise ValueError(f"seed: (amplitude rad, omega rad/s > 0[, bias rad]) expected, got {seed!r}")
+    amplitude, omega, bias = (values + [0.0])[:3]
+    return np.append(loop.harmonic_seed(amplitude, omega, bias), 2.0 * math.pi / omega)
+
+
+def _simulation_seed(loop, result, measured):
+    """Section state at the last maximum of theta_d in a simulation; Pade states from the harmonic seed."""
+    if not measured.found:
+        raise ValueError(f"seed: the simulation shows no limit cycle ({measured.verdict})")
+    v = result.dtheta_d
+    tops = np.nonzero((v[:-1] > 0.0) & (v[1:] <= 0.0))[0]
+    i = tops[-1] if abs(v[tops[-1]]) < abs(v[tops[-1] + 1]) else tops[-1] + 1
+    q = loop.harmonic_seed(measured.amplitude, measured.omega, measured.bias)
+    n = result.states.shape[1]
+    q[:n] = result.states[i]
+    if loop.exact:
+        q[-1] = result.theta_b[i]
+    return np.append(q, 2.0 * math.pi / measured.omega)
+
+
+def _scales(loop, track, period):
+    """Scale of each unknown: the state's range over the tracked samples, and the period."""
+    states = np.array([q for _, q, _ in track])
+    scale = np.abs(states).max(axis=0)
+    scale = np.maximum(scale, 1e-9 * max(scale.max(), 1e-300))
+    if loop.exact:
+        scale[-1] = loop.alpha
+    return np.append(scale, period)
+
+
+def _newton(loop, unknowns, tol, max_iter):
+    """Damped Newton on the scaled shooting residual; returns (unknowns, scaled residual, monodromy, events, segments)."""
+    track = []
+    residual, jacobian, monodromy, events, segments = loop.residual(unknowns, track)
+    scale = _scales(loop, track, unknowns[-1])
+    norm = np.abs(residual / scale).max()
+    polished = False
+    for _ in range(max_iter):
+        if norm <= tol and polished:
+            return unknowns, norm, monodromy, events, segments
+        polished = norm <= tol  # one more step once converged: its residual is near round-off
+        try:
+            step = np.linalg.solve(jacobian, -residual)
+        except np.linalg.LinAlgError:
+            raise OrbitNotFound("singular shooting Jacobian (the section is not transversal, or the orbit is degenerate)") from None
+        damping = 1.0
+        while True:
+            trial = unknowns + damping * step
+            try:
+                out = loop.residual(trial)
+                trial_norm = np.abs(out[0] / scale).max()
+            except OrbitNotFound:
+                trial_norm = math.inf
+            if trial_norm < (1.0 - 1e-4 * damping) * norm:
+                break
+            if polished:
+                return unknowns, norm, monodromy, events, segments
+            damping *= 0.5
+            if damping < 1e-6:
+                raise OrbitNotFound(f"Newton stalled at a scaled residual of {norm:.2e}")
+        unknowns, norm = trial, trial_norm
+        residual, jacobian, monodromy, events, segments = out
+    if norm <= tol:
+        return unknowns, norm, monodromy, events, segments
+    raise OrbitNotFound(f"Newton did not reach a scaled residual of {tol:g} in {max_iter} iterations "
+                        f"(last {norm:.2e})")
+
+
+def periodic_orbit(rig, model=None, seed=None, *, tol=1e-10, max_iter=50, pade_order=DEFAULT_PADE_ORDER):
+    """The periodic orbit of the closed loop near a seed, by shooting with an exact Jacobian.
+
+    Parameters
+    ----------
+    rig : Rig
+        Plant, ``[controller]`` and ``[load] torque``.
+    model : str or BacklashModel, optional
+        Torque law (default the rig's); piecewise-affine laws only (module docs).
+    seed : LimitCycle, MeasuredCycle, tuple, PeriodicOrbit or SimulationResult, optional
+        Where to start: a DF cycle of :func:`~backlash_df.predict_limit_cycles`
+        (``amplitude``, ``omega``), ``(amplitude rad, omega rad/s[, bias rad])``, a
+        previous orbit (continuation), or a simulation that settled on a cycle
+        (its last maximum of theta_d).  Default: the first DF cycle of the rig.
+    tol : float
+        Largest ``|phi_T(q0) - q0|`` accepted, relative to each state's range.
+    max_iter : int
+        Newton iterations.
+    pade_order : int
+        Order of the Pade approximant of a dead time (module docs).
+
+    Returns
+    -------
+    PeriodicOrbit
+
+    Raises
+    ------
+    OrbitNotFound
+        Newton fails, or converges to rest (no contact); one line says which.
+    ValueError
+        A law or loop that is not piecewise affine, or a seed that cannot be used.
+
+    Examples
+    --------
+    >>> import backlash_df as bd
+    >>> from backlash_df.orbits import periodic_orbit
+    >>> rig = bd.rig_from_dict({"plant": {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0,
+    ...     "damping": 3.0, "half_gap": 0.05}, "controller": {"kp": 30.0, "ti": 0.5, "speed_filter": 0.002}})
+    >>> orbit = periodic_orbit(rig, "phase-plane", seed=(0.166, 98.7))
+    >>> round(orbit.amplitude, 4), orbit.stable
+    (0.1511, True)
+    """
+    model = _resolve_model(rig, model)
+    loop = _loop(rig, model, pade_order)
+    if seed is None:
+        from .limit_cycles import predict_limit_cycles
+
+        cycles = predict_limit_cycles(rig, model).cycles
+        if not cycles:
+            raise OrbitNotFound(f"no seed: the describing function of {model.name!r} predicts no limit cycle; pass seed=")
+        seed = cycles[0]
+    unknowns, norm, monodromy, events, segments = _newton(loop, _seed_unknowns(loop, seed), tol, max_iter)
+    if not events:
+        raise OrbitNotFound("Newton converged to a motion without shaft contact (rest or drift in the gap)")
+    return _orbit(loop, unknowns, norm, monodromy, events)
+
+
+def _orbit(loop, unknowns, norm, monodromy, events):
+    """Assemble a :class:`PeriodicOrbit` from a converged solution."""
+    q0, period = unknowns[:-1], float(unknowns[-1])
+    track = []
+    _, _, _, _, segments = loop.period_map(q0, period, track)
+    omega = 2.0 * math.pi / period
+    first, mean = _harmonics(loop, segments, omega)
+    time = np.array([t for t, _, _ in track])
+    states = np.array([q for _, q, _ in track])
+    torque = np.array([loop.torque(mode, q) for _, q, mode in track])
+    multipliers = _sorted_multipliers(np.linalg.eigvals(monodromy))
+    return PeriodicOrbit(
+        period=period, omega=omega, amplitude=abs(first), peak=_peak(loop, track, period, mean), bias=mean,
+        multipliers=multipliers, stable=bool(np.all(np.abs(multipliers[1:]) < 1.0)), state=q0.copy(),
+        residual=float(norm), events=tuple((float(t), int(a), int(b)) for t, a, b in events),
+        model=loop.model.name, state_names=loop.names, pade_order=loop.pade_order,
+        time=time, theta_d=states @ loop.c_x, dtheta_d=states @ loop.c_v, torque=torque,
+    )
+
+
+def _sorted_multipliers(values):
+    """The multiplier closest to 1 first, then the others by decreasing modulus."""
+    trivial = int(np.argmin(np.abs(values - 1.0)))
+    rest = np.delete(values, trivial)
+    return np.concatenate([[values[trivial]], rest[np.argsort(-np.abs(rest), kind="stable")]])
+
+
+def _harmonics(loop, segments, omega):
+    """First-harmonic coefficient ``2/T int theta_d e^{-jwt} dt`` and mean of theta_d, exact per segment.
+
+    Per segment, the products ``q (cos wt, sin wt, 1)`` obey the linear system
+    ``M (x) I + I (x) W`` (Kronecker; ``W`` generates the rotation), so their
+    integrals against theta_d are one matrix exponential.
+    """
+    size = loop.size + 1
+    rotation = np.array([[0.0, -omega, 0.0], [omega, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    c_aug = np.append(loop.c_x, 0.0)
+    width = 3 * size
+    integrals = np.zeros(3)
+    for start, mode, q, duration in segments:
+        if duration <= 0.0:
+            continue
+        system = np.zeros((width + 3, width + 3))
+        system[:width, :width] = np.kron(loop.aug[mode], np.eye(3)) + np.kron(np.eye(size), rotation)
+        system[width:, :width] = np.kron(c_aug, np.eye(3))
+        initial = np.concatenate([np.kron(np.append(q, 1.0), [math.cos(omega * start), math.sin(omega * start), 1.0]),
+                                  np.zeros(3)])
+        integrals += (_ladder(system, duration, 1)[0] @ initial)[width:]
+    period = 2.0 * math.pi / omega
+    return 2.0 * (integrals[0] - 1j * integrals[1]) / period, integrals[2] / period
+
+
+def _peak(loop, track, period, mean):
+    """``max |theta_d - mean|``: over the samples and at every zero of dtheta_d, located on the exact flow."""
+    step = loop.step_for(period)
+    best = max(abs(loop.c_x @ q - mean) for _, q, _ in track)
+    for (t_a, q_a, mode), (t_b, q_b, mode_b) in zip(track[:-1], track[1:]):
+        v_a, v_b = loop.c_v @ q_a, loop.c_v @ q_b
+        if mode != mode_b or t_b <= t_a or v_a * v_b >= 0.0:
+            continue
+        ladder = loop.ladder(mode, step)
+        sign = 1.0 if v_b > 0.0 else -1.0
+        fraction = min((t_b - t_a) / step, 1.0)
+        _, e_top = loop.locate(ladder, q_a, lambda z: sign * (loop.c_v @ z), fraction, loop.dyadic(ladder, fraction))
+        best = max(best, abs(loop.c_x @ loop.apply(e_top, q_a) - mean))
+    return float(best)
+
+
+def exact_orbits(rig, prediction, simulated=None, *, pade_order=DEFAULT_PADE_ORDER):
+    """Every distinct periodic orbit found from a prediction's DF cycles and a simulated cycle.
+
+    Parameters
+    ----------
+    rig : Rig
+    prediction : LimitCyclePrediction
+        Its cycles (stable and unstable) seed the shooting with its torque law.
+    simulated : MeasuredCycle or SimulationResult, optional
+        A simulated cycle as a further seed (a state on it for a SimulationResult).
+    pade_order : int
+        As :func:`periodic_orbit`.
+
+    Returns
+    -------
+    list of PeriodicOrbit
+        By increasing amplitude; orbits with periods within 1e-6 and amplitudes
+        within 1e-5 (relative) are one.  Seeds from which shooting fails are skipped.
+    """
+    model = rig.make_model(prediction.model)
+    seeds = list(prediction.cycles)
+    if simulated is not None and (not hasattr(simulated, "found") or simulated.found):
+        seeds.append(simulated)
+    orbits = []
+    for seed in seeds:
+        try:
+            orbit = periodic_orbit(rig, model, seed, pade_order=pade_order)
+        except OrbitNotFound:
+            continue
+        if not any(_same(orbit, other) for other in orbits):
+            orbits.append(orbit)
+    return sorted(orbits, key=lambda orbit: orbit.amplitude)
+
+
+def _same(a, b):
+    return abs(a.period / b.period - 1.0) < 1e-6 and abs(a.amplitude / b.amplitude - 1.0) < 1e-5
