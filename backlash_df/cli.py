@@ -78,14 +78,28 @@ def main():
     """
 
 
+def _echo_table(header, rows):
+    """A plain-text table, columns padded to their widest cell, a blank line after it."""
+    widths = [max(len(str(cell)) for cell in column) for column in zip(header, *rows)]
+    for row in [header] + rows:
+        click.echo("  ".join(str(cell).ljust(width) for cell, width in zip(row, widths)).rstrip())
+    click.echo("")
+
+
 @main.command()
 @click.argument("rig_file", type=click.Path(dir_okay=False))
 @click.option("--model", "models", multiple=True, type=_MODEL,
               help="Torque law to analyse (repeatable; default: the rig's [model] backlash).")
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), help="Write the results as JSON.")
 @click.option("--report", "report_out", type=click.Path(dir_okay=False), help="Write a self-contained HTML report.")
-def predict(rig_file, models, json_out, report_out):
-    """Predict limit cycles of RIG_FILE's PI loop for each model, verified by time simulation."""
+@click.option("--exact", is_flag=True,
+              help="Also find the exact periodic orbits by shooting (amplitude, period, Floquet multipliers).")
+def predict(rig_file, models, json_out, report_out, exact):
+    """Predict limit cycles of RIG_FILE's PI loop for each model, verified by time simulation.
+
+    Each model gets a verdict: no oscillation, limit cycle, bistable, unstable or
+    undetermined, with the stability of the linear loop in contact and open.
+    """
     import html
     import json
 
@@ -93,7 +107,8 @@ def predict(rig_file, models, json_out, report_out):
 
     from .config import load_rig
     from .limit_cycles import predict_limit_cycles, prediction_json, prediction_report, prediction_rows
-    from .limit_cycles import verify_limit_cycles
+    from .limit_cycles import orbit_rows, verdict_rows, verify_limit_cycles
+    from .verdict import judge
 
     outputs = Outputs({"--json": json_out, "--report": report_out})
     rig = load_rig(rig_file)
@@ -104,12 +119,15 @@ def predict(rig_file, models, json_out, report_out):
     rig_text = html.escape(Path(rig_file).read_text(encoding="utf-8")) if "--report" in outputs else ""
     predictions = [predict_limit_cycles(rig, name) for name in models]
     total = sum(max(1, len(p.stable_cycles)) for p in predictions)
-    with tqdm(total=total, desc="simulating", unit="run", file=sys.stderr, leave=False) as bar:
+    with tqdm(total=total + len(predictions), desc="simulating", unit="run", file=sys.stderr, leave=False) as bar:
         predictions = [verify_limit_cycles(rig, p, progress=bar.update) for p in predictions]
-    header, rows = prediction_rows(predictions)
-    widths = [max(len(str(cell)) for cell in column) for column in zip(header, *rows)]
-    for row in [header] + rows:
-        click.echo("  ".join(str(cell).ljust(width) for cell, width in zip(row, widths)).rstrip())
+        predictions = [judge(rig, p, exact=exact) for p in predictions if not bar.update()]
+    for header, rows in (prediction_rows(predictions), verdict_rows(predictions)) + (
+            (orbit_rows(predictions),) if exact else ()):
+        _echo_table(header, rows)
+    for prediction in predictions:
+        note = f" (exact orbits: {prediction.verdict.orbit_note})" if prediction.verdict.orbit_note else ""
+        click.echo(f"{prediction.model}: {prediction.verdict.verdict}: {prediction.verdict.reason}{note}")
     texts = {}
     if "--json" in outputs:
         texts["--json"] = json.dumps(prediction_json(predictions, source=str(rig_file)), indent=2) + "\n"

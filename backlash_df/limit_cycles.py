@@ -47,6 +47,8 @@ __all__ = [
     "prediction_rows",
     "prediction_json",
     "prediction_report",
+    "verdict_rows",
+    "orbit_rows",
 ]
 
 _NEWTON_TOL = 1e-11
@@ -622,17 +624,74 @@ def prediction_rows(predictions):
 
 
 def prediction_json(predictions, source=""):
-    """The ``predict`` JSON of DESIGN.md, with per-model details after ``limit_cycles``."""
+    """The ``predict`` JSON of DESIGN.md: ``limit_cycles``, then per model its verdict and details.
+
+    A ``models`` entry holds ``model``, the verdict fields of
+    :meth:`~backlash_df.verdict.LoopVerdict.to_dict` (``verdict``, ``reason``,
+    ``contact_loop``, ``open_loop``, ``disturbance_to_start``, ... ; ``verdict``
+    is null when none was formed), ``simulated``, ``near_misses`` and the searched box.
+    """
     return {
         "limit_cycles": [entry for prediction in predictions for entry in prediction.to_dicts()],
+def verdict_rows(predictions):
+    """One row per model: verdict, linear stability in contact and open, disturbance that starts hunting.
+
+    Models without a verdict (:func:`backlash_df.verdict.judge` not run) are left out.
+
+    Returns
+    -------
+    header : list of str
+    rows : list of list of str
+    """
+    header = ["model", "verdict", "contact loop (k + c s)", "open loop (T = 0)", "hunts beyond (rad)"]
+    rows = []
+    for prediction in predictions:
+        verdict = prediction.verdict
+        if verdict is None:
+            continue
+        start = "" if verdict.disturbance_to_start is None else (
+            f"{verdict.disturbance_to_start:.4g} ({verdict.disturbance_source})")
+        rows.append([prediction.model, verdict.verdict, verdict.contact_loop.describe(),
+                     verdict.open_loop.describe(), start])
+    return header, rows
+
+
+def orbit_rows(predictions):
+    """One row per exact periodic orbit (:mod:`backlash_df.orbits`) next to the DF cycle it continues.
+
+    The DF error compares the orbit with the predicted cycle of the same
+    stability nearest in amplitude.
+
+    Returns
+    -------
+    header : list of str
+    rows : list of list of str
+    """
+    header = ["model", "A exact (rad)", "peak (rad)", "period (s)", "w (rad/s)", "Floquet", "|mu| max",
+              "A DF (rad)", "A DF error", "w DF error"]
+    rows = []
+    for prediction in predictions:
+        for orbit in () if prediction.verdict is None else prediction.verdict.orbits:
+            same = [c for c in prediction.cycles if c.stable == orbit.stable]
+            df = min(same, key=lambda c: abs(math.log(c.amplitude / orbit.amplitude)), default=None)
+            rows.append([
+                prediction.model, f"{orbit.amplitude:.6g}", f"{orbit.peak:.6g}", f"{orbit.period:.6g}",
+                f"{orbit.omega:.6g}", "stable" if orbit.stable else "unstable", f"{orbit.max_multiplier:.4f}",
+                "" if df is None else f"{df.amplitude:.5g}",
+                "" if df is None else _percent(df.amplitude / orbit.amplitude - 1.0),
+                "" if df is None else _percent(df.omega / orbit.omega - 1.0),
+            ])
+    return header, rows
+
+
         "rig": source,
         "models": [
             {
                 "model": prediction.model,
                 "simulated": None if prediction.simulation is None else prediction.simulation.to_dict(),
-                "verdict": None if prediction.simulation is None else prediction.simulation.verdict,
                 "near_misses": [
                     {"amplitude": m.amplitude, "omega": m.omega, "distance": m.distance}
+                **({"verdict": None} if prediction.verdict is None else prediction.verdict.to_dict()),
                     for m in prediction.near_misses
                 ],
                 "amplitude_range": list(prediction.amplitude_range),
@@ -649,11 +708,16 @@ def prediction_report(predictions, title="Limit-cycle prediction", rig_text=""):
 
     header, rows = prediction_rows(predictions)
     lines = []
+    import html
+
     for prediction in predictions:
         stable = prediction.stable_cycles
         sim = prediction.simulation
         said = f"{len(stable)} stable and {len(prediction.cycles) - len(stable)} unstable predicted cycle(s)"
-        seen = "simulation: " + (repr(sim) if sim is not None else "not run")
+        seen = html.escape("simulation: " + (repr(sim) if sim is not None else "not run"))
+        verdict = prediction.verdict
+        if verdict is not None:
+            seen += f"<br><b>verdict: {verdict.verdict}</b>: {html.escape(verdict.reason)}"
         lines.append(f"<li><b>{prediction.model}</b>: {said}; {seen}</li>")
     summary = (
         '<div class="summary"><p>Solutions of G(jw) N(A, w) = -1 (A: first-harmonic amplitude of '
@@ -671,3 +735,23 @@ def prediction_report(predictions, title="Limit-cycle prediction", rig_text=""):
         ("Predicted and simulated limit cycles", table_html(header, rows, text_columns=(0, 3, 4))),
     ]
     return html_page(title, sections)
+    verdict_header, verdicts = verdict_rows(predictions)
+    if verdicts:
+        sections.append(("Verdict and linear stability", _VERDICT_NOTE + table_html(
+            verdict_header, verdicts, text_columns=(0, 1, 2, 3, 4))))
+    orbit_header, orbits = orbit_rows(predictions)
+    if orbits:
+        sections.append(("Exact periodic orbits", _ORBIT_NOTE + table_html(orbit_header, orbits,
+                                                                            text_columns=(0, 5))))
+
+
+_VERDICT_NOTE = (
+    "<p>Contact loop: the PI loop with the shaft as the spring-damper k + c s (large motions); open loop: "
+    "shaft torque 0 (inside the gap); poles from the state matrix, dead time by its Pade approximant. "
+    "The verdict also weighs simulations from rest with kicks of several sizes (JSON: <code>probes</code>).</p>"
+)
+_ORBIT_NOTE = (
+    "<p>Periodic orbits of the piecewise-smooth loop by shooting, switching events located exactly; "
+    "stability from the Floquet multipliers (saltation matrices at contact and release). "
+    "The DF errors are those of the predicted cycle of the same stability nearest in amplitude.</p>"
+)

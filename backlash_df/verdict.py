@@ -248,6 +248,12 @@ class LoopVerdict:
         (rad) from which the loop settled.
     cycle : MeasuredCycle or None
         The stable cycle the simulations reached (the smallest, if several).
+    orbits : tuple of PeriodicOrbit
+        Exact periodic orbits by shooting (:func:`~backlash_df.orbits.exact_orbits`),
+        if asked for; empty otherwise.
+    orbit_note : str
+        Why there are no exact orbits when they were asked for (unsupported law,
+        shooting failed); ``""`` otherwise.
     """
 
     model: str
@@ -260,6 +266,8 @@ class LoopVerdict:
     disturbance_source: str = ""
     settles_up_to: float = None
     cycle: object = None
+    orbits: tuple = ()
+    orbit_note: str = ""
 
     def __repr__(self):
         return f"LoopVerdict({self.model}: {self.verdict}; {self.reason})"
@@ -276,6 +284,7 @@ class LoopVerdict:
             "settles_up_to": self.settles_up_to,
             "simulated_cycle": None if self.cycle is None else self.cycle.to_dict(),
             "probes": [probe.to_dict() for probe in self.probes],
+            "exact_orbits": [orbit.to_dict() for orbit in self.orbits],
         }
 
 
@@ -295,14 +304,15 @@ def _settling(rests, starts):
     return max(below) if below else None
 
 
-def _separating(prediction, rests, cycles):
+def _separating(prediction, orbits, rests, cycles):
     """Amplitude (rad) of the cycle between rest and hunting, and its source."""
     smallest_cycle = min(p.disturbance for p in cycles) if cycles else math.inf
     largest_rest = _settling(rests, cycles)
     target = min(p.measured.amplitude for p in cycles) if cycles else math.inf
-    unstable = [c.amplitude for c in prediction.cycles if not c.stable and c.amplitude < target]
-    if unstable:
-        return float(max(unstable)), "DF unstable cycle"
+    for source, found in (("exact orbit", orbits), ("DF unstable cycle", prediction.cycles)):
+        unstable = [c.amplitude for c in found if not c.stable and c.amplitude < target]
+        if unstable:
+            return float(max(unstable)), source
     if math.isfinite(smallest_cycle) and largest_rest is not None:
         return float(math.sqrt(largest_rest * smallest_cycle)), "simulations"
     return None, ""
@@ -318,7 +328,16 @@ def _df_words(prediction):
     return "the DF predicts no stable cycle"
 
 
-def _decide(prediction, contact, probes):
+def _exact_match(orbits, measured):
+    """The stable exact orbit on the simulated cycle (1 % in amplitude and frequency), or None."""
+    for orbit in orbits:
+        if (orbit.stable and abs(orbit.amplitude / measured.amplitude - 1.0) <= 0.01
+                and abs(orbit.omega / measured.omega - 1.0) <= 0.01):
+            return orbit
+    return None
+
+
+def _decide(prediction, contact, probes, orbits=()):
     """(verdict, reason, fields) from the evidence."""
     by = {kind: [p for p in probes if p.outcome == kind] for kind in ("rest", "cycle", "diverged", "unsettled")}
     rests, cycles, diverged = by["rest"], by["cycle"], by["diverged"]
@@ -330,7 +349,7 @@ def _decide(prediction, contact, probes):
     if not contact.stable and not cycles:
         fields = {}
         if rests:
-            amplitude, source = _separating(prediction, rests, diverged)
+            amplitude, source = _separating(prediction, orbits, rests, diverged)
             fields = {"disturbance_to_start": amplitude, "disturbance_source": source,
                       "settles_up_to": _settling(rests, diverged)}
         return "unstable", (f"the loop in contact is {contact.describe()} and no stable cycle caps the growth"
@@ -347,18 +366,22 @@ def _decide(prediction, contact, probes):
             {"settles_up_to": largest}
     cycle = min((p.measured for p in cycles), key=lambda m: m.amplitude)
     fields = {"cycle": cycle}
+    agrees = "DF agrees"
     if _matching_df_cycle(prediction, cycle) is None:
-        return "undetermined", (f"simulation cycles at A = {cycle.amplitude:.4g} rad, w = {cycle.omega:.4g} rad/s "
-                                f"but {_df_words(prediction)}"), fields
+        exact = _exact_match(orbits, cycle)
+        if exact is None:
+            return "undetermined", (f"simulation cycles at A = {cycle.amplitude:.4g} rad, w = {cycle.omega:.4g} "
+                                    f"rad/s but {_df_words(prediction)}"), fields
+        agrees = f"the exact orbit confirms it; {_df_words(prediction)}"
     runaway = (f"; kicks from {min(p.disturbance for p in diverged):.3g} rad diverge (contact loop "
                f"{contact.describe()})" if diverged else "")
     distinct = [p.measured for p in cycles if abs(p.measured.amplitude / cycle.amplitude - 1.0) > _SAME_CYCLE]
     others = f"; another cycle at A = {distinct[0].amplitude:.4g} rad" if distinct else ""
-    what = f"a stable cycle A = {cycle.amplitude:.4g} rad, w = {cycle.omega:.4g} rad/s (simulated; DF agrees)"
+    what = f"a stable cycle A = {cycle.amplitude:.4g} rad, w = {cycle.omega:.4g} rad/s (simulated; {agrees})"
     if not rests:
         return "limit cycle", f"every kick from {min(p.disturbance for p in probes):.3g} rad ends on {what}" \
             + others + runaway, fields
-    amplitude, source = _separating(prediction, rests, cycles)
+    amplitude, source = _separating(prediction, orbits, rests, cycles)
     settles = _settling(rests, cycles)
     fields.update(disturbance_to_start=amplitude, disturbance_source=source, settles_up_to=settles)
     calm = f"kicks up to {settles:.3g} rad settle" if settles is not None else "some kicks settle"
@@ -367,7 +390,24 @@ def _decide(prediction, contact, probes):
                         + start + others + runaway), fields
 
 
-def judge_loop(rig, prediction, linear=None, t_end=20.0, max_t_end=160.0, disturbances=DISTURBANCES):
+def _exact(rig, prediction, probes, t_end, max_t_end):
+    """Exact orbits seeded by the DF cycles and the first simulated cycle, and a note if there are none."""
+    from .orbits import exact_orbits
+    from .simulate import simulated_limit_cycle
+
+    seed = None
+    cycling = [p for p in probes if p.measured.found]
+    if cycling:  # the run again, for a state on the cycle
+        _, seed = simulated_limit_cycle(rig, prediction.model, t_end=t_end, max_t_end=max_t_end,
+                                        kick=cycling[0].kick)
+    try:
+        orbits = exact_orbits(rig, prediction, simulated=seed)
+    except ValueError as error:  # a law shooting does not handle
+        return (), " ".join(str(error).split())
+    return tuple(orbits), "" if orbits else "shooting found no periodic orbit from the DF and simulated cycles"
+
+
+def judge_loop(rig, prediction, linear=None, t_end=20.0, max_t_end=160.0, disturbances=DISTURBANCES, exact=False):
     """The verdict on a rig's loop with one torque law (module docs).
 
     Parameters
@@ -382,6 +422,11 @@ def judge_loop(rig, prediction, linear=None, t_end=20.0, max_t_end=160.0, distur
         First and largest simulated time of each probe, s.
     disturbances : sequence of float
         Kick sizes from rest, in units of the half gap alpha.
+    exact : bool
+        Also find the exact periodic orbits (:mod:`backlash_df.orbits`; the
+        rig's own loop only): an unstable one gives the disturbance that
+        starts a bistable loop hunting, a stable one on the simulated cycle
+        settles a disagreement of the DF.
 
     Returns
     -------
@@ -395,8 +440,10 @@ def judge_loop(rig, prediction, linear=None, t_end=20.0, max_t_end=160.0, distur
     contact = linear_stability(part, model.stiffness, model.damping, "contact")
     opened = linear_stability(part, 0.0, 0.0, "open")
     probes = _probes(rig, model, prediction, user_linear, t_end, max_t_end, disturbances)
-    verdict, reason, fields = _decide(prediction, contact, probes)
-    return LoopVerdict(prediction.model, verdict, reason, contact, opened, probes, **fields)
+    orbits, note = _exact(rig, prediction, probes, t_end, max_t_end) if exact and user_linear is None else ((), "")
+    verdict, reason, fields = _decide(prediction, contact, probes, orbits)
+    return LoopVerdict(prediction.model, verdict, reason, contact, opened, probes, orbits=orbits, orbit_note=note,
+                       **fields)
 
 
 def judge(rig, prediction, **kwargs):
