@@ -31,6 +31,11 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
+    # MathJax 3.2.2 shipped in the package and copied into _static/mathjax: the math
+    # renders with no network (the pages are read on plant floors); it sets
+    # mathjax_path = "mathjax/tex-chtml.js".  tests/test_docs.py checks that no page
+    # loads a remote script.
+    "sphinx-mathjax-offline",
     "numpydoc",
     "myst_nb",
     "sphinx_click",

@@ -153,3 +153,68 @@ def test_rig_file_examples_load(block):
 
     rig = rig_from_dict(tomllib.loads(block), source="docs")
     assert rig.plant.stiffness > 0
+
+
+# --------------------------------------------------------------------------- the built documentation
+
+
+def _api_top_level_names():
+    """The names listed under "Top-level names" in docs/api.md."""
+    text = (DOCS / "api.md").read_text(encoding="utf-8")
+    block = text.split("Top-level names", 1)[1].split(".. autosummary::", 1)[1].split("```", 1)[0]
+    return [line.strip() for line in block.splitlines() if line.strip() and not line.strip().startswith(":")]
+
+
+def test_api_page_lists_exactly_the_exports():
+    import backlash_df
+
+    listed = _api_top_level_names()
+    exported = [name for name in backlash_df.__all__ if name != "__version__"]
+    assert len(listed) == len(set(listed))
+    assert sorted(listed) == sorted(exported)
+    for name in exported:
+        assert getattr(backlash_df, name) is not None
+
+
+@pytest.fixture(scope="module")
+def built_docs(tmp_path_factory):
+    """The HTML documentation: CI's build if it is newer than the sources of this check, else a
+    quick build (notebooks not executed; their outputs reference nothing remote either way)."""
+    html = DOCS / "_build" / "html"
+    sources = [DOCS / "conf.py", DOCS / "api.md", DOCS / "theory.md"]
+    if (html / "index.html").exists() and all((html / "index.html").stat().st_mtime > p.stat().st_mtime for p in sources):
+        return html
+    out = tmp_path_factory.mktemp("html")
+    env = {**os.environ, "BACKLASH_DF_DOCS_EXECUTE": "off", "MPLBACKEND": "Agg"}
+    result = subprocess.run([sys.executable, "-m", "sphinx", "-q", "-b", "html", str(DOCS), str(out)],
+                            cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr[-3000:]
+    return out
+
+
+_REMOTE = re.compile(r"""<(?:script|link|img|iframe)\b[^>]*\b(?:src|href)\s*=\s*["']((?:https?:)?//[^"']+)["'][^>]*>""",
+                     re.IGNORECASE)
+
+
+def test_built_pages_load_nothing_from_the_network(built_docs):
+    """Offline reading: no page loads a script, stylesheet or image from another host."""
+    pages = sorted(built_docs.rglob("*.html"))
+    assert len(pages) > 5
+    remote = {}
+    for page in pages:
+        for match in _REMOTE.finditer(page.read_text(encoding="utf-8")):
+            tag = match.group(0)
+            if tag.lower().startswith("<link") and "stylesheet" not in tag and "preload" not in tag:
+                continue  # a hyperlink-like <link> (canonical, next, search) loads nothing
+            remote.setdefault(page.relative_to(built_docs).as_posix(), []).append(match.group(1))
+    assert remote == {}
+
+
+def test_math_is_rendered_by_the_bundled_mathjax(built_docs):
+    """The theory page (TeX in $...$) loads MathJax from _static, and the files are there, fonts included."""
+    theory = (built_docs / "theory.html").read_text(encoding="utf-8")
+    assert re.search(r'<script[^>]*src="_static/mathjax/tex-chtml\.js"', theory)
+    assert r"\(" in theory or r"\[" in theory  # math left to MathJax, not dropped
+    mathjax = built_docs / "_static" / "mathjax"
+    assert (mathjax / "tex-chtml.js").stat().st_size > 100_000
+    assert list((mathjax / "output" / "chtml" / "fonts" / "woff-v2").glob("*.woff"))
