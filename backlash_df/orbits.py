@@ -106,6 +106,8 @@ def _theta_star_slope(v, k, c, alpha):
     u = (alpha - ts) / s
     if u <= 0.0:  # theta* rounds to alpha: the slope is below 1e-19
         return ts, 0.0
+    if u >= 1.0:  # K -> 0: theta* -> alpha - s, slope -> -c / k
+        return ts, -c / k
     return ts, -(c / k) * u * (1.0 + (2.0 * alpha / s) / (1.0 - u))
 
 
@@ -205,9 +207,11 @@ class _Loop:
         """Loop matrices with the measured speed's delay replaced by a Pade approximant of ``order``."""
         if order < 1:
             raise ValueError(f"pade_order must be an integer >= 1, got {order!r}")
-        num, den = ct.pade(part.delay, order)
-        pade = ct.ss(ct.tf(num, den))
+        # realised in the normalised time t / delay (then balanced), so the entries stay moderate
+        pade = ct.ss(ct.tf(*ct.pade(1.0, order)))
         ap, bp, cp, dp = (np.asarray(m, dtype=float) for m in (pade.A, pade.B, pade.C, pade.D))
+        ap, (scale, _) = linalg.matrix_balance(ap, permute=False, separate=True)
+        ap, bp, cp = ap / part.delay, bp / scale[:, None] / part.delay, cp * scale
         n, p = part.A.shape[0], ap.shape[0]
         a_mat = np.zeros((n + p, n + p))
         a_mat[:n, :n] = part.A + dp[0, 0] * np.outer(part.e_d, part.d)
