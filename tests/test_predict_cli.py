@@ -1,4 +1,6 @@
-"""``backlash-df predict``: bad input is one line naming key and file, exit code 2."""
+"""``backlash-df predict``: bad input is one line naming key and file, exit code 2; verdicts in every output."""
+
+import json
 
 import pytest
 from click.testing import CliRunner
@@ -52,3 +54,26 @@ def test_missing_file_names_it(tmp_path):
     result = CliRunner().invoke(main, ["predict", str(tmp_path / "nope.toml")])
     assert result.exit_code == 2
     assert "nope.toml" in result.output and "cannot read rig file" in result.output
+
+
+def test_unstable_loop_gets_its_verdict_everywhere(tmp_path):
+    # kp = 3000 on the load speed: the loop in contact is unstable (tests/test_verdict.py checks its poles)
+    json_path, report_path = tmp_path / "out.json", tmp_path / "out.html"
+    path, result = run(tmp_path, GOOD.replace("kp = 30.0", "kp = 3000.0"), "--json", str(json_path),
+                       "--report", str(report_path))
+    assert result.exit_code == 0, result.output
+    assert "RuntimeWarning" not in result.output
+    data = json.loads(json_path.read_text())
+    entry = data["models"][0]
+    assert entry["model"] == "phase-plane" and entry["verdict"] == "unstable"
+    assert entry["contact_loop"]["stable"] is False and entry["contact_loop"]["max_real"] > 0.0
+    assert entry["contact_loop"]["poles"][0][0] == entry["contact_loop"]["max_real"]
+    assert entry["open_loop"]["status"] in ("stable", "marginal", "unstable")
+    assert {probe["outcome"] for probe in entry["probes"]} == {"diverged"}
+    assert "limit_cycles" in data and all(cycle["simulated"] is None for cycle in data["limit_cycles"])
+    verdict_lines = [line for line in result.output.splitlines() if line.startswith("phase-plane  unstable")]
+    pole = entry["contact_loop"]["poles"][0]
+    assert len(verdict_lines) == 1
+    assert f"unstable (rightmost pole {pole[0]:.4g} +- {abs(pole[1]):.4g}j 1/s)" in verdict_lines[0]
+    page = report_path.read_text()
+    assert "Verdict and linear stability" in page and "verdict: unstable" in page
