@@ -304,3 +304,32 @@ def test_kuka_record_reflected_through_the_rig_gear_ratio():
     # the measured twist: positive offset of the encoders' zeros, elastic part a fraction of a mrad
     twist = record.twist
     assert 0.0 < twist.min() and np.ptp(twist) < 3e-3
+
+
+# ---- the command line: the same one line, exit code 2, before any computation
+
+CLI_CASES = {
+    "time in milliseconds": (_set("time", lambda c: 1e3 * c["time"]), "time looks like milliseconds"),
+    "no excitation": (_set("motor_torque", lambda c: 0.0 * c["time"]), "motor_torque is constant"),
+    "angle in degrees": (_set("load_angle", lambda c: np.degrees(c["load_angle"])),
+                         "load_angle does not match the integrated load_speed"),
+}
+
+
+@pytest.mark.parametrize("case", list(CLI_CASES))
+def test_diagnose_command_refuses_bad_records(tmp_path, monkeypatch, case):
+    import backlash_df.identify
+    from click.testing import CliRunner
+
+    from backlash_df.cli import main
+
+    def never(*args, **kwargs):
+        raise AssertionError("diagnosis reached although the record is bad")
+
+    monkeypatch.setattr(backlash_df.identify, "diagnose", never)
+    change, words = CLI_CASES[case]
+    data = _write(tmp_path / "data.csv", change(_columns()))
+    result = CliRunner().invoke(main, ["diagnose", str(data), "--rig", str(KUKA / "kuka_rig.toml")])
+    assert result.exit_code == 2, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"backlash-df: error: {data}: ") and words in lines[0]

@@ -153,7 +153,10 @@ class Measurements:
         """Measured shaft twist theta_d = motor_angle / n - load_angle (rad, load side), or None.
 
         None unless the file has both angle columns.  The encoders' zeros are
-        independent, so the twist holds up to a constant offset.
+        independent, so the twist holds up to a constant offset; encoders read at
+        slightly different instants add a part proportional to the speed (on the
+        KUKA record, notebook 06, the link encoder reads about 3 ms late and that
+        part is larger than the elastic twist).
         """
         if self.motor_angle is None or self.load_angle is None:
             return None
