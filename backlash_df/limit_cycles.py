@@ -73,6 +73,9 @@ class LimitCycle:
         ``|1 + G(jw) N(A, w)|`` at the solution.
     simulated : MeasuredCycle or None
         The cycle measured in time simulation, once verified.
+    bias : float
+        Mean of theta_d, rad: 0 without load, set by the DC balance under a load
+        torque (:mod:`backlash_df.loaded`).
     """
 
     amplitude: float
@@ -81,6 +84,7 @@ class LimitCycle:
     loeb: float
     residual: float
     simulated: object = None
+    bias: float = 0.0
 
     @property
     def amplitude_error(self):
@@ -149,22 +153,22 @@ class LimitCyclePrediction:
         After :func:`verify_limit_cycles`: what the time simulation settled to
         (started on the first stable predicted cycle, or from the default kick
         when none is predicted).
+    verdict : LoopVerdict or None
+        After :func:`backlash_df.verdict.judge`: no oscillation, limit cycle,
+        bistable, unstable or undetermined, with its evidence.
     """
 
     model: str
     cycles: tuple
-    verdict : LoopVerdict or None
-        After :func:`backlash_df.verdict.judge`: no oscillation, limit cycle,
-        bistable, unstable or undetermined, with its evidence.
     near_misses: tuple
     amplitude_range: tuple
     omega_range: tuple
     simulation: object = None
+    verdict: object = None
     linear: object = dataclasses.field(repr=False, default=None)
     describing: object = dataclasses.field(repr=False, default=None)
     half_gap: float = dataclasses.field(repr=False, default=0.0)
 
-    verdict: object = None
     @property
     def stable_cycles(self):
         """The cycles Loeb's criterion calls stable (those a simulation can show)."""
@@ -498,16 +502,21 @@ def verify_limit_cycles(rig, prediction, linear=None, kick=None, t_end=None, max
 def limit_cycle_plot(predictions, ax=None, n_loci=7, n_amplitudes=200, g_omega=None):
     """Nyquist overlay: G(jw) with the -1/N(A, w) loci of one or several models.
 
-    For each model the loci ``A -> -1/N(A, w_i)`` are drawn at ``n_loci``
-    frequencies spread (log) over the searched band, and at each predicted
-    cycle's own frequency; the cycles are marked with A and w, the near misses
-    with their distance.
+    For each model the loci ``A -> -1/N(A, w_i)`` are drawn thin at ``n_loci``
+    frequencies spread (log) over the searched band, each labelled with its w
+    (rad/s) where it enters the view, and bold at each predicted cycle's own
+    frequency.  Cycles (o stable, x unstable by Loeb's criterion) and near
+    misses (diamonds) are listed with A, w and distance in the legend, so no
+    label covers another.  Both axes are in rad/(N m): G maps the shaft torque
+    to theta_d, and a cycle solves G(jw) = -1/N(A, w).
 
     Parameters
     ----------
     predictions : sequence of LimitCyclePrediction
         Same linear part; one colour per model.
     ax : matplotlib Axes, optional
+        Draw into these axes; by default a new figure with constrained layout
+        and the legend below the axes (nothing is cut off by ``savefig``).
     n_loci : int
         Loci per model across the frequency band.
     n_amplitudes : int
@@ -517,19 +526,21 @@ def limit_cycle_plot(predictions, ax=None, n_loci=7, n_amplitudes=200, g_omega=N
 
     Returns
     -------
-    dict
-        ``{"ax": Axes, "figure": Figure, "lines": {name: [Line2D, ...]}}``.
+    Axes
+        The axes drawn on (``ax.figure`` is the figure), as every ``.plot()``
+        of the package returns its axes.
     """
     import matplotlib.pyplot as plt
 
-    if ax is None:
-        _, ax = plt.subplots(figsize=(7.5, 6))
+    own_figure = ax is None
+    if own_figure:
+        _, ax = plt.subplots(figsize=(8, 7.5), layout="constrained")
     first = predictions[0]
     lo_w, hi_w = first.omega_range
     g_omega = np.geomspace(lo_w, hi_w, 2000) if g_omega is None else np.asarray(g_omega, dtype=float)
     g = frequency_response_of(first.linear, g_omega)
-    lines = {"G": ax.plot(g.real, g.imag, color="k", lw=1.6, label="G(jw)")}
-    points = [g]
+    ax.plot(g.real, g.imag, color="k", lw=1.6, label="G(jw)")
+    points, thin = [g], []
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for index, prediction in enumerate(predictions):
         color = colors[index % len(colors)]
@@ -537,33 +548,54 @@ def limit_cycle_plot(predictions, ax=None, n_loci=7, n_amplitudes=200, g_omega=N
         amplitudes = prediction.half_gap + np.geomspace(lo_a - prediction.half_gap, hi_a - prediction.half_gap,
                                                         n_amplitudes)
         band = list(np.geomspace(lo_w, hi_w, n_loci)) + [cycle.omega for cycle in prediction.cycles]
-        drawn = []
         for k, omega in enumerate(band):
             locus = -1.0 / prediction.describing(amplitudes, omega)
             bold = k >= n_loci
-            label = f"-1/N {prediction.model}" if k == 0 else None
-            drawn += ax.plot(locus.real, locus.imag, color=color, lw=1.4 if bold else 0.6,
-                             alpha=1.0 if bold else 0.5, label=label)
+            ax.plot(locus.real, locus.imag, color=color, lw=1.4 if bold else 0.6, alpha=1.0 if bold else 0.5,
+                    label=f"-1/N(A, w) {prediction.model}" if k == 0 else None)
+            if not bold:
+                thin.append((locus, omega, color))
             points.append(locus[np.isfinite(locus)])
         for cycle in prediction.cycles:
             at = -1.0 / complex(prediction.describing(cycle.amplitude, cycle.omega))
-            ax.plot(at.real, at.imag, "o" if cycle.stable else "x", color=color, ms=8, mfc="none" if not cycle.stable else color)
-            ax.annotate(f"A={cycle.amplitude:.4g} rad\nw={cycle.omega:.4g} rad/s", (at.real, at.imag),
-                        textcoords="offset points", xytext=(6, 6), fontsize=8, color=color)
+            kind = "stable" if cycle.stable else "unstable"
+            ax.plot(at.real, at.imag, "o" if cycle.stable else "x", color=color, ms=8, ls="none",
+                    mfc=color if cycle.stable else "none",
+                    label=f"{prediction.model}: {kind} cycle A = {cycle.amplitude:.4g} rad, w = {cycle.omega:.4g} rad/s")
         for miss in prediction.near_misses[:3]:
             at = -1.0 / complex(prediction.describing(miss.amplitude, miss.omega))
-            ax.plot(at.real, at.imag, "d", color=color, ms=6, mfc="none")
-            ax.annotate(f"miss {miss.distance:.2%}", (at.real, at.imag), textcoords="offset points",
-                        xytext=(6, -12), fontsize=8, color=color)
-        lines[prediction.model] = drawn
+            ax.plot(at.real, at.imag, "d", color=color, ms=6, mfc="none", ls="none",
+                    label=f"{prediction.model}: near miss {100 * miss.distance:.2f} % at w = {miss.omega:.4g} rad/s")
     _zoom(ax, predictions, points)
+    _label_loci(ax, thin)
     ax.axhline(0.0, color="0.7", lw=0.5)
     ax.axvline(0.0, color="0.7", lw=0.5)
-    ax.set_xlabel("real")
-    ax.set_ylabel("imaginary")
-    ax.set_title("Nyquist overlay: G(jw) and -1/N(A, w)")
-    ax.legend(loc="best", fontsize=8)
-    return {"ax": ax, "figure": ax.figure, "lines": lines}
+    ax.set_xlabel("real part (rad/(N m))")
+    ax.set_ylabel("imaginary part (rad/(N m))")
+    ax.set_title("Nyquist overlay: G(jw) and -1/N(A, w); thin loci labelled with w (rad/s)")
+    if own_figure:
+        ax.figure.legend(loc="outside lower center", ncols=2, fontsize=8)
+    else:
+        ax.legend(loc="best", fontsize=7)
+    return ax
+
+
+def _label_loci(ax, loci, gap=(0.06, 0.025)):
+    """Write each thin locus's w where it enters the view, where the loci fan out; a label
+    closer than ``gap`` (axes fractions, x and y) to one already written is left out."""
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    placed = []
+    for locus, omega, color in loci:
+        inside = np.flatnonzero((locus.real > x0) & (locus.real < x1) & (locus.imag > y0) & (locus.imag < y1))
+        if not inside.size:
+            continue
+        at = locus[inside[0]]
+        spot = ((at.real - x0) / (x1 - x0), (at.imag - y0) / (y1 - y0))
+        if any(abs(spot[0] - u) < gap[0] and abs(spot[1] - v) < gap[1] for u, v in placed):
+            continue
+        placed.append(spot)
+        ax.annotate(f"{omega:.3g}", (at.real, at.imag), textcoords="offset points", xytext=(2, 2),
+                    fontsize=7, color=color)
 
 
 def _zoom(ax, predictions, points):
@@ -623,16 +655,6 @@ def prediction_rows(predictions):
     return header, rows
 
 
-def prediction_json(predictions, source=""):
-    """The ``predict`` JSON of DESIGN.md: ``limit_cycles``, then per model its verdict and details.
-
-    A ``models`` entry holds ``model``, the verdict fields of
-    :meth:`~backlash_df.verdict.LoopVerdict.to_dict` (``verdict``, ``reason``,
-    ``contact_loop``, ``open_loop``, ``disturbance_to_start``, ... ; ``verdict``
-    is null when none was formed), ``simulated``, ``near_misses`` and the searched box.
-    """
-    return {
-        "limit_cycles": [entry for prediction in predictions for entry in prediction.to_dicts()],
 def verdict_rows(predictions):
     """One row per model: verdict, linear stability in contact and open, disturbance that starts hunting.
 
@@ -684,14 +706,24 @@ def orbit_rows(predictions):
     return header, rows
 
 
+def prediction_json(predictions, source=""):
+    """The ``predict`` JSON of DESIGN.md: ``limit_cycles``, then per model its verdict and details.
+
+    A ``models`` entry holds ``model``, the verdict fields of
+    :meth:`~backlash_df.verdict.LoopVerdict.to_dict` (``verdict``, ``reason``,
+    ``contact_loop``, ``open_loop``, ``disturbance_to_start``, ... ; ``verdict``
+    is null when none was formed), ``simulated``, ``near_misses`` and the searched box.
+    """
+    return {
+        "limit_cycles": [entry for prediction in predictions for entry in prediction.to_dicts()],
         "rig": source,
         "models": [
             {
                 "model": prediction.model,
+                **({"verdict": None} if prediction.verdict is None else prediction.verdict.to_dict()),
                 "simulated": None if prediction.simulation is None else prediction.simulation.to_dict(),
                 "near_misses": [
                     {"amplitude": m.amplitude, "omega": m.omega, "distance": m.distance}
-                **({"verdict": None} if prediction.verdict is None else prediction.verdict.to_dict()),
                     for m in prediction.near_misses
                 ],
                 "amplitude_range": list(prediction.amplitude_range),
@@ -704,17 +736,17 @@ def orbit_rows(predictions):
 
 def prediction_report(predictions, title="Limit-cycle prediction", rig_text=""):
     """A self-contained HTML page: summary, Nyquist overlay, predicted vs simulated table."""
+    import html
+
     from .report import figure_html, html_page, table_html
 
     header, rows = prediction_rows(predictions)
     lines = []
-    import html
-
     for prediction in predictions:
         stable = prediction.stable_cycles
         sim = prediction.simulation
         said = f"{len(stable)} stable and {len(prediction.cycles) - len(stable)} unstable predicted cycle(s)"
-        seen = html.escape("simulation: " + (repr(sim) if sim is not None else "not run"))
+        seen = html.escape("simulation: " + (str(sim) if sim is not None else "not run"))
         verdict = prediction.verdict
         if verdict is not None:
             seen += f"<br><b>verdict: {verdict.verdict}</b>: {html.escape(verdict.reason)}"
@@ -725,7 +757,7 @@ def prediction_report(predictions, title="Limit-cycle prediction", rig_text=""):
         "simulation with the same torque law. A near miss is the smallest |1 + G N|: the relative "
         f"change of G that would create a cycle.</p><ul>{''.join(lines)}</ul></div>"
     )
-    ax = limit_cycle_plot(predictions)["ax"]
+    ax = limit_cycle_plot(predictions)
     sections = [("", summary)]
     if rig_text:
         sections.append(("Rig", f"<pre>{rig_text}</pre>"))
@@ -734,7 +766,6 @@ def prediction_report(predictions, title="Limit-cycle prediction", rig_text=""):
                                         "o stable cycle, x unstable, diamond near miss")),
         ("Predicted and simulated limit cycles", table_html(header, rows, text_columns=(0, 3, 4))),
     ]
-    return html_page(title, sections)
     verdict_header, verdicts = verdict_rows(predictions)
     if verdicts:
         sections.append(("Verdict and linear stability", _VERDICT_NOTE + table_html(
@@ -743,6 +774,7 @@ def prediction_report(predictions, title="Limit-cycle prediction", rig_text=""):
     if orbits:
         sections.append(("Exact periodic orbits", _ORBIT_NOTE + table_html(orbit_header, orbits,
                                                                             text_columns=(0, 5))))
+    return html_page(title, sections)
 
 
 _VERDICT_NOTE = (
