@@ -552,12 +552,16 @@ class SimulationResult:
         except ValueError:
             raise ValueError(f"no state {name!r}; states are: {', '.join(self.state_names)}") from None
 
+    def __repr__(self):
+        return (f"<SimulationResult {self.model.name}: {self.time.size} samples, t = {self.time[0]:g} .. "
+                f"{self.time[-1]:g} s, {self.events} mode changes, states {', '.join(self.state_names)}>")
+
     def plot(self, ax=None):
-        """Plot theta_d and the shaft torque against time; returns the axes."""
+        """Plot theta_d and the shaft torque against time; returns the two axes (ndarray)."""
         import matplotlib.pyplot as plt
 
         if ax is None:
-            _, ax = plt.subplots(2, 1, sharex=True, figsize=(7, 4.5))
+            _, ax = plt.subplots(2, 1, sharex=True, figsize=(7, 4.5), layout="constrained")
         ax[0].plot(self.time, self.theta_d)
         ax[0].set_ylabel("theta_d (rad)")
         ax[1].plot(self.time, self.torque)
@@ -818,6 +822,13 @@ class MeasuredCycle:
             f"omega={self.omega:.6g} rad/s, bias={self.bias:.3g} rad, periods={self.periods})"
         )
 
+    def __str__(self):
+        """What a report prints: ``limit cycle: A = 0.151 rad, w = 95.9 rad/s (...)`` or the verdict."""
+        if not self.found:
+            return self.verdict
+        return (f"limit cycle: A = {self.amplitude:.4g} rad, w = {self.omega:.4g} rad/s "
+                f"(peak {self.peak:.4g} rad, bias {self.bias:.3g} rad, {self.periods} periods averaged)")
+
     def to_dict(self):
         """``{"amplitude", "omega"}`` (rad, rad/s) as in the ``predict`` JSON, or ``None``."""
         if not self.found:
@@ -932,7 +943,7 @@ def default_step(system, model):
     return dt
 
 
-def simulate_rig(rig, model=None, t_end=20.0, dt=None, speed_reference=0.0, load_torque=0.0,
+def simulate_rig(rig, model=None, t_end=20.0, dt=None, speed_reference=0.0, load_torque=None,
                  initial=None, kick=0.0, linear=None):
     """Closed-loop time simulation of a rig's PI speed loop with a backlash torque law.
 
@@ -952,7 +963,8 @@ def simulate_rig(rig, model=None, t_end=20.0, dt=None, speed_reference=0.0, load
     dt : float, optional
         Step, s (default :func:`default_step`).
     speed_reference, load_torque : float or callable
-        r (rad/s) and T_l (N m): constants or functions of time.
+        r (rad/s) and T_l (N m): constants or functions of time (default
+        ``load_torque``: the rig's ``[load] torque``).
     initial : dict, optional
         Initial values by state name, e.g. ``{"motor_speed": 0.5}``; others 0.
     kick : float
@@ -983,6 +995,7 @@ def simulate_rig(rig, model=None, t_end=20.0, dt=None, speed_reference=0.0, load
     system = drive_loop(rig).linear_part() if linear is None else lti_linear_part(linear)
     dt = default_step(system, model) if dt is None else dt
     z0 = _initial_state(system, initial, kick)
+    load_torque = rig.load.torque if load_torque is None else load_torque
     inputs = None
     if system.E.shape[1] == 2:
 
