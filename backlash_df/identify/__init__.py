@@ -1,15 +1,19 @@
-"""From measured data to a named cause (the way the paper found the rubber, Section 3).
+"""From measured data to named causes (the way the paper found the rubber, Section 3).
 
-:func:`load_measurements` reads and checks a record, :func:`replay` simulates the
-rig's model from the measured torques, :func:`calibrate` fits the data-sheet
-values, :func:`residual_analysis` shows what the simulation gets wrong,
-:data:`EFFECTS` is the catalogue of candidate causes and :func:`diagnose` ties
-them together into a :class:`Diagnosis`.  :func:`synthesize` makes records with
-a hidden effect from a rig that is not the fitted model.
+:func:`load_measurements` reads and checks a record, :func:`predict` and
+:func:`replay` simulate the rig's model from the measured torques (k-step
+prediction or free run), :func:`calibrate` fits the data-sheet values and
+effect parameters with intervals that hold for correlated residuals,
+:func:`residual_analysis` shows what the model gets wrong, :data:`EFFECTS` is
+the catalogue of candidate causes and :func:`diagnose` selects a set of them
+(forward selection, backward check) into a :class:`Diagnosis`.
+:func:`synthesize` makes records with hidden effects from a rig that is not the
+fitted model.
 """
 
-from .calibrate import Calibration, FitParameter, Replay, calibrate, fit_percent, replay, segment_replay
-from .diagnose import BIC_MARGIN, RSS_RATIO, CandidateResult, Diagnosis, check_speed_units, diagnose
+from .calibrate import Calibration, FitParameter, Replay, calibrate, fit_percent, predict, replay
+from .diagnose import (BASELINE_MIN_FIT, MIN_GAIN, MIN_T, CandidateResult, Diagnosis, check_excitation,
+                       check_speed_units, diagnose)
 from .effects import EFFECT_NAMES, EFFECTS, Effect, get_effect
 from .measurements import Measurements, load_measurements, measurements_from_arrays, write_measurements
 from .residuals import ResidualAnalysis, correlation, residual_analysis
@@ -18,8 +22,9 @@ from .synthetic import Experiment, SyntheticRecord, synthesize
 __all__ = [
     "Measurements", "load_measurements", "measurements_from_arrays", "write_measurements",
     "Effect", "EFFECTS", "EFFECT_NAMES", "get_effect",
-    "Calibration", "FitParameter", "Replay", "calibrate", "replay", "segment_replay", "fit_percent",
+    "Calibration", "FitParameter", "Replay", "calibrate", "predict", "replay", "fit_percent",
     "ResidualAnalysis", "residual_analysis", "correlation",
-    "CandidateResult", "Diagnosis", "diagnose", "check_speed_units", "BIC_MARGIN", "RSS_RATIO",
+    "CandidateResult", "Diagnosis", "diagnose", "check_speed_units", "check_excitation", "MIN_GAIN", "MIN_T",
+    "BASELINE_MIN_FIT",
     "Experiment", "SyntheticRecord", "synthesize",
 ]

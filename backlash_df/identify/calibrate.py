@@ -1,76 +1,91 @@
-"""Replay and calibration: the drive model driven by the measured torques.
+"""Prediction and calibration: the drive model driven by the measured torques.
 
-The model is the open-loop two-mass drive of the paper (eq. 42)::
+The model is the open-loop two-mass drive of the paper (eq. 42) with the
+catalogue's effects (:mod:`.effects`)::
 
-    J_m dw_m/dt = T_m(t - tau) - T(theta_d, dtheta_d) - F_m
-    J_l dw_l/dt = T_l(t) + T(theta_d, dtheta_d) - d_l w_l - F_c tanh(w_l / eps)
+    J_m dw_m/dt = T_m(t - tau) + T_0 - T(theta_d, dtheta_d) - F_m(w_m)
+    J_l dw_l/dt = T_l(t) + T(theta_d, dtheta_d) - F_l(w_l)
     dtheta_d/dt = w_m - w_l
+    F_s(w) = d_s w + (F_c,s + F_b,s exp(-(w / w_s)^2)) tanh(w / eps)
 
-with the rig's torque law ``T`` (the rubber law (40) for the ``rubber``
-candidate), the measured commanded torque ``T_m`` and the known load torque
-``T_l``.  The effect parameters (``tau``, ``d_l``, ``F_c``, ``beta``) are zero in
-the nominal structure.  Replay is a *free-run simulation* (no measured speed is
-fed back) from an initial state ``(theta_d0, w_m0, w_l0)`` estimated from the
-data, on the record's own grid (RK4 with located contact switches, see
-:mod:`backlash_df.simulate`).
+with the rig's torque law ``T`` (the rubber law (40) when ``rubber_thickness``
+is positive; the exact model (14) is predicted with its static form, the phase
+plane law (23)), the measured commanded torque ``T_m`` and the known load
+torque ``T_l``.  All effect parameters are zero in the nominal structure.
 
-Calibration fits the plant values of the rig file (data-sheet values, a few per
-cent off), the initial state and the effect parameter by bounded nonlinear least
-squares (:func:`scipy.optimize.least_squares`, trust region reflective) on an
-estimation part of the record.  Standard errors come from the Jacobian at the
-optimum the lmfit way, ``cov = s^2 (J^T J)^-1`` with ``s^2 = RSS / (N - p)``,
-inflated for the residual's autocorrelation (AR(1) effective sample size
-``N (1 - rho_1) / (1 + rho_1)``): free-run residuals are far from white.
+**Prediction modes** (as MATLAB's ``compare``).  A *k-step prediction* cuts the
+record into segments of ``horizon`` samples; each segment is simulated from the
+state the data give at its first sample (:func:`data_states`: the smoothed
+measured speeds, and theta_d = the measured twist, or the integral of
+``w_m - w_l`` without angle columns, plus one fitted offset ``theta_d0``), so no
+prediction runs longer than the horizon: an observer-based k-step predictor.  On
+closed-loop data of a position-controlled axis any unmodelled torque piles up as
+speed in a long simulation; the k-step prediction cannot drift.  A *free run*
+is one segment over the whole window.
+
+**Calibration** fits the plant values of the rig file (data-sheet values, a few
+per cent off), the offset ``theta_d0`` and the effect parameters by bounded
+nonlinear least squares (:func:`scipy.optimize.least_squares`, trust region
+reflective) of the k-step prediction error on an estimation window.  Intervals
+come from a cluster-robust ("sandwich") covariance over the segments,
+``(J^T J)^-1 (sum_g J_g^T r_g r_g^T J_g) (J^T J)^-1 G / (G - 1)`` with a
+Student t quantile of ``G - 1`` degrees of freedom: residuals correlated within
+a segment, as they are, do not make the interval overconfident.
+
+The kernel is compiled (numba, fixed-step RK4 with ``substeps`` steps a sample,
+inputs interpolated linearly) and runs every segment in one call.
 """
 
 import dataclasses
 import math
 from concurrent.futures import ThreadPoolExecutor
 
+import numba
 import numpy as np
-from scipy.optimize import least_squares
 
-from ..models import make_model
-from ..simulate import simulate_linear, two_mass_system
-from .effects import COULOMB_SMOOTHING_SPEED, get_effect
+from ..models import LAW_CODES, PHASE_PLANE, RUBBER, held_mode, mode_torque
+from .effects import get_effect, smoothing_speeds
 
 __all__ = [
     "FitParameter",
     "Calibration",
     "Replay",
     "PLANT_PARAMETERS",
-    "STATE_PARAMETERS",
+    "MODEL_PARAMETERS",
     "nominal_values",
-    "estimate_initial_state",
+    "data_states",
+    "predict",
     "replay",
     "calibrate",
     "fit_percent",
     "information_criterion",
-    "data_state",
-    "segment_replay",
     "smoothed_speeds",
     "integrated_displacement",
 ]
 
 #: Plant values of the rig file that calibration adjusts.
 PLANT_PARAMETERS = ("motor_inertia", "load_inertia", "stiffness", "damping", "half_gap")
-#: Initial state fitted with them: theta_d (rad), motor and load speed (rad/s) at the first sample.
-STATE_PARAMETERS = ("theta_d0", "motor_speed0", "load_speed0")
-_UNITS = {
-    "motor_inertia": "kg m^2", "load_inertia": "kg m^2", "stiffness": "N m/rad", "damping": "N m s/rad",
-    "half_gap": "rad", "theta_d0": "rad", "motor_speed0": "rad/s", "load_speed0": "rad/s",
-}
+#: Every value the prediction model reads, in the kernel's order (effects zero by default).
+MODEL_PARAMETERS = PLANT_PARAMETERS + (
+    "rubber_thickness", "coulomb_friction_motor", "coulomb_friction_load", "viscous_friction_motor",
+    "viscous_friction_load", "breakaway_friction_motor", "breakaway_friction_load", "torque_offset",
+)
+_UNITS = {"motor_inertia": "kg m^2", "load_inertia": "kg m^2", "stiffness": "N m/rad", "damping": "N m s/rad",
+          "half_gap": "rad", "theta_d0": "rad"}
 _RELATIVE_RANGE = 0.3  # data-sheet values are trusted to +-30 %
-_Z95 = 1.959963984540054
-_POLISH_NFEV = 30  # iterations of each free-run refinement step (it starts next to its optimum)
-_POLISH_FRACTIONS = (0.25, 0.5, 1.0)  # growing windows of the free-run refinement
+_SUBSTEPS = 2  # RK4 steps per sample
 _THETA_GRID_POINTS = 33  # starting theta_d0 searched on a grid of step alpha / 4
+DEFAULT_HORIZON = 0.1  # s, length of the k-step segments
+#: Smallest free-run fit (%) of the k-step solution on every speed for the free-run refinement.
+FREE_RUN_MIN = 50.0
+_jit = numba.njit(cache=True, nogil=True)
 
 
 def fit_percent(measured, simulated):
     """Fit percentage as MATLAB's ``compare``: ``100 (1 - ||y - y_hat|| / ||y - mean(y)||)``.
 
-    100 is a perfect fit, 0 is no better than the mean, negative is worse.
+    100 is a perfect fit, 0 is no better than the mean, negative is worse; NaN
+    for a constant signal (nothing to fit).
 
     Examples
     --------
@@ -86,6 +101,73 @@ def fit_percent(measured, simulated):
     return float(100.0 * (1.0 - error / spread)) if spread > 0.0 else float("nan")
 
 
+# --------------------------------------------------------------------------- compiled prediction kernel
+
+
+@_jit
+def _friction(w, viscous, coulomb, breakaway, eps, w_s):
+    return viscous * w + (coulomb + breakaway * math.exp(-(w / w_s) ** 2)) * math.tanh(w / eps)
+
+
+@_jit
+def _derivative(z, tm, tl, law, mode, p, eps, w_s, out):
+    """Right-hand side of the model (module docs); returns the shaft torque (N m)."""
+    x = z[0]
+    v = z[1] - z[2]
+    m = held_mode(law, mode, x, v, p[2], p[3], p[4], p[5])
+    torque = mode_torque(law, m, x, v, p[2], p[3], p[4], p[5])
+    out[0] = v
+    out[1] = (tm + p[12] - torque - _friction(z[1], p[8], p[6], p[10], eps, w_s)) / p[0]
+    out[2] = (tl + torque - _friction(z[2], p[9], p[7], p[11], eps, w_s)) / p[1]
+    return torque
+
+
+@_jit
+def _step(z, i, frac0, frac1, tm, tl, law, mode, p, eps, w_s, work):
+    """One RK4 step from the fraction ``frac0`` to ``frac1`` of sample interval ``i`` (inputs interpolated)."""
+    k1, k2, k3, k4, tmp = work[0], work[1], work[2], work[3], work[4]
+    h = (frac1 - frac0) * p[13]
+    fm = 0.5 * (frac0 + frac1)
+    _derivative(z, tm[i] + frac0 * (tm[i + 1] - tm[i]), tl[i] + frac0 * (tl[i + 1] - tl[i]), law, mode, p, eps, w_s, k1)
+    tmm = tm[i] + fm * (tm[i + 1] - tm[i])
+    tlm = tl[i] + fm * (tl[i + 1] - tl[i])
+    for j in range(3):
+        tmp[j] = z[j] + 0.5 * h * k1[j]
+    _derivative(tmp, tmm, tlm, law, mode, p, eps, w_s, k2)
+    for j in range(3):
+        tmp[j] = z[j] + 0.5 * h * k2[j]
+    _derivative(tmp, tmm, tlm, law, mode, p, eps, w_s, k3)
+    for j in range(3):
+        tmp[j] = z[j] + h * k3[j]
+    _derivative(tmp, tm[i] + frac1 * (tm[i + 1] - tm[i]), tl[i] + frac1 * (tl[i + 1] - tl[i]), law, mode, p, eps,
+                w_s, k4)
+    for j in range(3):
+        z[j] += h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+    return held_mode(law, mode, z[0], z[1] - z[2], p[2], p[3], p[4], p[5])
+
+
+@_jit
+def _segments(law, p, eps, w_s, tm, tl, starts, stops, z0, substeps, states, torque):
+    """Simulate each segment ``starts[i]:stops[i]`` from state ``z0[i]`` (RK4, inputs interpolated)."""
+    work = np.empty((5, 3))
+    z = np.empty(3)
+    last = tm.shape[0] - 1
+    for s in range(starts.shape[0]):
+        for j in range(3):
+            z[j] = z0[s, j]
+        mode = held_mode(law, 0, z[0], z[1] - z[2], p[2], p[3], p[4], p[5])
+        for i in range(starts[s], stops[s]):
+            for j in range(3):
+                states[i, j] = z[j]
+            torque[i] = _derivative(z, tm[i], tl[i], law, mode, p, eps, w_s, work[0])
+            if i < last:
+                for q in range(substeps):
+                    mode = _step(z, i, q / substeps, (q + 1.0) / substeps, tm, tl, law, mode, p, eps, w_s, work)
+
+
+# --------------------------------------------------------------------------- data, replay, prediction
+
+
 @dataclasses.dataclass(frozen=True)
 class FitParameter:
     """A fitted (or fixed) parameter with its uncertainty.
@@ -96,11 +178,13 @@ class FitParameter:
     value : float
         Best-fit value.
     stderr : float
-        Standard error (NaN when not estimable).
+        Standard error, cluster-robust (NaN when not estimable).
     nominal : float
-        Starting value (the rig file's value for plant parameters).
+        The rig file's value for plant parameters, the null value for effects.
     lower, upper : float
         Bounds of the fit.
+    quantile : float
+        Multiplier of ``stderr`` giving the 95 % interval (Student t, G - 1 dof).
     """
 
     name: str
@@ -110,11 +194,24 @@ class FitParameter:
     lower: float
     upper: float
     unit: str = ""
+    quantile: float = 1.959963984540054
 
     @property
     def ci95(self):
-        """95 % confidence interval ``value -+ 1.96 stderr`` (asymptotic, normal)."""
-        return (self.value - _Z95 * self.stderr, self.value + _Z95 * self.stderr)
+        """95 % confidence interval ``value -+ t stderr``."""
+        return (self.value - self.quantile * self.stderr, self.value + self.quantile * self.stderr)
+
+    @property
+    def on_bound(self):
+        """True if the value ends within 0.1 % of the range at a bound of the fit."""
+        tolerance = 1e-3 * (self.upper - self.lower)
+        return bool(self.value - self.lower <= tolerance or self.upper - self.value <= tolerance)
+
+    def to_dict(self):
+        """JSON-ready ``{"value", "ci95", "stderr", "unit", "start", "bounds"}``."""
+        low, high = self.ci95
+        return {"value": self.value, "ci95": [low, high], "stderr": self.stderr, "unit": self.unit,
+                "start": self.nominal, "bounds": [self.lower, self.upper]}
 
     def __repr__(self):
         low, high = self.ci95
@@ -123,47 +220,52 @@ class FitParameter:
 
 @dataclasses.dataclass(frozen=True)
 class Replay:
-    """Free-run simulation of the model from the measured torques.
+    """Simulated speeds of the model driven by the measured torques.
 
     Attributes
     ----------
     time : ndarray
-        Sample instants, s (the record's).
-    simulated : ndarray
-        Simulated speeds, shape (N, number of measured speeds), rad/s.
-    measured : ndarray
-        Measured speeds, same shape.
+        Sample instants, s (the record's, over the simulated window).
+    simulated, measured : ndarray
+        Simulated and measured speeds, shape (N, number of measured speeds), rad/s.
     names : tuple of str
         Names of the speed columns.
-    result : SimulationResult
-        The full simulation (states, theta_d, shaft torque, modes).
+    theta_d, torque : ndarray
+        Simulated displacement theta_d (rad) and shaft torque (N m).
+    mode : str
+        ``free run`` or ``k-step (k = ...)``.
     """
 
     time: np.ndarray
     simulated: np.ndarray
     measured: np.ndarray
     names: tuple
-    result: object
+    theta_d: np.ndarray
+    torque: np.ndarray
+    mode: str = "free run"
 
     @property
     def residual(self):
         """Measured minus simulated speeds, rad/s."""
         return self.measured - self.simulated
 
+    @property
+    def load_speed(self):
+        """Simulated load speed (the last column), rad/s."""
+        return self.simulated[:, -1]
+
     def fit_percent(self, start=0, stop=None):
-        """Fit percentage of each speed on samples ``start:stop``, as a dict."""
+        """Fit percentage of each speed on samples ``start:stop`` (of this replay), as a dict."""
         window = slice(start, stop)
-        return {
-            name: fit_percent(self.measured[window, j], self.simulated[window, j])
-            for j, name in enumerate(self.names)
-        }
+        return {name: fit_percent(self.measured[window, j], self.simulated[window, j])
+                for j, name in enumerate(self.names)}
 
     def rms(self, start=0, stop=None):
         """RMS of each speed's residual on samples ``start:stop`` (rad/s), as a dict."""
         window = slice(start, stop)
         return {name: float(np.sqrt(np.mean(self.residual[window, j] ** 2))) for j, name in enumerate(self.names)}
 
-    def plot(self, axes=None, label="simulated"):
+    def plot(self, axes=None, label=None):
         """Measured against simulated speeds; returns the axes (one per speed)."""
         import matplotlib.pyplot as plt
 
@@ -172,7 +274,7 @@ class Replay:
             axes = axes[:, 0]
         for j, name in enumerate(self.names):
             axes[j].plot(self.time, self.measured[:, j], color="0.6", lw=1.0, label="measured")
-            axes[j].plot(self.time, self.simulated[:, j], lw=1.0, label=label)
+            axes[j].plot(self.time, self.simulated[:, j], lw=1.0, label=label or self.mode)
             axes[j].set_ylabel(f"{name} (rad/s)")
             axes[j].legend(loc="upper right", fontsize="small")
         axes[-1].set_xlabel("time (s)")
@@ -180,84 +282,109 @@ class Replay:
 
 
 def nominal_values(rig):
-    """The rig file's plant values as a dictionary of the model's parameters."""
+    """The rig file's plant values as a dictionary of the model's parameters (effects at zero)."""
     plant = rig.plant
-    return {name: float(getattr(plant, name)) for name in PLANT_PARAMETERS} | {
-        "rubber_thickness": float(plant.rubber_thickness)
-    }
+    values = dict.fromkeys(MODEL_PARAMETERS, 0.0) | {"actuator_delay": 0.0, "theta_d0": 0.0}
+    return values | {name: float(getattr(plant, name)) for name in PLANT_PARAMETERS + ("rubber_thickness",)}
 
 
-def estimate_initial_state(measurements, values, window=20):
-    """Initial state ``(theta_d0, w_m0, w_l0)`` estimated from the first samples.
+def smoothed_speeds(measurements, window=11):
+    """Measured speeds smoothed by a Savitzky-Golay filter (order 2), rad/s, shape (N, m)."""
+    from scipy.signal import savgol_filter  # lazy: scipy.signal takes a second to import
 
-    The speeds are the means of the first ``window`` samples (corrected to the
-    first instant with their fitted slope).  The shaft torque follows from the
-    load's momentum balance ``T = J_l dw_l/dt - T_l`` (or the motor's,
-    ``T = T_m - J_m dw_m/dt``, without a load speed), and ``theta_d0`` from the
-    torque law in contact, ``theta_d = +-alpha + T / k`` (0 inside the gap when T
-    is below the noise).
+    window = min(window, measurements.n_samples - (1 - measurements.n_samples % 2))
+    return savgol_filter(measurements.speeds, window, 2, axis=0)
+
+
+def integrated_displacement(measurements):
+    """``int_0^t (w_m - w_l) dt`` from the measured speeds (rad): theta_d up to its offset."""
+    if measurements.load_speed is None:
+        return np.zeros(measurements.n_samples)
+    relative = measurements.motor_speed - measurements.load_speed
+    return np.concatenate([[0.0], np.cumsum(0.5 * (relative[1:] + relative[:-1]))]) * measurements.dt
+
+
+def measured_twist(measurements):
+    """The twist theta_d up to a constant (rad): measured (angle columns) or integrated from the speeds."""
+    twist = getattr(measurements, "twist", None)
+    return integrated_displacement(measurements) if twist is None else np.asarray(twist, dtype=float)
+
+
+def data_states(measurements, theta_d0, samples):
+    """States ``(theta_d, w_m, w_l)`` the data give at ``samples``, shape (len(samples), 3).
+
+    Speeds are the smoothed measured speeds (the load speed equals the motor
+    speed without a load-speed column); theta_d is ``theta_d0`` plus
+    :func:`measured_twist`.
     """
-    window = min(window, measurements.n_samples)
-    t = measurements.time[:window] - measurements.time[0]
-
-    def start_and_slope(signal):
-        slope, intercept = np.polyfit(t, signal[:window], 1)
-        return float(intercept), float(slope)
-
-    motor0, motor_slope = start_and_slope(measurements.motor_speed)
-    if measurements.load_speed is not None:
-        load0, load_slope = start_and_slope(measurements.load_speed)
-        torque = values["load_inertia"] * load_slope - measurements.load_torque_or_zero[0]
-    else:
-        load0 = motor0
-        torque = measurements.motor_torque[0] - values["motor_inertia"] * motor_slope
-    alpha, k = values["half_gap"], values["stiffness"]
-    theta0 = math.copysign(alpha, torque) + torque / k if abs(torque) > 1e-3 * k * alpha else 0.0
-    return {"theta_d0": theta0, "motor_speed0": motor0, "load_speed0": load0}
+    samples = np.asarray(samples, dtype=int)
+    speeds = smoothed_speeds(measurements)
+    return np.column_stack([theta_d0 + measured_twist(measurements)[samples], speeds[samples, 0],
+                            speeds[samples, -1]])
 
 
-def _law_for(rig_law, values):
-    return "rubber" if values.get("rubber_thickness", 0.0) > 0.0 or rig_law == "rubber" else rig_law
+def _law_code(rig_law, values):
+    if values.get("rubber_thickness", 0.0) > 0.0 or rig_law == "rubber":
+        return RUBBER
+    code = LAW_CODES[rig_law]
+    return PHASE_PLANE if rig_law == "exact" else code
 
 
-def _drive_system(values):
-    system = two_mass_system(values["motor_inertia"], values["load_inertia"], load_damping=values.get("viscous_friction", 0.0))
-    friction = values.get("coulomb_friction", 0.0)
-    if friction > 0.0:
-        system = dataclasses.replace(
-            system, friction=friction, friction_speed=COULOMB_SMOOTHING_SPEED,
-            f=np.array([0.0, 0.0, 1.0]), e_f=np.array([0.0, 0.0, 1.0 / values["load_inertia"]]),
-        )
-    return system
+def segment_bounds(start, stop, horizon):
+    """``(starts, stops)`` of segments of ``horizon`` samples covering ``start:stop`` (None: one segment)."""
+    if horizon is None or horizon >= stop - start:
+        return np.array([start]), np.array([stop])
+    starts = np.arange(start, stop, horizon)
+    if stop - starts[-1] < max(horizon // 2, 2) and starts.size > 1:
+        starts = starts[:-1]
+    return starts, np.append(starts[1:], stop)
 
 
-def _applied_motor_torque(measurements, values):
-    """Commanded motor torque delayed by the actuator dead time (N m), on the record's grid."""
-    delay = values.get("actuator_delay", 0.0)
-    if delay <= 0.0:
-        return measurements.motor_torque
-    t_rel = measurements.time - measurements.time[0]
-    return np.interp(t_rel - delay, t_rel, measurements.motor_torque)
+class _Model:
+    """The model of a record, ready to predict any window with any values (the kernel's inputs cached)."""
+
+    def __init__(self, measurements, rig):
+        self.measurements = measurements
+        self.rig = rig
+        self.eps, self.w_s = smoothing_speeds(measurements)
+        self.speeds = smoothed_speeds(measurements)
+        self.twist = measured_twist(measurements)
+        self.load_torque = np.ascontiguousarray(measurements.load_torque_or_zero, dtype=float)
+        self.t_rel = measurements.time - measurements.time[0]
+
+    def motor_torque(self, delay):
+        """Commanded motor torque delayed by the actuator dead time (N m), on the record's grid."""
+        torque = self.measurements.motor_torque
+        return np.ascontiguousarray(torque if delay <= 0.0 else np.interp(self.t_rel - delay, self.t_rel, torque))
+
+    def run(self, values, starts, stops):
+        """Simulate segments from the data's states; (states, torque) over ``starts[0]:stops[-1]``."""
+        p = np.array([float(values[name]) for name in MODEL_PARAMETERS] + [self.measurements.dt])
+        p[5] = min(p[5], 2.0 * p[4])
+        z0 = np.column_stack([values["theta_d0"] + self.twist[starts], self.speeds[starts, 0], self.speeds[starts, -1]])
+        for column, name in ((1, "motor_speed0"), (2, "load_speed0")):
+            if name in values:  # fitted initial speeds of a free run
+                z0[0, column] = values[name]
+        n = self.measurements.n_samples
+        states = np.zeros((n, 3))
+        torque = np.zeros(n)
+        _segments(_law_code(self.rig.model, values), p, self.eps, self.w_s,
+                  self.motor_torque(values.get("actuator_delay", 0.0)), self.load_torque,
+                  starts.astype(np.int64), stops.astype(np.int64), np.ascontiguousarray(z0),
+                  _SUBSTEPS, states, torque)
+        return states[starts[0]:stops[-1]], torque[starts[0]:stops[-1]]
+
+    def speeds_of(self, states):
+        """Columns of ``states`` matching the measured speeds."""
+        return states[:, 1:1 + self.measurements.speeds.shape[1]]
 
 
-def _simulate(measurements, rig_law, values, start, stop, z0, motor_torque=None):
-    """Free-run simulation over samples ``start:stop`` from state ``z0``; a SimulationResult."""
-    motor_torque = _applied_motor_torque(measurements, values) if motor_torque is None else motor_torque
-    inputs = np.column_stack([motor_torque[start:stop], measurements.load_torque_or_zero[start:stop]])
-    law = _law_for(rig_law, values)
-    beta = min(values.get("rubber_thickness", 0.0), 2.0 * values["half_gap"]) if law == "rubber" else 0.0
-    model = make_model(law, stiffness=values["stiffness"], damping=values["damping"],
-                       half_gap=values["half_gap"], rubber_thickness=beta)
-    theta_b0 = values.get("theta_b0", math.nan) if start == 0 else math.nan
-    if not abs(theta_b0) <= values["half_gap"]:  # unknown: the limited integrator's value at theta_d0
-        theta_b0 = float(np.clip(z0[0], -values["half_gap"], values["half_gap"]))
-    dt = measurements.dt
-    return simulate_linear(_drive_system(values), model, (stop - start - 1) * dt, dt, inputs=inputs,
-                           z0=np.asarray(z0, dtype=float), theta_b0=theta_b0)
+def _horizon_samples(measurements, horizon):
+    return None if horizon is None else max(int(round(horizon / measurements.dt)), 5)
 
 
-def replay(measurements, rig, values=None, n_samples=None):
-    """Free-run simulation of the rig's model driven by the measured torques.
+def predict(measurements, rig, values=None, window=None, horizon=DEFAULT_HORIZON):
+    """Speeds predicted by the model from the data: k-step (segments) or free run.
 
     Parameters
     ----------
@@ -265,30 +392,41 @@ def replay(measurements, rig, values=None, n_samples=None):
     rig : Rig
         Torque law (``[model] backlash``) and data-sheet plant values.
     values : dict, optional
-        Parameter values overriding the rig's: any of :data:`PLANT_PARAMETERS`,
-        :data:`STATE_PARAMETERS`, ``rubber_thickness`` (rad), ``coulomb_friction``
-        (N m), ``viscous_friction`` (N m s/rad), ``actuator_delay`` (s), and for
-        the exact law ``theta_b0`` (rad; default ``theta_d0`` clipped to the gap).  A missing
-        initial state is estimated with :func:`estimate_initial_state`.
-    n_samples : int, optional
-        Simulate the first ``n_samples`` samples only (default: all).
+        Values overriding the rig's: any of :data:`MODEL_PARAMETERS`,
+        ``actuator_delay`` (s) and ``theta_d0`` (rad, offset of theta_d).
+    window : tuple of int, optional
+        Samples ``(start, stop)`` (default: all).
+    horizon : float or None
+        Segment length, s (each segment starts from the data's state,
+        :func:`data_states`); None for one free run over the window.
 
     Returns
     -------
     Replay
     """
     values = nominal_values(rig) | dict(values or {})
-    if not all(name in values for name in STATE_PARAMETERS):
-        values = estimate_initial_state(measurements, values) | values
-    n = measurements.n_samples if n_samples is None else int(n_samples)
-    z0 = [values[name] for name in STATE_PARAMETERS]
-    result = _simulate(measurements, rig.model, values, 0, n, z0)
-    columns = {"motor_speed": 1, "load_speed": 2}
-    simulated = np.column_stack([result.states[:, columns[name]] for name in measurements.speed_names])
-    return Replay(
-        time=measurements.time[:n], simulated=simulated, measured=measurements.speeds[:n],
-        names=measurements.speed_names, result=result,
-    )
+    start, stop = window if window is not None else (0, measurements.n_samples)
+    k = _horizon_samples(measurements, horizon)
+    starts, stops = segment_bounds(start, stop, k)
+    model = _Model(measurements, rig)
+    states, torque = model.run(values, starts, stops)
+    mode = "free run" if starts.size == 1 else f"k-step (k = {k} samples, {k * measurements.dt:.3g} s)"
+    return Replay(time=measurements.time[start:stop], simulated=model.speeds_of(states),
+                  measured=measurements.speeds[start:stop], names=measurements.speed_names,
+                  theta_d=states[:, 0], torque=torque, mode=mode)
+
+
+def replay(measurements, rig, values=None, n_samples=None):
+    """Free-run simulation of the rig's model from the data's state at the first sample.
+
+    ``values`` as in :func:`predict`; ``n_samples`` limits the run to the first
+    samples.  Returns a :class:`Replay`.
+    """
+    stop = measurements.n_samples if n_samples is None else int(n_samples)
+    return predict(measurements, rig, values, window=(0, stop), horizon=None)
+
+
+# --------------------------------------------------------------------------- calibration
 
 
 @dataclasses.dataclass(frozen=True, repr=False)
@@ -297,31 +435,38 @@ class Calibration:
 
     Attributes
     ----------
-    effect : str
-        Catalogue entry fitted (``none`` for the nominal structure).
+    effects : tuple of str
+        Catalogue keys fitted along (empty for the nominal structure).
     parameters : dict
-        Name -> :class:`FitParameter`, plant, initial state and the effect's.
+        Name -> :class:`FitParameter`: plant values, ``theta_d0`` and the effects'
+        (keyed ``name_side`` for friction).
     values : dict
-        Name -> best-fit value, ready for :func:`replay`.
+        Every model value, ready for :func:`predict`.
     window : tuple of int
         Samples ``start:stop`` whose residual was minimised.
+    horizon : int or None
+        Samples per k-step segment.
     n_residuals : int
         Number of scaled residuals (samples times measured speeds).
+    n_clusters : int
+        Segments the robust covariance is computed over.
     rss : float
         Residual sum of squares of the scaled residual at the optimum.
     aic, bic : float
-        ``N ln(RSS / N) + 2 p`` and ``N ln(RSS / N) + p ln N`` on the estimation part.
+        ``N ln(RSS / N) + 2 p`` and ``N ln(RSS / N) + p ln N`` on the estimation window.
     nfev : int
-        Simulations run by the optimiser (Jacobian columns included).
+        Model evaluations of the optimiser (Jacobian columns included).
     success : bool
     message : str
     """
 
-    effect: str
+    effects: tuple
     parameters: dict
     values: dict
     window: tuple
+    horizon: int | None
     n_residuals: int
+    n_clusters: int
     rss: float
     aic: float
     bic: float
@@ -334,193 +479,130 @@ class Calibration:
         """Number of fitted parameters."""
         return len(self.parameters)
 
-    @property
-    def effect_parameter(self):
-        """The effect's :class:`FitParameter` (None for ``none``)."""
-        name = get_effect(self.effect).parameter
-        return self.parameters.get(name) if name else None
+    def effect_parameter(self, key):
+        """The :class:`FitParameter` of catalogue entry ``key``."""
+        return self.parameters[get_effect(key).value_key]
 
     def fit_report(self):
         """A printable report of parameters, standard errors and statistics, lmfit style."""
         lines = [
-            f"[[Calibration: {self.effect}]]",
-            f"    samples {self.window[0]}:{self.window[1]}, residuals {self.n_residuals}, "
-            f"parameters {self.n_free}, simulations {self.nfev}, success {self.success}",
-            f"    RSS {self.rss:.6g}, AIC {self.aic:.6g}, BIC {self.bic:.6g}",
-            "[[Variables]]",
+            f"[[Calibration: {' + '.join(self.effects) or 'none'}]]",
+            f"    samples {self.window[0]}:{self.window[1]}, k-step segments of {self.horizon} samples "
+            f"({self.n_clusters}), residuals {self.n_residuals}, parameters {self.n_free}, evaluations {self.nfev}",
+            f"    RSS {self.rss:.6g}, AIC {self.aic:.6g}, BIC {self.bic:.6g}, success {self.success}",
+            "[[Variables]] (95 % CI cluster-robust over the segments; start = rig file)",
         ]
         for parameter in self.parameters.values():
             low, high = parameter.ci95
             lines.append(
-                f"    {parameter.name:<18} {parameter.value:12.6g} +/- {parameter.stderr:<10.3g} "
+                f"    {parameter.name:<26} {parameter.value:12.6g} +/- {parameter.stderr:<10.3g} "
                 f"(95 % CI {low:.5g}..{high:.5g}, start {parameter.nominal:.5g}) {parameter.unit}"
             )
         return "\n".join(lines)
 
     def __repr__(self):
-        return f"<Calibration {self.effect}: RSS {self.rss:.4g}, AIC {self.aic:.6g}, {self.n_free} parameters>"
+        return (f"<Calibration {' + '.join(self.effects) or 'none'}: RSS {self.rss:.4g}, "
+                f"BIC {self.bic:.6g}, {self.n_free} parameters>")
 
 
-def _free_parameters(measurements, rig, effect, start_values, segmented):
-    """(name, start, lower, upper, scale, unit) of the fitted parameters."""
+def _free_parameters(measurements, rig, effects, values0, window, free_run):
+    """(name, start, lower, upper, scale, nominal, unit) of the fitted parameters.
+
+    ``nominal`` is the rig file's value (plant), the null value (effects) or the
+    data's value (initial speeds of a free run, fitted only then).
+    """
     nominal = nominal_values(rig)
-    speed_range = float(np.ptp(measurements.speeds)) + 1.0
     rows = []
     for name in PLANT_PARAMETERS:
         value = nominal[name]
         if name == "damping":
             scale = max(value, 1e-4 * nominal["stiffness"])
-            rows.append((name, start_values[name], 0.0, 5.0 * scale, scale))
+            rows.append((name, 0.0, 5.0 * scale, scale, value, _UNITS[name]))
         else:
-            rows.append((name, start_values[name], (1 - _RELATIVE_RANGE) * value, (1 + _RELATIVE_RANGE) * value, value))
+            rows.append((name, (1 - _RELATIVE_RANGE) * value, (1 + _RELATIVE_RANGE) * value, value, value,
+                         _UNITS[name]))
     alpha = nominal["half_gap"]
-    rows.append(("theta_d0", start_values["theta_d0"], -4.0 * alpha, 4.0 * alpha, alpha))
-    if not segmented:
-        for name in ("motor_speed0", "load_speed0"):
-            rows.append((name, start_values[name], start_values[name] - 0.2 * speed_range,
-                         start_values[name] + 0.2 * speed_range, 0.01 * speed_range))
-    if effect.parameter:
+    torque_twist = float(np.max(np.abs(measurements.motor_torque))) / nominal["stiffness"]
+    reach = 4.0 * alpha + 2.0 * torque_twist
+    rows.append(("theta_d0", -reach, reach, alpha + torque_twist, 0.0, "rad"))
+    if free_run:
+        speed_range = float(np.ptp(measurements.speeds)) + 1e-9
+        data = data_states(measurements, 0.0, [window[0]])[0]
+        for name, measured in zip(("motor_speed0", "load_speed0"), data[1:]):
+            rows.append((name, measured - 0.2 * speed_range, measured + 0.2 * speed_range, 0.01 * speed_range,
+                         float(measured), "rad/s"))
+    for key in effects:
+        effect = get_effect(key)
         low, high = effect.bounds(rig, measurements)
-        start = start_values.get(effect.parameter, effect.initial(rig, measurements))
-        rows.append((effect.parameter, start, low, high, effect.scale(rig, measurements)))
-    return [(name, float(np.clip(start, low, high)), low, high, scale, _UNITS.get(name, effect.unit))
-            for name, start, low, high, scale in rows]
+        rows.append((effect.value_key, low, high, effect.scale(rig, measurements), effect.null, effect.unit))
+    return [(name, float(np.clip(values0.get(name, nominal_), low, high)), low, high, scale, nominal_, unit)
+            for name, low, high, scale, nominal_, unit in rows]
 
 
-def _stderr(jacobian, residual, n_free, scales):
-    """Standard errors from the Jacobian, inflated for AR(1)-correlated residuals."""
-    n = residual.size
-    dof = max(n - n_free, 1)
-    s2 = float(residual @ residual) / dof
-    rho = float(np.clip(np.corrcoef(residual[:-1], residual[1:])[0, 1], 0.0, 0.999)) if n > 2 else 0.0
-    inflation = (1.0 + rho) / (1.0 - rho)
-    cov = np.linalg.pinv(jacobian.T @ jacobian) * s2 * inflation
-    return np.sqrt(np.clip(np.diag(cov), 0.0, None)) * scales
+def _robust_stderr(jacobian, residual, clusters, scales):
+    """Cluster-robust standard errors (sandwich over segments) and the t quantile of G - 1 dof."""
+    from scipy.stats import t as student
+
+    bread = np.linalg.pinv(jacobian.T @ jacobian)
+    n_clusters = int(clusters.max()) + 1
+    scores = np.zeros((n_clusters, jacobian.shape[1]))
+    np.add.at(scores, clusters, jacobian * residual[:, None])
+    meat = scores.T @ scores * n_clusters / max(n_clusters - 1, 1)
+    cov = bread @ meat @ bread
+    stderr = np.sqrt(np.clip(np.diag(cov), 0.0, None)) * scales
+    return stderr, float(student.ppf(0.975, max(n_clusters - 1, 1)))
 
 
-def smoothed_speeds(measurements, window=11):
-    """Measured speeds smoothed by a Savitzky-Golay filter (order 2), rad/s, shape (N, m)."""
-    window = min(window, measurements.n_samples - (1 - measurements.n_samples % 2))
-    from scipy.signal import savgol_filter  # lazy: scipy.signal takes a second to import
+def _theta_d0_by_grid(model, values, starts, stops, measured, weights):
+    """Starting ``theta_d0`` (rad): the best of a grid over ``[-4 alpha, 4 alpha]`` around the twist.
 
-    return savgol_filter(measurements.speeds, window, 2, axis=0)
-
-
-def integrated_displacement(measurements):
-    """``int_0^t (w_m - w_l) dt`` from the measured speeds (rad): theta_d up to its offset."""
-    relative = measurements.motor_speed - measurements.load_speed
-    return np.concatenate([[0.0], np.cumsum(0.5 * (relative[1:] + relative[:-1]))]) * measurements.dt
-
-
-def data_state(measurements, theta_d0, sample):
-    """State ``(theta_d, w_m, w_l)`` at ``sample`` estimated from the data.
-
-    Speeds are the smoothed measured speeds; theta_d is ``theta_d0`` (its value
-    at the first sample) plus the integral of the measured ``w_m - w_l``.
+    The prediction error is far from convex in theta_d0: a start on the wrong
+    side of the gap leads the fit into a local minimum with the half gap at a
+    bound, so the fit starts from the global minimum of this 1-D cut.
     """
-    speeds = smoothed_speeds(measurements)
-    theta = theta_d0 + integrated_displacement(measurements)[sample]
-    return np.array([theta, speeds[sample, 0], speeds[sample, -1]])
-
-
-def _segment_bounds(start, stop, horizon):
-    edges = list(range(start, stop, horizon))
-    if len(edges) > 1 and stop - edges[-1] < horizon // 2:
-        edges.pop()
-    return list(zip(edges, edges[1:] + [stop]))
-
-
-def segment_replay(measurements, rig, values, window, horizon=0.2):
-    """Simulated speeds over ``window`` in segments of ``horizon`` s, each from the data's state.
-
-    Each segment is a free-run simulation started from :func:`data_state` at its
-    first sample (``values["theta_d0"]`` the offset of theta_d): a
-    ``horizon``-long prediction, the k-step prediction mode of system
-    identification with k = horizon / dt.  Needs the load speed.
-
-    Returns
-    -------
-    ndarray
-        Shape (stop - start, number of measured speeds), rad/s.
-    """
-    start, stop = window
-    segments = _segment_bounds(start, stop, max(int(round(horizon / measurements.dt)), 10))
-    speeds = smoothed_speeds(measurements)
-    displacement = integrated_displacement(measurements)
-    torque = _applied_motor_torque(measurements, values)
-    pieces = []
-    for first, last in segments:
-        z0 = [values["theta_d0"] + displacement[first], speeds[first, 0], speeds[first, -1]]
-        result = _simulate(measurements, rig.model, values, first, last, z0, torque)
-        pieces.append(result.states[:, 1:3][:, : measurements.speeds.shape[1]])
-    return np.concatenate(pieces)
-
-
-def _theta_d0_by_grid(measurements, rig, values, window, horizon, points=_THETA_GRID_POINTS):
-    """Starting ``theta_d0`` (rad): the best of a grid over ``[-4 alpha, 4 alpha]``.
-
-    The cost is the residual sum of squares of the speeds over ``window``
-    (segments of ``horizon`` s, or one free run when None) at the other
-    ``values``.  It is far from convex in theta_d0: a start on the wrong side of
-    the gap (the first samples' estimate of :func:`estimate_initial_state` is
-    too noisy to tell) leads the fit into a local minimum with the half gap at
-    its bound, so the fit starts from the global minimum of this 1-D cut.
-    """
-    start, stop = window
-    measured = measurements.speeds[start:stop]
-    weights = 1.0 / np.maximum(measured.std(axis=0), 1e-12)
     alpha = values["half_gap"]
 
     def cost(theta_d0):
-        trial = values | {"theta_d0": theta_d0}
-        if horizon is None:
-            simulated = replay(measurements, rig, trial, n_samples=stop).simulated[start:stop]
-        else:
-            simulated = segment_replay(measurements, rig, trial, window, horizon)
-        return float(np.sum(((measured - simulated) * weights) ** 2))
+        states, _ = model.run(values | {"theta_d0": theta_d0}, starts, stops)
+        return float(np.sum(((measured - model.speeds_of(states)) * weights) ** 2))
 
-    grid = np.linspace(-4.0 * alpha, 4.0 * alpha, points)
+    centre = values.get("theta_d0", 0.0)
+    grid = centre + np.linspace(-4.0 * alpha, 4.0 * alpha, _THETA_GRID_POINTS)
     return float(grid[int(np.argmin([cost(theta) for theta in grid]))])
 
 
-def calibrate(measurements, rig, effect="none", window=None, start_values=None, horizon=0.2, polish=True,
-              workers=1, max_nfev=None):
-    """Fit plant values, initial state and one effect's parameter to a record.
+def calibrate(measurements, rig, effects=(), window=None, start_values=None, horizon=DEFAULT_HORIZON, workers=1,
+              max_nfev=None, polish=True):
+    """Fit plant values, the twist offset and the effects' parameters to a record.
 
     Parameters
     ----------
     measurements : Measurements
     rig : Rig
-        Torque law and data-sheet values (the starting point and the +-30 % bounds
-        of inertias, stiffness and half gap; damping in ``[0, 5 c]``).
-    effect : str
-        Catalogue entry (:data:`~backlash_df.identify.EFFECT_NAMES`) whose
-        parameter is fitted along.
+        Torque law and data-sheet values (the start and the +-30 % bounds of
+        inertias, stiffness and half gap; damping in ``[0, 5 c]``).
+    effects : sequence of str
+        Catalogue keys (:data:`~backlash_df.identify.EFFECT_NAMES`) fitted along;
+        a single string is one effect.
     window : tuple of int, optional
         Samples ``(start, stop)`` whose residual is minimised (default: all).
     start_values : dict, optional
-        Starting values (for example a previous calibration's ``values``).
-        Without ``theta_d0`` its start is the best point of a grid
-        (:func:`_theta_d0_by_grid`).
+        Starting values (for example a previous calibration's ``values``); without
+        ``theta_d0`` its start is the best point of a grid.
     horizon : float or None
-        Length (s) of the simulated segments.  With a measured load speed the
-        window is cut into segments of ``horizon`` seconds, each simulated
-        free-run from the state the data give at its start
-        (:func:`data_state`, one fitted offset ``theta_d0`` for all): the
-        rigid-body mode cannot drift for longer than a segment, which keeps the
-        least-squares problem smooth enough to converge from data-sheet values.
-        ``None`` (or no load speed): one free run from sample 0, with the
-        initial speeds fitted too.
-    polish : bool
-        After the segmented fit, refine by free runs from sample 0 (output
-        error, the prediction mode of the validation) over a quarter, half and
-        all of the window, starting from the segmented solution
-        (:func:`_polish`).  Effects that act slowly (friction) show their full
-        size only over a long free run.
+        Length (s) of the k-step segments (module docs); None: one free run.
     workers : int
-        Threads computing Jacobian columns (the simulation kernel releases the GIL).
+        Threads computing Jacobian columns (the kernel releases the GIL).
     max_nfev : int, optional
         Limit of optimiser iterations.
+    polish : bool
+        After the k-step fit, refine by a free run over the window (half of it,
+        then all of it, each from the previous solution), with the initial
+        speeds fitted too -- but only when the free run of the k-step solution
+        does not drift (fit at least :data:`FREE_RUN_MIN` % on every speed).
+        The initial state of a short segment is only as good as the noisy data
+        at its start, which biases slow effects (friction) a little; a free
+        run has no such error, and shows a slow effect at full size.
 
     Returns
     -------
@@ -531,80 +613,75 @@ def calibrate(measurements, rig, effect="none", window=None, start_values=None, 
     The residual is ``(y_j - y_hat_j) / std(y_j)`` per measured speed ``j``
     stacked, so that each speed weighs as in its fit percentage.
     """
-    effect = get_effect(effect)
+    effects = (effects,) if isinstance(effects, str) else tuple(effects)
     start, stop = window if window is not None else (0, measurements.n_samples)
-    segmented = horizon is not None and measurements.load_speed is not None
+    model = _Model(measurements, rig)
     values0 = nominal_values(rig) | dict(start_values or {})
-    if not all(name in values0 for name in STATE_PARAMETERS):
-        values0 = estimate_initial_state(measurements, values0) | values0
     if "theta_d0" not in (start_values or {}):
-        values0["theta_d0"] = _theta_d0_by_grid(measurements, rig, values0, (start, stop), horizon if segmented else None)
-    rows = _free_parameters(measurements, rig, effect, values0, segmented)
+        k = _horizon_samples(measurements, horizon)
+        starts, stops = segment_bounds(start, stop, k)
+        measured = measurements.speeds[start:stop]
+        weights = 1.0 / np.maximum(measured.std(axis=0), 1e-12)
+        values0["theta_d0"] = _theta_d0_by_grid(model, values0, starts, stops, measured, weights)
+    result = _fit(model, effects, (start, stop), values0, horizon, workers, max_nfev)
+    if not (polish and horizon is not None):
+        return result
+    free = predict(measurements, rig, result.values, window=(start, stop), horizon=None).fit_percent()
+    if not min(free.values()) >= FREE_RUN_MIN:
+        return result
+    values = result.values
+    for fraction in (0.5, 1.0):
+        last = start + max(int(round(fraction * (stop - start))), 10)
+        result = _fit(model, effects, (start, last), values, None, workers, max_nfev)
+        values = result.values
+    return result
+
+
+def _fit(model, effects, window, values0, horizon, workers, max_nfev):
+    """One bounded least-squares fit of the prediction error over ``window``; a :class:`Calibration`."""
+    from scipy.optimize import least_squares  # lazy: keeps `import backlash_df` quick
+
+    measurements = model.measurements
+    start, stop = window
+    k = _horizon_samples(measurements, horizon)
+    starts, stops = segment_bounds(start, stop, k)
+    measured = measurements.speeds[start:stop]
+    weights = 1.0 / np.maximum(measured.std(axis=0), 1e-12)
+    rows = _free_parameters(measurements, model.rig, effects, values0, window, horizon is None)
     names = [row[0] for row in rows]
     scales = np.array([row[4] for row in rows])
     lower = np.array([row[2] for row in rows]) / scales
     upper = np.array([row[3] for row in rows]) / scales
     x0 = np.array([row[1] for row in rows]) / scales
-    measured = measurements.speeds[start:stop]
-    weights = 1.0 / np.maximum(measured.std(axis=0), 1e-12)
-    fixed = {key: value for key, value in values0.items() if key not in names}
-    if effect.name != "rubber":
-        fixed["rubber_thickness"] = nominal_values(rig)["rubber_thickness"]
-    def values_of(x):
-        return fixed | dict(zip(names, x * scales))
+    base = {key: value for key, value in values0.items() if key not in ("motor_speed0", "load_speed0")}
 
-    def simulated(x):
-        values = values_of(x)
-        if segmented:
-            return segment_replay(measurements, rig, values, (start, stop), horizon)
-        return replay(measurements, rig, values, n_samples=stop).simulated[start:stop]
+    def values_of(x):
+        return base | dict(zip(names, x * scales))
 
     def residual(x):
-        return ((measured - simulated(x)) * weights).ravel(order="F")
+        states, _ = model.run(values_of(x), starts, stops)
+        return ((measured - model.speeds_of(states)) * weights).ravel(order="F")
 
-    jacobian = _parallel_jacobian(residual, lower, upper, workers)
-    solution = least_squares(residual, x0, jac=jacobian, bounds=(lower, upper), method="trf", max_nfev=max_nfev)
-    if segmented and polish:
-        return _polish(measurements, rig, effect.name, (start, stop), values_of(solution.x), workers,
-                       _POLISH_NFEV if max_nfev is None else max_nfev)
-    stderr = _stderr(solution.jac, solution.fun, len(names), scales)
-    best = solution.x * scales
+    solution = least_squares(residual, x0, jac=_parallel_jacobian(residual, lower, upper, workers),
+                             bounds=(lower, upper), method="trf", max_nfev=max_nfev)
+    blocks = segment_bounds(start, stop, k or _horizon_samples(measurements, DEFAULT_HORIZON))
+    clusters = np.tile(np.repeat(np.arange(blocks[0].size), blocks[1] - blocks[0]), measured.shape[1])
+    stderr, quantile = _robust_stderr(solution.jac, solution.fun, clusters, scales)
     parameters = {
-        name: FitParameter(name, float(value), float(err), float(row[1]), float(row[2]), float(row[3]), row[5])
-        for name, value, err, row in zip(names, best, stderr, rows)
+        name: FitParameter(name, float(value), float(err), float(row[5]), float(row[2]), float(row[3]), row[6],
+                           quantile)
+        for name, value, err, row in zip(names, solution.x * scales, stderr, rows)
     }
-    values = values_of(solution.x)
-    if segmented:
-        values |= dict(zip(STATE_PARAMETERS, data_state(measurements, values["theta_d0"], 0)))
     n = solution.fun.size
     rss = float(solution.fun @ solution.fun)
+    values = {key: value for key, value in values_of(solution.x).items() if key not in ("motor_speed0", "load_speed0")}
     return Calibration(
-        effect=effect.name, parameters=parameters, values=values, window=(start, stop),
-        n_residuals=n, rss=rss, aic=information_criterion(rss, n, len(names), "aic"),
-        bic=information_criterion(rss, n, len(names), "bic"),
+        effects=tuple(effects), parameters=parameters, values=values, window=(start, stop), horizon=k,
+        n_residuals=n, n_clusters=int(blocks[0].size), rss=rss,
+        aic=information_criterion(rss, n, len(names), "aic"), bic=information_criterion(rss, n, len(names), "bic"),
         nfev=int(solution.nfev) + int(solution.njev or 0) * (len(names) + 1), success=bool(solution.success),
         message=str(solution.message),
     )
-
-
-def _polish(measurements, rig, effect, window, values, workers, max_nfev):
-    """Free-run refinement of a segmented fit over growing windows (continuation).
-
-    The free run starts at sample 0 from the data's state (:func:`data_state`),
-    whose speeds are only as good as the smoothing at the record's edge; over
-    the whole window the free-run cost is far from convex (the rigid-body mode
-    integrates any initial-speed error), so the fit runs first on the first
-    quarter of the window, then on half of it, then on all of it, each from the
-    previous solution (:data:`_POLISH_FRACTIONS`).
-    """
-    start, stop = window
-    values = values | dict(zip(STATE_PARAMETERS, data_state(measurements, values["theta_d0"], 0)))
-    for fraction in _POLISH_FRACTIONS:
-        last = start + max(int(round(fraction * (stop - start))), 10)
-        result = calibrate(measurements, rig, effect, window=(start, last), start_values=values, horizon=None,
-                           workers=workers, max_nfev=max_nfev)
-        values = result.values
-    return result
 
 
 def information_criterion(rss, n, n_free, kind="aic"):
@@ -613,7 +690,7 @@ def information_criterion(rss, n, n_free, kind="aic"):
     return float(n * math.log(max(rss, 1e-300) / n) + penalty)
 
 
-def _parallel_jacobian(residual, lower, upper, workers, rel_step=1e-5):
+def _parallel_jacobian(residual, lower, upper, workers, rel_step=1e-6):
     """Forward-difference Jacobian whose columns run in ``workers`` threads."""
 
     def jacobian(x, f0=None):

@@ -1,28 +1,36 @@
-"""From measured data to a named cause: calibrate, compare candidates, report the gain.
+"""From measured data to named causes: calibrate, select effects, report the gain and its uncertainty.
 
 The record is split in time: the first 5 % are dropped (initial transient), the
 *estimation part* runs to 60 %, the *validation part* is the last 40 %, never
-used by any fit.  Each catalogue candidate (:mod:`.effects`) is calibrated on
-the estimation part (:func:`~.calibrate.calibrate`, each from the rig file's
-values and, being an extension of the nominal structure, also from the
-calibrated baseline with its parameter at the null value; the better fit of the
-two is kept), then replayed by **free-run simulation** from the initial state
-estimated from the data at the record's start, driven by the measured torques
-only; every number of the verdict is computed on the validation part.
+used by any fit.  Every fit is a k-step prediction-error fit
+(:func:`~.calibrate.calibrate`: segments of ``horizon`` seconds, each started
+from the data's state), which does not drift on closed-loop data; every score is
+the k-step prediction error on the validation part, scaled per speed by its
+standard deviation.
 
-Significance rule (stated, fixed): a candidate is *accepted* when all hold
+**Forward selection** over the catalogue (:mod:`.effects`): starting from the
+nominal structure, every remaining candidate is fitted on top of the current set
+(from the current values, its parameter at the null value); the candidate with
+the largest validation gain is added if it passes the significance rule, and
+the search repeats.  A **backward check** then refits the set without each
+member and drops a member that no longer passes the rule against the rest.
 
-1. its validation BIC (``N ln(RSS/N) + p ln N``, lmfit's definition, on the
-   scaled validation residual) is lower than the baseline's by more than
-   :data:`BIC_MARGIN` (10: "very strong" evidence on the Kass-Raftery scale);
-2. its validation residual sum of squares is at most :data:`RSS_RATIO` (0.5)
-   times the baseline's: the extension must explain at least half of what the
-   nominal structure leaves unexplained, not a sliver of model mismatch;
-3. its parameter's 95 % confidence interval excludes the null value and the
-   parameter is resolvable (an actuator delay of at least one sample).
+Significance rule (stated, fixed), for adding an effect to a set:
 
-The cause is the accepted candidate with the lowest validation BIC; with none
-accepted it is ``none``: the nominal structure explains the data.
+1. *gain*: the validation RSS falls by at least :data:`MIN_GAIN` (10 %) of the
+   current set's: the effect explains a tenth of what is left unexplained;
+2. *evidence with correlated residuals*: over the validation blocks (the k-step
+   segments, whose residuals are correlated inside and nearly independent
+   between), the per-block log RSS ratio ``ln(RSS_current / RSS_new)`` has a t
+   statistic of at least :data:`MIN_T` (3);
+3. *size*: the parameter's 95 % interval (cluster-robust, Student t) excludes
+   the null value, and a delay is at least one sample.
+
+The answer is a set of causes ordered by the gain of their step.  Before naming
+any, the baseline must explain the data: with a validation fit below
+:data:`BASELINE_MIN_FIT` % on a speed the diagnosis says so and names none.
+The final set's values are refined by a free run where it does not drift
+(:func:`~.calibrate.calibrate`, ``polish``), and their intervals reported.
 """
 
 import dataclasses
@@ -31,111 +39,108 @@ import math
 
 import numpy as np
 
-from .calibrate import PLANT_PARAMETERS, calibrate, fit_percent, information_criterion, replay
+from .calibrate import DEFAULT_HORIZON, PLANT_PARAMETERS, calibrate, data_states, predict, smoothed_speeds
 from .effects import EFFECT_NAMES, get_effect
 from .residuals import residual_analysis
 
-__all__ = ["CandidateResult", "Diagnosis", "diagnose", "check_speed_units", "BIC_MARGIN", "RSS_RATIO"]
+__all__ = ["CandidateResult", "Diagnosis", "diagnose", "check_speed_units", "check_excitation", "MIN_GAIN",
+           "MIN_T", "BASELINE_MIN_FIT"]
 
-#: Validation BIC improvement a candidate must exceed.
-BIC_MARGIN = 10.0
-#: Largest validation RSS ratio (extended / baseline) of an accepted candidate.
-RSS_RATIO = 0.5
-#: Optimiser iterations of a candidate's free-run fit started from the baseline.
-NESTED_NFEV = 30
-PREDICTION_MODE = (
-    "free-run simulation from the initial state estimated from the data at the record's start, "
-    "driven by the measured torques; scored on the validation part only"
-)
+#: Smallest relative decrease of the validation RSS of an accepted effect.
+MIN_GAIN = 0.1
+#: Smallest t statistic of the per-block validation RSS decrease.
+MIN_T = 3.0
+#: Smallest validation fit (%, k-step, every speed) of the baseline for naming a cause.
+BASELINE_MIN_FIT = 30.0
+#: Optimiser iterations of a candidate fitted on top of the current set.
+NESTED_NFEV = 40
+_NULL = {"actuator_delay": "delay shorter than one sample"}
 
 
 @dataclasses.dataclass(frozen=True, repr=False)
 class CandidateResult:
-    """One candidate's calibration and its score on the validation part.
+    """One model (a set of effects) calibrated and scored on the validation part.
 
     Attributes
     ----------
-    cause : str
-        Catalogue name.
+    effects : tuple of str
+        Catalogue keys of the set (empty: the nominal structure).
     calibration : Calibration
         Fit on the estimation part.
-    replay : Replay
-        Free-run simulation over the whole record with the fitted values.
-    validation : slice
-        Samples of the validation part.
+    prediction : Replay
+        k-step prediction over the validation part.
     fit_percent : dict
-        Validation fit percentage per measured speed.
-    rms : dict
-        Validation residual RMS per measured speed, rad/s.
+        Validation fit per speed, k-step prediction (MATLAB ``compare``).
+    free_run_fit_percent : dict
+        Validation fit per speed, free run from the data's state at the part's start.
     rss : float
-        Validation residual sum of squares, each speed scaled by its std.
-    aic, bic : float
-        Information criteria on the validation residual.
+        Validation RSS of the k-step prediction, each speed scaled by its std.
+    block_rss : ndarray
+        The same per validation block (k-step segment).
+    added : str or None
+        The key this step added (None for the baseline).
+    gain : float
+        Relative validation RSS decrease against the set it was added to.
+    t_statistic : float
+        t statistic of the per-block RSS decrease.
     accepted : bool
-        Whether the significance rule accepts it (never for ``none``).
     reason : str
-        Why it is accepted or not.
     """
 
-    cause: str
+    effects: tuple
     calibration: object
-    replay: object
-    validation: slice
+    prediction: object
     fit_percent: dict
-    rms: dict
+    free_run_fit_percent: dict
     rss: float
-    aic: float
-    bic: float
+    block_rss: np.ndarray
+    added: str | None = None
+    gain: float = 0.0
+    t_statistic: float = 0.0
     accepted: bool = False
     reason: str = ""
 
     @property
     def mean_fit_percent(self):
-        """Mean of the validation fit percentages of the measured speeds."""
+        """Mean of the validation k-step fit percentages of the measured speeds."""
         return float(np.mean(list(self.fit_percent.values())))
 
     @property
     def parameter(self):
-        """The effect's FitParameter (None for ``none``)."""
-        return self.calibration.effect_parameter
+        """The added effect's FitParameter (None for the baseline)."""
+        return self.calibration.effect_parameter(self.added) if self.added else None
 
     def to_dict(self):
         """JSON-ready summary."""
         parameter = self.parameter
         return {
-            "cause": self.cause,
-            "fit_percent": self.mean_fit_percent,
-            "fit_percent_per_signal": self.fit_percent,
-            "rms": self.rms,
-            "aic": self.aic,
-            "bic": self.bic,
+            "effects": list(self.effects), "added": self.added,
+            "fit_percent": self.mean_fit_percent, "fit_percent_per_signal": self.fit_percent,
+            "free_run_fit_percent": self.free_run_fit_percent,
+            "gain": self.gain, "t_statistic": self.t_statistic,
             "parameter": _parameter_dict(parameter) if parameter else None,
-            "accepted": self.accepted,
-            "reason": self.reason,
+            "accepted": self.accepted, "reason": self.reason,
         }
 
     def __repr__(self):
         fits = ", ".join(f"{name} {value:.1f} %" for name, value in self.fit_percent.items())
-        return f"<CandidateResult {self.cause}: fit {fits}, BIC {self.bic:.1f}, accepted={self.accepted}>"
+        return f"<CandidateResult {' + '.join(self.effects) or 'none'}: k-step fit {fits}, accepted={self.accepted}>"
 
 
 def _parameter_dict(parameter):
     low, high = parameter.ci95
-    return {"name": parameter.name, "value": parameter.value, "stderr": parameter.stderr,
-            "ci95": [low, high], "unit": parameter.unit}
-
-
-def _finite(value):
-    return value if isinstance(value, (int, str, bool)) or value is None or math.isfinite(value) else None
+    return {"name": parameter.name, "value": parameter.value, "stderr": parameter.stderr, "ci95": [low, high],
+            "unit": parameter.unit}
 
 
 def _clean(obj):
+    """JSON-safe copy: NaN and infinities become null."""
     if isinstance(obj, dict):
         return {key: _clean(value) for key, value in obj.items()}
     if isinstance(obj, (list, tuple)):
         return [_clean(value) for value in obj]
-    if isinstance(obj, float):
-        return _finite(obj)
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
     return obj
 
 
@@ -145,29 +150,31 @@ class Diagnosis:
 
     Attributes
     ----------
-    cause : str
-        The named cause (``none`` when the nominal structure explains the data).
+    causes : list of dict
+        ``{"effect", "side", "parameters": {name: {"value", "ci95", "unit"}}, "gain"}``,
+        ordered by gain (empty: the nominal structure explains the data).
     sentence : str
-        The cause in one sentence a person can act on.
-    baseline : CandidateResult
-        The nominal structure calibrated.
-    extended : CandidateResult
-        The model extended by the cause (the baseline when the cause is ``none``).
+        The causes in sentences a person can act on.
+    baseline, extended : CandidateResult
+        The nominal structure and the selected set, refined (``polish``).
     candidates : list of CandidateResult
-        All candidates, ranked: accepted first, then by validation BIC.
+        Every model tried, in the order of the search.
+    warnings : list of str
+        What a person must know before trusting the numbers.
     residuals_baseline, residuals_extended : ResidualAnalysis
-        Residual analysis of the two on the validation part.
+        Residual analysis of the two k-step predictions on the validation part.
     measurements, rig
         The inputs.
     estimation, validation : slice
         Sample ranges of the two parts.
     """
 
-    cause: str
+    causes: list
     sentence: str
     baseline: CandidateResult
     extended: CandidateResult
     candidates: list
+    warnings: list
     residuals_baseline: object
     residuals_extended: object
     measurements: object
@@ -175,33 +182,41 @@ class Diagnosis:
     estimation: slice
     validation: slice
 
+    @property
+    def cause(self):
+        """The first cause's effect name, ``none`` when there is none."""
+        return self.causes[0]["effect"] if self.causes else "none"
+
+    @property
+    def prediction_mode(self):
+        """How the fit numbers were computed."""
+        return (f"{self.baseline.prediction.mode}: each segment simulated from the data's state, driven by the "
+                f"measured torques; free run: one simulation from the data's state at the validation start; "
+                f"both scored on the validation part only")
+
     def __repr__(self):
-        return (
-            f"<Diagnosis cause={self.cause!r}: validation fit {self.baseline.mean_fit_percent:.1f} % -> "
-            f"{self.extended.mean_fit_percent:.1f} % ({PREDICTION_MODE.split(' from')[0]})>"
-        )
+        names = ", ".join(f"{c['effect']}" + (f"@{c['side']}" if c["side"] else "") for c in self.causes) or "none"
+        return (f"<Diagnosis causes: {names}; validation k-step fit {self.baseline.mean_fit_percent:.1f} % -> "
+                f"{self.extended.mean_fit_percent:.1f} %>")
+
+    def _model_dict(self, candidate):
+        return candidate.to_dict() | {
+            "parameters": {name: p.to_dict() for name, p in candidate.calibration.parameters.items()}}
 
     def to_dict(self):
         """The JSON document of ``backlash-df diagnose --json`` (DESIGN.md)."""
         time = self.measurements.time
-        extended = self.extended.to_dict() | {
-            "parameters": {name: _parameter_dict(p) for name, p in self.extended.calibration.parameters.items()},
-        }
-        baseline = self.baseline.to_dict() | {
-            "parameters": {name: _parameter_dict(p) for name, p in self.baseline.calibration.parameters.items()},
-        }
         return _clean({
             "cause": self.cause,
+            "causes": self.causes,
             "sentence": self.sentence,
-            "prediction": PREDICTION_MODE,
-            "rule": f"accepted if validation BIC lower than the baseline's by more than {BIC_MARGIN:g}, "
-                    f"validation RSS at most {RSS_RATIO:g} x the baseline's, and the parameter's 95 % CI "
-                    f"excludes its null value (a delay at least one sample); cause = accepted candidate "
-                    f"with the lowest validation BIC, else none",
+            "warnings": self.warnings,
+            "prediction": self.prediction_mode,
+            "rule": RULE,
             "estimation": {"start": float(time[self.estimation.start]), "stop": float(time[self.estimation.stop - 1])},
             "validation": {"start": float(time[self.validation.start]), "stop": float(time[-1])},
-            "baseline": baseline,
-            "extended": extended,
+            "baseline": self._model_dict(self.baseline),
+            "extended": self._model_dict(self.extended),
             "candidates": [candidate.to_dict() for candidate in self.candidates],
         })
 
@@ -210,28 +225,29 @@ class Diagnosis:
         return json.dumps(self.to_dict(), indent=2)
 
     def plot(self, axes=None):
-        """Measured against baseline and extended free-run speeds (validation part); returns the axes."""
+        """Measured against baseline and extended k-step predictions (validation part); returns the axes."""
         import matplotlib.pyplot as plt
 
         names = self.measurements.speed_names
         if axes is None:
             _, axes = plt.subplots(len(names), 1, sharex=True, figsize=(9, 2.4 * len(names)), squeeze=False)
             axes = axes[:, 0]
-        window = self.validation
-        time = self.measurements.time[window]
+        base, ext = self.baseline.prediction, self.extended.prediction
         for j, name in enumerate(names):
-            axes[j].plot(time, self.baseline.replay.measured[window, j], color="0.55", lw=1.2, label="measured")
-            axes[j].plot(time, self.baseline.replay.simulated[window, j], lw=1.0, label="baseline (none)")
-            if self.cause != "none":
-                axes[j].plot(time, self.extended.replay.simulated[window, j], lw=1.0, ls="--",
-                             label=f"extended ({self.cause})")
+            axes[j].plot(base.time, base.measured[:, j], color="0.55", lw=1.2, label="measured")
+            axes[j].plot(base.time, base.simulated[:, j], lw=1.0, label="baseline (none)")
+            if self.causes:
+                axes[j].plot(ext.time, ext.simulated[:, j], lw=1.0, ls="--",
+                             label=f"extended ({' + '.join(self.extended.effects)})")
             axes[j].set_ylabel(f"{name} (rad/s)")
             axes[j].legend(loc="upper right", fontsize="small")
-        axes[-1].set_xlabel("time (s), validation part")
+        axes[-1].set_xlabel(f"time (s), validation part, {base.mode}")
         return axes
 
     def report_html(self):
-        """A self-contained HTML report: verdict, overlays, residuals, ranking, parameters."""
+        """A self-contained HTML report: verdict, warnings, overlays, residuals, search, parameters."""
+        import html
+
         import matplotlib.pyplot as plt
 
         from ..report import figure_html, html_page, table_html
@@ -239,38 +255,51 @@ class Diagnosis:
         fig, axes = plt.subplots(len(self.measurements.speed_names), 1, sharex=True, squeeze=False,
                                  figsize=(9, 2.4 * len(self.measurements.speed_names)))
         self.plot(axes[:, 0])
-        overlay = figure_html(fig, "Validation part: measured speeds against the free-run simulations, "
+        overlay = figure_html(fig, "Validation part: measured speeds against the k-step predictions, "
                                    "before (baseline) and after (extended) the extension.")
         residual_figures = []
         for label, analysis in (("baseline", self.residuals_baseline), ("extended", self.residuals_extended)):
             fig = plt.figure(figsize=(10, 7))
             analysis.plot(fig)
-            fig.suptitle(f"Residuals of the {label} model ({'none' if label == 'baseline' else self.cause})")
+            fig.suptitle(f"Residuals of the {label} model")
             residual_figures.append(figure_html(
                 fig, f"{label}: residual over time, against theta_d and shaft torque, spectrum, "
                      f"autocorrelation and cross-correlation with the motor torque (99 % band grey)."))
-        ranking = [[c.cause, f"{c.mean_fit_percent:.2f}", " / ".join(f"{v:.2f}" for v in c.fit_percent.values()),
-                    " / ".join(f"{v:.3g}" for v in c.rms.values()), f"{c.bic - self.baseline.bic:.1f}",
-                    _format_parameter(c.parameter), "yes" if c.accepted else "no", c.reason]
-                   for c in self.candidates]
-        ranking_table = table_html(
-            ["cause", "fit % (mean)", "fit % per speed", "RMS rad/s per speed", "dBIC", "parameter (95 % CI)",
-             "accepted", "why"], ranking, text_columns=(0, 5, 6, 7))
+        search = [[" + ".join(c.effects) or "none", f"{c.mean_fit_percent:.2f}",
+                   " / ".join(f"{v:.2f}" for v in c.fit_percent.values()),
+                   " / ".join(f"{v:.2f}" for v in c.free_run_fit_percent.values()),
+                   f"{100 * c.gain:.1f}", f"{c.t_statistic:.1f}", _format_parameter(c.parameter),
+                   "yes" if c.accepted else "no", c.reason] for c in self.candidates]
+        search_table = table_html(
+            ["model", "k-step fit % (mean)", "k-step fit % per speed", "free-run fit % per speed", "gain %", "t",
+             "added parameter (95 % CI)", "accepted", "why"], search, text_columns=(0, 6, 7, 8))
         parameter_rows = [[name, f"{p.nominal:.5g}", f"{p.value:.5g}", f"{p.stderr:.3g}",
-                           f"{p.ci95[0]:.5g} .. {p.ci95[1]:.5g}", p.unit]
+                           f"{p.ci95[0]:.5g} .. {p.ci95[1]:.5g}", f"{p.lower:.4g} .. {p.upper:.4g}", p.unit]
                           for name, p in self.extended.calibration.parameters.items()]
-        parameters = table_html(["parameter", "start (rig file)", "fitted", "std. error", "95 % CI", "unit"],
-                                parameter_rows, text_columns=(0, 5))
-        summary = (f'<p class="summary"><b>Cause: {self.cause}.</b> {self.sentence}</p>'
-                   f"<p>Prediction mode: {PREDICTION_MODE}. Validation fit (MATLAB compare): baseline "
-                   f"{self.baseline.mean_fit_percent:.2f} %, extended {self.extended.mean_fit_percent:.2f} %.</p>")
+        parameters = table_html(["parameter", "start (rig file)", "fitted", "std. error", "95 % CI", "bounds", "unit"],
+                                parameter_rows, text_columns=(0, 6))
+        warnings = "".join(f"<li>{html.escape(w)}</li>" for w in self.warnings)
+        summary = (f'<p class="summary"><b>Causes: {html.escape(self._cause_list())}.</b> '
+                   f"{html.escape(self.sentence)}</p>"
+                   + (f"<p><b>Warnings</b></p><ul>{warnings}</ul>" if warnings else "")
+                   + f"<p>Prediction mode: {html.escape(self.prediction_mode)}.</p>")
         return html_page(f"Diagnosis of {self.measurements.source}", [
             ("", summary),
-            ("Measured against simulated", overlay),
-            ("Ranking of the candidate effects", ranking_table + f"<p>{self.to_dict()['rule']}.</p>"),
-            ("What the simulation gets wrong", "\n".join(residual_figures)),
-            (f"Calibrated parameters of the extended model ({self.cause})", parameters),
+            ("Measured against predicted", overlay),
+            ("Forward selection and backward check", search_table + f"<p>{html.escape(RULE)}</p>"),
+            ("What the model gets wrong", "\n".join(residual_figures)),
+            ("Calibrated parameters of the extended model (start = rig file value; effects start at 0)", parameters),
         ])
+
+    def _cause_list(self):
+        return ", ".join(f"{c['effect']}" + (f" ({c['side']} side)" if c["side"] else "") for c in self.causes) \
+            or "none"
+
+
+RULE = (f"an effect is added (forward selection, then a backward check) if the validation k-step RSS falls by at "
+        f"least {100 * MIN_GAIN:g} %, the per-block log RSS ratio has t >= {MIN_T:g} over the validation blocks, and "
+        f"its 95 % CI (cluster-robust over segments) excludes the null value (a delay at least one sample); "
+        f"no cause is named when the baseline's validation fit is below {BASELINE_MIN_FIT:g} % on a speed")
 
 
 def _format_parameter(parameter):
@@ -303,75 +332,170 @@ def check_speed_units(measurements, rig):
         )
 
 
-def _score(cause, calibration, measurements, rig, validation, weights):
-    simulation = replay(measurements, rig, calibration.values)
-    residual = simulation.residual[validation] * weights
-    rss = float(np.sum(residual**2))
-    n = residual.size
-    p = calibration.n_free
-    return CandidateResult(
-        cause=cause, calibration=calibration, replay=simulation, validation=validation,
-        fit_percent={name: fit_percent(simulation.measured[validation, j], simulation.simulated[validation, j])
-                     for j, name in enumerate(simulation.names)},
-        rms={name: float(np.sqrt(np.mean(simulation.residual[validation, j] ** 2)))
-             for j, name in enumerate(simulation.names)},
-        rss=rss, aic=information_criterion(rss, n, p, "aic"), bic=information_criterion(rss, n, p, "bic"),
-    )
+def check_excitation(measurements):
+    """Refuse a record whose torque or speeds do not move: there is nothing to fit."""
+    for name in ("motor_torque",) + measurements.speed_names:
+        values = getattr(measurements, name)
+        if not np.ptp(values) > 1e-9 * max(float(np.max(np.abs(values))), 1.0):
+            raise ValueError(f"{measurements.source}: {name} is constant ({values[0]:.6g}): the record has no "
+                             f"excitation to diagnose; record the drive while it moves")
 
 
-def _judge(candidate, baseline, dt):
-    """Apply the significance rule; returns the candidate with ``accepted`` and ``reason`` set."""
-    parameter = candidate.parameter
-    low, _ = parameter.ci95
-    delta_bic = candidate.bic - baseline.bic
-    ratio = candidate.rss / baseline.rss if baseline.rss > 0 else 1.0
-    failures = []
-    if not delta_bic < -BIC_MARGIN:
-        failures.append(f"dBIC {delta_bic:.1f} not below -{BIC_MARGIN:g}")
-    if not ratio <= RSS_RATIO:
-        failures.append(f"RSS ratio {ratio:.2f} above {RSS_RATIO:g}")
-    if not low > get_effect(candidate.cause).null:
-        failures.append("95 % CI includes the null value")
-    if candidate.cause == "actuator_delay" and parameter.value < dt:
-        failures.append("delay shorter than one sample")
-    reason = "; ".join(failures) if failures else f"dBIC {delta_bic:.1f}, RSS ratio {ratio:.2f}, CI excludes 0"
-    return dataclasses.replace(candidate, accepted=not failures, reason=reason)
+class _Search:
+    """Scores models on the validation part; the state of one diagnosis."""
+
+    def __init__(self, measurements, rig, estimation, validation, horizon, workers, progress):
+        self.measurements, self.rig = measurements, rig
+        self.estimation, self.validation = estimation, validation
+        self.horizon, self.workers, self.progress = horizon, workers, progress
+        self.weights = 1.0 / np.maximum(measurements.speeds[validation].std(axis=0), 1e-12)
+
+    def fit(self, effects, start_values=None, polish=False):
+        calibration = calibrate(self.measurements, self.rig, effects, window=(self.estimation.start,
+                                self.estimation.stop), start_values=start_values, horizon=self.horizon,
+                                workers=self.workers, max_nfev=NESTED_NFEV if start_values else None, polish=polish)
+        self.progress(" + ".join(effects) or "none")
+        return self.score(effects, calibration)
+
+    def score(self, effects, calibration, **fields):
+        n = self.measurements.n_samples
+        start = self.estimation.start
+        prediction = predict(self.measurements, self.rig, calibration.values, window=(start, n), horizon=self.horizon)
+        offset = self.validation.start - start
+        prediction = dataclasses.replace(
+            prediction, time=prediction.time[offset:], simulated=prediction.simulated[offset:],
+            measured=prediction.measured[offset:], theta_d=prediction.theta_d[offset:],
+            torque=prediction.torque[offset:])
+        free = predict(self.measurements, self.rig, calibration.values, window=(self.validation.start, n), horizon=None)
+        scaled = (prediction.residual * self.weights) ** 2
+        k = calibration.horizon or scaled.shape[0]
+        blocks = np.add.reduceat(scaled.sum(axis=1), np.arange(0, scaled.shape[0], k))
+        return CandidateResult(effects=tuple(effects), calibration=calibration, prediction=prediction,
+                               fit_percent=prediction.fit_percent(), free_run_fit_percent=free.fit_percent(),
+                               rss=float(scaled.sum()), block_rss=blocks, **fields)
+
+    def judge(self, candidate, current, added):
+        """Apply the significance rule to ``candidate`` = ``current`` + ``added``."""
+        parameter = candidate.calibration.effect_parameter(added)
+        gain = 1.0 - candidate.rss / current.rss if current.rss > 0 else 0.0
+        decrease = np.log(current.block_rss / candidate.block_rss)
+        spread = float(np.std(decrease, ddof=1)) if decrease.size > 1 else math.inf
+        t_stat = float(np.mean(decrease) / (spread / math.sqrt(decrease.size))) if spread > 0 else 0.0
+        low, high = parameter.ci95
+        effect = get_effect(added)
+        failures = []
+        if not gain >= MIN_GAIN:
+            failures.append(f"gain {100 * gain:.1f} % below {100 * MIN_GAIN:g} %")
+        if not t_stat >= MIN_T:
+            failures.append(f"t {t_stat:.1f} below {MIN_T:g}")
+        if not (low > effect.null or high < effect.null):
+            failures.append("95 % CI includes 0")
+        if effect.name == "actuator_delay" and parameter.value < self.measurements.dt:
+            failures.append(_NULL["actuator_delay"])
+        reason = "; ".join(failures) if failures else f"gain {100 * gain:.1f} %, t {t_stat:.1f}, CI excludes 0"
+        return dataclasses.replace(candidate, added=added, gain=gain, t_statistic=t_stat, accepted=not failures,
+                                   reason=reason)
 
 
-def _sentence(cause, extended, baseline):
-    gain = (f" Validation fit {baseline.mean_fit_percent:.1f} % -> {extended.mean_fit_percent:.1f} % "
-            f"(free-run simulation).")
-    effect = get_effect(cause)
-    if cause == "none":
+def _forward(search, baseline, keys, tried):
+    """Forward selection from ``baseline``; returns the accepted steps in order."""
+    current, steps = baseline, []
+    while True:
+        remaining = [key for key in keys if key not in current.effects]
+        trials = []
+        for key in remaining:
+            start = current.calibration.values | {get_effect(key).value_key: get_effect(key).null}
+            trial = search.judge(search.fit(current.effects + (key,), start), current, key)
+            tried.append(trial)
+            trials.append(trial)
+        passing = [trial for trial in trials if trial.accepted]
+        if not passing:
+            return steps
+        current = max(passing, key=lambda trial: trial.gain)
+        steps.append(current)
+
+
+def _backward(search, steps, tried):
+    """Drop members of the selected set that no longer pass the rule against the rest."""
+    if len(steps) < 2:
+        return steps
+    final = steps[-1]
+    kept = list(final.effects)
+    for key in final.effects:
+        rest = tuple(k for k in kept if k != key)
+        without = search.fit(rest, final.calibration.values | {get_effect(key).value_key: 0.0})
+        check = search.judge(final, without, key)
+        tried.append(dataclasses.replace(check, reason="backward check: " + check.reason))
+        if not check.accepted:
+            kept.remove(key)
+    if kept == list(final.effects):
+        return steps
+    refit = search.fit(tuple(kept), final.calibration.values)
+    return [dataclasses.replace(refit, added=kept[-1], accepted=True, reason="refit after the backward check")]
+
+
+def _causes(extended, order):
+    """The ``causes`` list: each effect of the set with its parameter, in the given order."""
+    causes = []
+    for key, gain in order:
+        effect = get_effect(key)
+        parameter = extended.calibration.effect_parameter(key)
+        low, high = parameter.ci95
+        causes.append({"effect": effect.name, "side": effect.side, "gain": gain,
+                       "parameters": {effect.parameter: {"value": parameter.value, "ci95": [low, high],
+                                                         "unit": parameter.unit}}})
+    return causes
+
+
+def _warnings(measurements, baseline, extended, keys):
+    """Values on a bound, unphysical intervals, initial states against the data, a weak baseline."""
+    notes = []
+    worst = min(baseline.fit_percent.values())
+    if not worst >= BASELINE_MIN_FIT:
+        notes.append(f"the baseline explains too little of the validation data (k-step fit {worst:.1f} % on a speed, "
+                     f"below {BASELINE_MIN_FIT:g} %): no cause is named; check the rig file (inertias, stiffness, "
+                     f"gear ratio, units) and the record")
+    parameters = extended.calibration.parameters
+    for name, parameter in parameters.items():
+        low, _ = parameter.ci95
+        if parameter.on_bound and name not in ("motor_speed0", "load_speed0"):
+            notes.append(f"{name} = {parameter.value:.4g} {parameter.unit} ends on a bound of its range "
+                         f"[{parameter.lower:.4g}, {parameter.upper:.4g}]: the data do not determine it")
+        elif name in PLANT_PARAMETERS + tuple(get_effect(k).value_key for k in keys if not get_effect(k).signed) \
+                and low < 0.0 <= parameter.value:
+            notes.append(f"the 95 % interval of {name} includes unphysical negative values "
+                         f"({low:.4g} .. {parameter.ci95[1]:.4g} {parameter.unit})")
+    start = extended.calibration.window[0]
+    measured = data_states(measurements, 0.0, [start])[0]
+    noise = np.std(measurements.speeds - smoothed_speeds(measurements), axis=0)
+    for column, name in ((1, "motor_speed0"), (2, "load_speed0")):
+        if name in parameters:
+            gap = parameters[name].value - measured[column]
+            if abs(gap) > 5.0 * noise[min(column - 1, noise.size - 1)] + 1e-9:
+                notes.append(f"the fitted initial {name[:-1].replace('_', ' ')} {parameters[name].value:.4g} rad/s "
+                             f"contradicts the measured {measured[column]:.4g} rad/s")
+    return notes
+
+
+def _sentence(causes, extended, baseline, warnings):
+    gain = (f" Validation fit (k-step) {baseline.mean_fit_percent:.1f} % -> {extended.mean_fit_percent:.1f} %.")
+    if not causes:
+        if warnings and warnings[0].startswith("the baseline explains too little"):
+            return "No cause named: the nominal model explains too little of the data to attribute the rest." + gain
         values = extended.calibration.values
-        return (effect.action + " Calibrated: " + ", ".join(f"{name} = {values[name]:.4g}" for name in PLANT_PARAMETERS)
-                + f". Validation fit {baseline.mean_fit_percent:.1f} % (free-run simulation).")
-    parameter = extended.parameter
-    low, high = parameter.ci95
-    text = effect.action.format(value=parameter.value, low=low, high=high, value_ms=1e3 * parameter.value,
-                                low_ms=1e3 * low, high_ms=1e3 * high)
-    return text + gain
+        return ("The nominal model explains the data: no extension needed; calibrated "
+                + ", ".join(f"{name} = {values[name]:.4g}" for name in PLANT_PARAMETERS) + "." + gain)
+    sentences = []
+    for cause in causes:
+        key = cause["effect"] + (f"@{cause['side']}" if cause["side"] else "")
+        parameter = cause["parameters"][cause["effect"]]
+        sentences.append(get_effect(key).describe(parameter["value"], *parameter["ci95"]))
+    return " ".join(sentences) + gain
 
 
-def _calibrate_extension(measurements, rig, name, baseline, fit):
-    """Calibration of candidate ``name`` from two starts; the one with the lower estimation RSS.
-
-    The extension contains the nominal structure (its parameter at the null
-    value), so besides the fit from the rig file's values it is also fitted by
-    free run from the calibrated baseline with the parameter at its null value: its estimation RSS is then never
-    above the baseline's, and a difference on the validation part is the
-    effect's, not the optimiser's (the free-run cost has local minima).
-    """
-    effect = get_effect(name)
-    fresh = calibrate(measurements, rig, name, **fit)
-    nested = calibrate(measurements, rig, name, window=fit["window"], horizon=None, workers=fit["workers"],
-                       start_values=baseline.values | {effect.parameter: effect.null}, max_nfev=NESTED_NFEV)
-    return min((fresh, nested), key=lambda calibration: calibration.rss)
-
-
-def diagnose(measurements, rig, candidates=None, estimation_fraction=0.6, transient_fraction=0.05, horizon=0.2,
-             workers=1):
-    """Name the physical cause of what the rig's model gets wrong in a record.
+def diagnose(measurements, rig, candidates=None, estimation_fraction=0.6, transient_fraction=0.05,
+             horizon=DEFAULT_HORIZON, workers=1, progress=None):
+    """Name the physical causes of what the rig's model gets wrong in a record.
 
     Parameters
     ----------
@@ -380,16 +504,18 @@ def diagnose(measurements, rig, candidates=None, estimation_fraction=0.6, transi
     rig : Rig
         Data-sheet plant and torque law (``[model] backlash``).
     candidates : sequence of str, optional
-        Catalogue names to try besides ``none`` (default: the whole catalogue).
+        Catalogue keys to try (default: the whole catalogue; a friction name
+        alone is its load side).
     estimation_fraction : float
         End of the estimation part as a fraction of the record (0.6).
     transient_fraction : float
         Initial part dropped from the fit (0.05).
     horizon : float
-        Segment length (s) of the calibration's simulations (see
-        :func:`~.calibrate.calibrate`).
+        Length (s) of the k-step segments.
     workers : int
         Threads for the Jacobian columns.
+    progress : callable, optional
+        Called with a label after every fit (a progress bar's update).
 
     Returns
     -------
@@ -398,42 +524,47 @@ def diagnose(measurements, rig, candidates=None, estimation_fraction=0.6, transi
     Raises
     ------
     ValueError
-        Unknown candidate name, speeds that are not rad/s, fractions out of range.
+        Unknown candidate, a record without excitation, speeds that are not
+        rad/s, fractions out of range.
     """
-    names = [name for name in (candidates if candidates is not None else EFFECT_NAMES) if name != "none"]
-    for name in names:
-        get_effect(name)
+    keys = [get_effect(key).key for key in (candidates if candidates is not None else EFFECT_NAMES) if key != "none"]
     if not 0.0 <= transient_fraction < estimation_fraction < 1.0:
         raise ValueError("need 0 <= transient_fraction < estimation_fraction < 1")
+    check_excitation(measurements)
     check_speed_units(measurements, rig)
     n = measurements.n_samples
     estimation = slice(int(round(transient_fraction * n)), int(round(estimation_fraction * n)))
     validation = slice(estimation.stop, n)
-    weights = 1.0 / np.maximum(measurements.speeds[validation].std(axis=0), 1e-12)
-    fit = dict(window=(estimation.start, estimation.stop), horizon=horizon, workers=workers)
-
-    base_calibration = calibrate(measurements, rig, "none", **fit)
-    baseline = dataclasses.replace(_score("none", base_calibration, measurements, rig, validation, weights),
-                                   reason="the nominal structure (reference)")
-    results = []
-    for name in names:
-        calibration = _calibrate_extension(measurements, rig, name, base_calibration, fit)
-        candidate = _score(name, calibration, measurements, rig, validation, weights)
-        results.append(_judge(candidate, baseline, measurements.dt))
-    accepted = sorted((c for c in results if c.accepted), key=lambda c: c.bic)
-    cause = accepted[0].cause if accepted else "none"
-    extended = accepted[0] if accepted else baseline
-    ranked = accepted + sorted((c for c in results if not c.accepted), key=lambda c: c.bic)
+    search = _Search(measurements, rig, estimation, validation, horizon, workers, progress or (lambda label: None))
+    baseline = search.fit(())
+    tried = [dataclasses.replace(baseline, reason="the nominal structure (reference)")]
+    weak = not min(baseline.fit_percent.values()) >= BASELINE_MIN_FIT
+    steps = [] if weak else _backward(search, _forward(search, baseline, keys, tried), tried)
+    order = [(step.added, step.gain) for step in steps]
+    if steps and len(steps[-1].effects) > len(order):  # refit after the backward check
+        order = [(key, steps[-1].gain) for key in steps[-1].effects]
+    base_final = search.score((), calibrate(measurements, rig, (), window=(estimation.start, estimation.stop),
+                                            start_values=baseline.calibration.values, horizon=horizon,
+                                            workers=workers))
+    search.progress("refine none")
+    extended = base_final
+    if steps:
+        chosen = steps[-1]
+        extended = search.score(chosen.effects, calibrate(
+            measurements, rig, chosen.effects, window=(estimation.start, estimation.stop),
+            start_values=chosen.calibration.values, horizon=horizon, workers=workers))
+        search.progress("refine " + " + ".join(chosen.effects))
+    causes = _causes(extended, order)
+    warnings = _warnings(measurements, base_final, extended, [key for key, _ in order])
 
     def analysis(candidate):
-        result = candidate.replay.result
-        return residual_analysis(
-            measurements.time[validation], candidate.replay.residual[validation],
-            measurements.motor_torque[validation], result.theta_d[validation], result.torque[validation],
-            result.states[validation, 2], candidate.replay.names)
+        p = candidate.prediction
+        return residual_analysis(p.time, p.residual, measurements.motor_torque[validation], p.theta_d, p.torque,
+                                 p.load_speed, p.names)
 
     return Diagnosis(
-        cause=cause, sentence=_sentence(cause, extended, baseline), baseline=baseline, extended=extended,
-        candidates=[baseline] + ranked, residuals_baseline=analysis(baseline), residuals_extended=analysis(extended),
-        measurements=measurements, rig=rig, estimation=estimation, validation=validation,
+        causes=causes, sentence=_sentence(causes, extended, base_final, warnings), baseline=base_final,
+        extended=extended, candidates=tried, warnings=warnings, residuals_baseline=analysis(base_final),
+        residuals_extended=analysis(extended), measurements=measurements, rig=rig, estimation=estimation,
+        validation=validation,
     )

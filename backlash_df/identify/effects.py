@@ -2,30 +2,44 @@
 
 Each candidate extends the nominal structure (two inertias, elastic damped shaft
 with backlash, paper eq. 42 with the rig's torque law) by one physical effect
-with one parameter.  The fit starts the parameter at ``initial`` and keeps it in
-``bounds``; ``null`` is the value at which the extension vanishes (the
-nominal structure).
+with one parameter, named like the effect.  Friction acts on either side of the
+shaft, and the side is part of the answer: ``coulomb_friction`` on the ``load``
+side and on the ``motor`` side are two candidates.  The fit starts the parameter
+at its ``null`` value (the nominal structure) and keeps it in :meth:`Effect.bounds`.
 
-=====================  ==========================  =======================================
-name                   parameter (unit)            extension of the nominal model
-=====================  ==========================  =======================================
-``none``               --                          nominal structure (42)
-``rubber``             ``rubber_thickness`` (rad)  torque law (40) with rubber of width beta
-``coulomb_friction``   ``coulomb_friction`` (N m)  ``- F_c sign(w_l)`` on the load (smoothed)
-``viscous_friction``   ``viscous_friction``        ``- d_l w_l`` on the load
-                       (N m s/rad)
-``actuator_delay``     ``actuator_delay`` (s)      applied torque = commanded torque delayed
-=====================  ==========================  =======================================
+=======================  ==========  ==================  ======================================
+effect                   side        unit                extension of the nominal model
+=======================  ==========  ==================  ======================================
+``rubber``               --          rad                 torque law (40) with rubber of width beta
+``coulomb_friction``     motor/load  N m                 ``- F_c tanh(w / eps)`` on that side
+``viscous_friction``     motor/load  N m s/rad           ``- d w`` on that side
+``breakaway_friction``   motor/load  N m                 ``- F_s exp(-(w / w_s)^2) tanh(w / eps)``
+``torque_offset``        --          N m                 ``+ T_0`` added to the motor torque
+``actuator_delay``       --          s                   applied torque = commanded, delayed
+=======================  ==========  ==================  ======================================
+
+The smoothing speed ``eps`` (:data:`COULOMB_SMOOTHING`) and the Stribeck speed
+``w_s`` (:data:`STRIBECK_SPEED`) are fixed fractions of the record's largest
+measured speed, so that the catalogue is the same for a lab rig and a robot axis.
 """
 
 import dataclasses
 
 import numpy as np
 
-__all__ = ["Effect", "EFFECTS", "EFFECT_NAMES", "get_effect", "COULOMB_SMOOTHING_SPEED"]
+__all__ = ["Effect", "EFFECTS", "EFFECT_NAMES", "get_effect", "COULOMB_SMOOTHING", "STRIBECK_SPEED",
+           "smoothing_speeds"]
 
-#: Speed (rad/s) over which the fitted Coulomb friction is smoothed: ``F tanh(w / eps)``.
-COULOMB_SMOOTHING_SPEED = 0.05
+#: Coulomb smoothing speed ``eps`` as a fraction of the record's largest speed: ``F tanh(w / eps)``.
+COULOMB_SMOOTHING = 0.01
+#: Stribeck speed ``w_s`` of the breakaway friction, as a fraction of the record's largest speed.
+STRIBECK_SPEED = 0.05
+
+
+def smoothing_speeds(measurements):
+    """``(eps, w_s)`` in rad/s for a record: Coulomb smoothing and Stribeck speed."""
+    peak = float(np.max(np.abs(measurements.speeds))) or 1.0
+    return COULOMB_SMOOTHING * peak, STRIBECK_SPEED * peak
 
 
 @dataclasses.dataclass(frozen=True)
@@ -35,99 +49,127 @@ class Effect:
     Attributes
     ----------
     name : str
-        The cause's name as reported in ``Diagnosis.cause`` and the JSON.
-    parameter : str or None
-        Name of its parameter (None for ``none``).
+        The effect's name as reported in ``causes[i]["effect"]``; its parameter
+        carries the same name.
+    side : str or None
+        ``motor`` or ``load`` for friction, None where the side is no choice.
     unit : str
         Unit of the parameter.
     description : str
         What the extension adds to the model.
     action : str
-        Sentence template (``{value}``, ``{low}``, ``{high}`` in the parameter's
-        unit) telling a person what to do about it.
-    null : float
-        Parameter value at which the extended model is the nominal one.
+        Sentence (``{value}``, ``{low}``, ``{high}`` in the parameter's unit, and
+        ``{side}``) telling a person what to do about it.
+    signed : bool
+        Whether negative values are physical (a torque offset); friction, delay
+        and rubber are never negative.
     """
 
     name: str
-    parameter: str | None
+    side: str | None
     unit: str
     description: str
     action: str
+    signed: bool = False
     null: float = 0.0
+
+    @property
+    def key(self):
+        """Identifier of the candidate: ``name@side`` (or ``name`` without a side)."""
+        return f"{self.name}@{self.side}" if self.side else self.name
+
+    @property
+    def parameter(self):
+        """Name of the parameter (the effect's own name)."""
+        return self.name
+
+    @property
+    def value_key(self):
+        """Key of the parameter in a model's value dictionary: ``name_side`` (or ``name``)."""
+        return f"{self.name}_{self.side}" if self.side else self.name
 
     def bounds(self, rig, measurements):
         """Lower and upper bound of the parameter for this rig and record."""
-        plant = rig.plant
         torque_scale = float(np.max(np.abs(measurements.motor_torque))) or 1.0
         speed_scale = float(np.max(np.abs(measurements.speeds))) or 1.0
         if self.name == "rubber":
-            return 0.0, 1.4 * plant.half_gap  # <= 2 alpha for alpha >= 0.7 alpha_nominal
-        if self.name == "coulomb_friction":
-            return 0.0, 0.5 * torque_scale
+            return 0.0, 1.4 * rig.plant.half_gap  # <= 2 alpha for alpha >= 0.7 alpha_nominal
+        if self.name in ("coulomb_friction", "breakaway_friction"):
+            return 0.0, torque_scale
         if self.name == "viscous_friction":
-            return 0.0, 0.5 * torque_scale / speed_scale
-        if self.name == "actuator_delay":
-            return 0.0, min(0.05, 0.1 * measurements.duration)
-        raise ValueError(f"effect {self.name!r} has no parameter")
-
-    def initial(self, rig, measurements):
-        """Starting value of the parameter: a small fraction of its range."""
-        low, high = self.bounds(rig, measurements)
-        if self.name == "actuator_delay":
-            return max(2.0 * measurements.dt, 0.05 * high)
-        return low + 0.05 * (high - low)
+            return 0.0, torque_scale / speed_scale
+        if self.name == "torque_offset":
+            return -0.5 * torque_scale, 0.5 * torque_scale
+        return 0.0, min(0.05, 0.1 * measurements.duration)  # actuator_delay
 
     def scale(self, rig, measurements):
         """Typical size of the parameter, used to scale the fit."""
         low, high = self.bounds(rig, measurements)
-        return 0.1 * (high - low)
+        return 0.05 * (high - low)
+
+    def describe(self, value, low, high):
+        """The action sentence for a fitted value and its 95 % interval."""
+        if self.name == "actuator_delay":
+            value, low, high = 1e3 * value, 1e3 * low, 1e3 * high
+        return self.action.format(value=value, low=low, high=high, side=self.side)
+
+
+_FRICTION_ACTION = ("The {{side}} side has {what} of {{value:.4g}} {unit} (95 % CI {{low:.4g}} to {{high:.4g}}): "
+                    "add it to the model, or compensate it (friction feed-forward) in the controller.")
+
+
+def _friction(name, side, unit, description, what):
+    return Effect(name, side, unit, description.replace("SIDE", side),
+                  _FRICTION_ACTION.format(what=what, unit=unit))
 
 
 EFFECTS = {
-    effect.name: effect
+    effect.key: effect
     for effect in (
         Effect(
-            "none", None, "",
-            "the nominal structure: two inertias, elastic damped shaft with backlash (42)",
-            "The nominal model explains the data: no extension needed; use the calibrated values.",
-        ),
-        Effect(
-            "rubber", "rubber_thickness", "rad",
+            "rubber", None, "rad",
             "a flexible coupling: rubber of width beta in the gap, torque law (40)",
             "The coupling behaves like a flexible coupling with rubber of width beta = {value:.3g} rad "
             "(95 % CI {low:.3g} to {high:.3g}): model the shaft with the rubber law (40), "
             "rubber_thickness = {value:.3g} in the rig file.",
         ),
+        *[_friction("coulomb_friction", side, "N m", "Coulomb friction on the SIDE side, -F_c sign(w) (smoothed)",
+                    "Coulomb friction") for side in ("load", "motor")],
+        *[_friction("viscous_friction", side, "N m s/rad", "viscous friction on the SIDE side, -d w",
+                    "viscous friction") for side in ("load", "motor")],
+        *[_friction("breakaway_friction", side, "N m",
+                    "breakaway (Stribeck) friction on the SIDE side, -F_s exp(-(w/w_s)^2) sign(w)",
+                    "breakaway friction near zero speed") for side in ("load", "motor")],
         Effect(
-            "coulomb_friction", "coulomb_friction", "N m",
-            "Coulomb friction on the load side, -F_c sign(w_l) (smoothed)",
-            "The load side has Coulomb friction of {value:.3g} N m (95 % CI {low:.3g} to {high:.3g}): "
-            "add it to the model, or compensate it (friction feed-forward) in the controller.",
+            "torque_offset", None, "N m",
+            "a constant torque added to the commanded motor torque (sensor bias or an unmodelled load)",
+            "The applied torque differs from the recorded one by a constant {value:.4g} N m (95 % CI {low:.4g} "
+            "to {high:.4g}): a torque-sensor bias or an unmodelled constant load.",
+            signed=True,
         ),
         Effect(
-            "viscous_friction", "viscous_friction", "N m s/rad",
-            "viscous friction on the load side, -d_l w_l",
-            "The load side has viscous friction of {value:.3g} N m s/rad (95 % CI {low:.3g} to "
-            "{high:.3g}): add load damping to the model (it adds damping to the speed loop).",
-        ),
-        Effect(
-            "actuator_delay", "actuator_delay", "s",
+            "actuator_delay", None, "s",
             "dead time between commanded and applied motor torque",
-            "The applied torque lags the commanded torque by {value_ms:.3g} ms (95 % CI {low_ms:.3g} "
-            "to {high_ms:.3g} ms): include this dead time in the loop model (rig file [controller] "
-            "delay) before tuning the controller.",
+            "The applied torque lags the commanded torque by {value:.3g} ms (95 % CI {low:.3g} to {high:.3g} ms): "
+            "include this dead time in the loop model (rig file [controller] delay) before tuning the controller.",
         ),
     )
 }
 
-#: Names of the catalogue entries, ``none`` first.
+#: Keys of the catalogue entries (``name@side`` for friction).
 EFFECT_NAMES = tuple(EFFECTS)
 
 
-def get_effect(name):
-    """The catalogue entry ``name``; a ``ValueError`` listing the names if unknown."""
-    try:
-        return EFFECTS[name]
-    except KeyError:
-        raise ValueError(f"unknown effect {name!r}; the catalogue has: {', '.join(EFFECT_NAMES)}") from None
+def get_effect(key):
+    """The catalogue entry ``key`` (``name@side``; a friction name alone means its load side).
+
+    Raises
+    ------
+    ValueError
+        Unknown name, listing the catalogue.
+    """
+    if key in EFFECTS:
+        return EFFECTS[key]
+    if f"{key}@load" in EFFECTS:
+        return EFFECTS[f"{key}@load"]
+    raise ValueError(f"unknown effect {key!r}; the catalogue has: {', '.join(EFFECT_NAMES)}")

@@ -15,9 +15,12 @@ step than the record's (``oversample`` sub-steps a sample):
   ``+-datasheet_error``;
 * white sensor noise on both speeds; the recorded ``motor_torque`` is the
   commanded torque (controller output plus test signal), exact;
-* exactly one hidden effect (or none), of random size unless given: load-side
-  Coulomb friction (smoothed 10 times more sharply than the fitted model's),
-  load-side viscous friction, an actuator dead time, rubber in the coupling.
+* hidden effects (none, one or several), of random size unless given:
+  Coulomb friction on either side (smoothed 10 times more sharply than the
+  fitted model's; one side at a time), viscous friction on either side, a
+  constant torque offset added to the applied torque (not to the recorded one),
+  an actuator dead time, rubber in the coupling.  Breakaway friction is not
+  simulated.
 
 The simulation is the compiled kernel of :mod:`backlash_df.simulate` with the
 controller states in the linear part.
@@ -31,7 +34,7 @@ import numpy as np
 from ..config import Plant
 from ..models import make_model
 from ..simulate import LinearPart, simulate_linear
-from .effects import COULOMB_SMOOTHING_SPEED, EFFECT_NAMES, get_effect
+from .effects import COULOMB_SMOOTHING, get_effect
 from .measurements import measurements_from_arrays
 
 __all__ = ["Experiment", "SyntheticRecord", "synthesize", "random_effect_size"]
@@ -79,10 +82,8 @@ class SyntheticRecord:
     ----------
     measurements : Measurements
         What a measurement file would hold.
-    cause : str
-        The hidden effect (``none`` if none).
-    size : float
-        Its parameter value (0 for ``none``), in the effect's unit.
+    effects : dict
+        The hidden effects: catalogue key -> size in the effect's unit (empty: none).
     true_plant : Plant
         The plant actually simulated (data-sheet errors applied).
     seed : int
@@ -92,34 +93,45 @@ class SyntheticRecord:
     """
 
     measurements: object
-    cause: str
-    size: float
+    effects: dict
     true_plant: Plant
     seed: int
     initial_state: dict
 
+    @property
+    def cause(self):
+        """The first hidden effect's key (``none`` without one)."""
+        return next(iter(self.effects), "none")
+
+    @property
+    def size(self):
+        """The first hidden effect's size (0 without one)."""
+        return next(iter(self.effects.values()), 0.0)
+
 
 def random_effect_size(cause, rig, rng, experiment=Experiment()):
-    """A random size of ``cause`` inside the range the generator draws from.
+    """A random size of effect ``cause`` (catalogue key) inside the range the generator draws from.
 
-    ``rubber``: beta in [0.5, 1.2] alpha.  ``coulomb_friction``: [4, 12] N m per
-    100 kg m^2/s^2 of reference torque ``J_tot w_ref 2 pi f_ref``, i.e. a few
-    per cent of the torque moving the load.  ``viscous_friction``: the same torque
-    at the reference's peak speed.  ``actuator_delay``: [1.5, 6] ms.
+    ``rubber``: beta in [0.5, 1.2] alpha.  ``coulomb_friction`` (either side):
+    [4, 12] N m per 100 kg m^2/s^2 of reference torque ``J_tot w_ref 2 pi f_ref``,
+    i.e. a few per cent of the torque moving the load.  ``viscous_friction``: the
+    same torque at the reference's peak speed.  ``torque_offset``: the same range,
+    either sign.  ``actuator_delay``: [1.5, 6] ms.
     """
     plant = rig.plant
     torque = (plant.motor_inertia + plant.load_inertia) * experiment.speed_amplitude * 2 * np.pi * experiment.speed_frequency
-    if cause == "none":
-        return 0.0
-    if cause == "rubber":
+    name = get_effect(cause).name
+    if name == "rubber":
         return float(rng.uniform(0.5, 1.2) * plant.half_gap)
-    if cause == "coulomb_friction":
+    if name == "coulomb_friction":
         return float(rng.uniform(0.04, 0.12) * torque)
-    if cause == "viscous_friction":
+    if name == "viscous_friction":
         return float(rng.uniform(0.04, 0.12) * torque / experiment.speed_amplitude)
-    if cause == "actuator_delay":
+    if name == "torque_offset":
+        return float(rng.choice([-1.0, 1.0]) * rng.uniform(0.04, 0.12) * torque)
+    if name == "actuator_delay":
         return float(rng.uniform(1.5e-3, 6e-3))
-    raise ValueError(f"unknown effect {cause!r}; the catalogue has: {', '.join(EFFECT_NAMES)}")
+    raise ValueError(f"synthesize: the generator cannot hide {cause!r} (breakaway friction is not simulated)")
 
 
 def _perturbed_plant(plant, rng, error):
@@ -137,7 +149,7 @@ def _signals(experiment, phases, time):
     return reference, test, experiment.load_torque * square
 
 
-def _closed_loop(plant, controller, cause, size):
+def _closed_loop(plant, controller, effects, friction_speed):
     """Linear part of plant + PI loop: states theta_d, w_m, w_l, filtered speed, integral.
 
     Inputs: reference now, reference and test torque as applied (delayed by the
@@ -147,51 +159,76 @@ def _closed_loop(plant, controller, cause, size):
     kp, ki = controller.kp, controller.kp / controller.ti
     tf = max(controller.speed_filter, 1e-3)
     fb = 1 if controller.feedback == "motor" else 2
+    rows = {"motor": 1, "load": 2}
+    inertias = {"motor": jm, "load": jl}
     a = np.zeros((5, 5))
     a[0, 1], a[0, 2] = 1.0, -1.0
     a[3, fb], a[3, 3] = 1.0 / tf, -1.0 / tf
     a[4, 3] = -1.0
-    if cause == "viscous_friction":
-        a[2, 2] = -size / jl
+    friction = {"level": 0.0, "row": np.zeros(5), "column": np.zeros(5)}
+    for key, size in effects.items():
+        effect = get_effect(key)
+        if effect.name == "viscous_friction":
+            a[rows[effect.side], rows[effect.side]] -= size / inertias[effect.side]
+        if effect.name == "coulomb_friction":
+            friction["level"] = size
+            friction["row"][rows[effect.side]] = 1.0
+            friction["column"][rows[effect.side]] = 1.0 / inertias[effect.side]
     controller_row = np.array([0.0, 0.0, 0.0, -kp, ki])  # u = kp (r - w_f) + ki xi, state part
     motor_column = np.array([0.0, 1.0 / jm, 0.0, 0.0, 0.0])
-    delay = size if cause == "actuator_delay" else 0.0
+    delay = effects.get("actuator_delay", 0.0)
     if delay == 0.0:
         a += np.outer(motor_column, controller_row)
     e = np.zeros((5, 5))
     e[4, 0] = 1.0  # integral of r - w_f
     e[1, 1] = kp / jm  # kp r(t - delay)
-    e[1, 2] = 1.0 / jm  # test(t - delay)
+    e[1, 2] = 1.0 / jm  # test(t - delay) + torque offset
     e[2, 3] = 1.0 / jl  # load torque
     e[3, 4] = 1.0 / tf  # sensor noise of the fed-back speed
-    friction = size if cause == "coulomb_friction" else 0.0
     system = LinearPart(
         A=a, b=np.array([0.0, -1.0 / jm, 1.0 / jl, 0.0, 0.0]), E=e,
         c_x=np.array([1.0, 0.0, 0.0, 0.0, 0.0]), c_v=np.array([0.0, 1.0, -1.0, 0.0, 0.0]),
         state_names=("theta_d", "motor_speed", "load_speed", "filtered_speed", "speed_error_integral"),
         input_names=("reference", "reference_applied", "test_applied", "load_torque", "noise"),
         delay=delay, d=controller_row if delay else None, e_d=motor_column if delay else None,
-        friction=friction, friction_speed=0.1 * COULOMB_SMOOTHING_SPEED,
-        f=np.array([0.0, 0.0, 1.0, 0.0, 0.0]), e_f=np.array([0.0, 0.0, 1.0 / jl, 0.0, 0.0]),
+        friction=friction["level"], friction_speed=friction_speed, f=friction["row"], e_f=friction["column"],
     )
     return system, (kp, ki, fb)
 
 
+def _hidden_effects(cause, size, rig, rng, experiment):
+    """The effects to hide as key -> size: from a key (``none``), a sequence of keys or a mapping."""
+    if isinstance(cause, str):
+        cause = {} if cause == "none" else {cause: size}
+    elif not isinstance(cause, dict):
+        cause = dict.fromkeys(cause)
+    effects = {}
+    for key, value in cause.items():
+        effect = get_effect(key)
+        effects[effect.key] = random_effect_size(effect.key, rig, rng, experiment) if value is None else float(value)
+    coulomb = [key for key in effects if key.startswith("coulomb_friction")]
+    if len(coulomb) > 1:
+        raise ValueError("synthesize: Coulomb friction on one side at a time")
+    return effects
+
+
 def synthesize(rig, cause="none", size=None, seed=0, duration=2.0, sample_rate=1000.0, oversample=5,
                experiment=Experiment(), datasheet_error=0.04):
-    """Simulate a measurement record of ``rig`` with one hidden effect.
+    """Simulate a measurement record of ``rig`` with hidden effects.
 
     Parameters
     ----------
     rig : Rig
         Data-sheet plant and PI controller (``[controller]`` required).
-    cause : str
-        Hidden effect: a catalogue name (``none`` for no effect).
+    cause : str, sequence of str or dict
+        Hidden effects: a catalogue key (``none`` for no effect; a friction name
+        alone is its load side), several keys, or a mapping key -> size (None:
+        random).
     size : float, optional
-        The effect's parameter (rad, N m, N m s/rad or s); random if omitted
-        (:func:`random_effect_size`).
+        The size of a single ``cause`` (rad, N m, N m s/rad or s); random if
+        omitted (:func:`random_effect_size`).
     seed : int
-        Seed of every random draw (data-sheet errors, size, phases, noise).
+        Seed of every random draw (data-sheet errors, sizes, phases, noise).
     duration, sample_rate : float
         Length of the record (s) and its sampling rate (Hz).
     oversample : int
@@ -210,19 +247,19 @@ def synthesize(rig, cause="none", size=None, seed=0, duration=2.0, sample_rate=1
     >>> from backlash_df import rig_from_dict
     >>> rig = rig_from_dict({"plant": {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0,
     ...     "damping": 3.0, "half_gap": 0.02}, "controller": {"kp": 20.0, "ti": 0.3, "feedback": "motor"}})
-    >>> record = synthesize(rig, "coulomb_friction", size=5.0, seed=1, duration=0.5)
-    >>> record.measurements.n_samples, record.cause
-    (501, 'coulomb_friction')
+    >>> record = synthesize(rig, {"coulomb_friction@load": 5.0, "viscous_friction@load": 1.0}, seed=1, duration=0.5)
+    >>> record.measurements.n_samples, record.cause, record.effects["viscous_friction@load"]
+    (501, 'coulomb_friction@load', 1.0)
     """
-    get_effect(cause)
     controller = rig.require_controller()
     rng = np.random.default_rng(seed)
     plant = _perturbed_plant(rig.plant, rng, datasheet_error)
-    size = random_effect_size(cause, rig, rng, experiment) if size is None else float(size)
-    if cause == "rubber":
-        plant = dataclasses.replace(plant, rubber_thickness=size)
-    system, (kp, ki, fb) = _closed_loop(plant, controller, cause, size)
-    model = make_model("rubber" if cause == "rubber" else "exact", **plant.shaft)
+    effects = _hidden_effects(cause, size, rig, rng, experiment)
+    if "rubber" in effects:
+        plant = dataclasses.replace(plant, rubber_thickness=effects["rubber"])
+    friction_speed = 0.1 * COULOMB_SMOOTHING * experiment.speed_amplitude
+    system, (kp, ki, fb) = _closed_loop(plant, controller, effects, friction_speed)
+    model = make_model("rubber" if "rubber" in effects else "exact", **plant.shaft)
 
     dt_fine = 1.0 / (sample_rate * oversample)
     n_warm = int(round(experiment.warmup * sample_rate))
@@ -230,9 +267,10 @@ def synthesize(rig, cause="none", size=None, seed=0, duration=2.0, sample_rate=1
     n_samples = n_warm + n_record
     time = np.arange((n_samples - 1) * oversample + 1) * dt_fine
     phases = rng.uniform(0.0, 2.0 * np.pi, len(experiment.test_frequencies))
-    delay = size if cause == "actuator_delay" else 0.0
+    delay = effects.get("actuator_delay", 0.0)
     reference, test, load_torque = _signals(experiment, phases, time)
     reference_applied, test_applied, _ = _signals(experiment, phases, np.maximum(time - delay, 0.0))
+    test_applied = test_applied + effects.get("torque_offset", 0.0)
     noise = rng.normal(0.0, experiment.noise, (n_samples, 2))
     sample_time = time[::oversample]
     fed_back_noise = np.interp(time, sample_time, noise[:, fb - 1])
@@ -242,17 +280,18 @@ def synthesize(rig, cause="none", size=None, seed=0, duration=2.0, sample_rate=1
     record = slice(n_warm * oversample, None, oversample)
     states = result.states[record]
     commanded = kp * (reference[record] - states[:, 3]) + ki * states[:, 4] + test[record]
+    label = "+".join(effects) or "none"
     measurements = measurements_from_arrays(
         time=sample_time[n_warm:] - sample_time[n_warm],
         motor_torque=commanded,
         motor_speed=states[:, 1] + noise[n_warm:, 0],
         load_speed=states[:, 2] + noise[n_warm:, 1],
         load_torque=load_torque[record],
-        source=f"synthetic({cause}, seed={seed})",
+        source=f"synthetic({label}, seed={seed})",
     )
     first = n_warm * oversample
     initial_state = {"theta_d0": float(result.states[first, 0]), "motor_speed0": float(result.states[first, 1]),
                      "load_speed0": float(result.states[first, 2]),
-                     "theta_b0": float(result.theta_b[first]) if cause != "rubber" else math.nan}
-    return SyntheticRecord(measurements=measurements, cause=cause, size=size, true_plant=plant, seed=seed,
+                     "theta_b0": float(result.theta_b[first]) if "rubber" not in effects else math.nan}
+    return SyntheticRecord(measurements=measurements, effects=effects, true_plant=plant, seed=seed,
                            initial_state=initial_state)
