@@ -78,7 +78,7 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("mat", nargs="?", default=HERE / "record_A.mat", type=Path)
     parser.add_argument("csv", nargs="?", default=HERE / "kuka_axis1.csv", type=Path)
-    parser.add_argument("--axis", type=int, default=1)
+    parser.add_argument("--axis", type=int, default=1, choices=sorted(GEAR_RATIOS), help="robot axis (default 1)")
     args = parser.parse_args(argv)
     measurements = kuka_measurements(args.mat, args.axis)
     write_measurements(args.csv, measurements, precision=12)
