@@ -418,6 +418,11 @@ def predict_limit_cycles(rig, model=None, linear=None, amplitude_range=None, ome
     """
     if not isinstance(model, BacklashModel):
         model = rig.make_model(model)
+    if describing is None and bias == 0.0 and rig.load.torque != 0.0:  # biased cycles by the DC balance
+        from .loaded import predict_loaded
+
+        return predict_loaded(rig, model, linear=linear, amplitude_range=amplitude_range, omega_range=omega_range,
+                              grid=grid, near_miss_cutoff=near_miss_cutoff)
     linear = drive_loop(rig) if linear is None else linear
     default_a, default_w = default_ranges(rig)
     amplitude_range = default_a if amplitude_range is None else tuple(amplitude_range)
@@ -480,6 +485,7 @@ def verify_limit_cycles(rig, prediction, linear=None, kick=None, t_end=None, max
         measured, _ = simulated_limit_cycle(
             rig, model, t_end=start, max_t_end=max(max_t_end, start), dt=dt,
             kick=cycle.amplitude * cycle.omega, linear=user_linear,
+            initial={"theta_d": cycle.bias} if cycle.bias else None,
         )
         first = measured if first is None else first
         cycles.append(dataclasses.replace(cycle, simulated=measured))

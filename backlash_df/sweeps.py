@@ -138,7 +138,8 @@ def simulation_verdict(measured):
         return "undetermined"
     if measured.found:
         return "limit cycle"
-    return {"no limit cycle": "no oscillation", "growing": "unstable"}.get(measured.verdict, "undetermined")
+    unstable = {"growing": "unstable", "diverged": "unstable"}
+    return {"no limit cycle": "no oscillation", **unstable}.get(measured.verdict, "undetermined")
 
 
 # --------------------------------------------------------------------------- the map
