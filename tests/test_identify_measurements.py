@@ -2,6 +2,7 @@
 
 import codecs
 import importlib.util
+import re
 from pathlib import Path
 
 import numpy as np
@@ -214,6 +215,21 @@ def test_bad_file_gives_one_line(tmp_path, case):
         load_measurements(path)
     message = str(info.value)
     assert "\n" not in message and message.startswith(str(path)) and "np.float64" not in message
+
+
+@pytest.mark.parametrize("separator", [";", "\t"])
+def test_other_separator_is_named(tmp_path, separator):
+    path = tmp_path / "excel.csv"
+    path.write_text(_write(tmp_path / "m.csv", _columns()).read_text().replace(",", separator))
+    with pytest.raises(ValueError, match=re.escape(f"excel.csv: the columns are separated by {separator!r}; "
+                                                   "the format is comma-separated")):
+        load_measurements(path)
+
+
+def test_windows_line_ends_are_read(tmp_path):
+    path = tmp_path / "crlf.csv"
+    path.write_bytes(_write(tmp_path / "m.csv", _columns()).read_bytes().replace(b"\n", b"\r\n"))
+    np.testing.assert_array_equal(load_measurements(path).load_angle, _columns()["load_angle"])
 
 
 def test_file_that_is_not_utf8_is_named(tmp_path):

@@ -411,6 +411,10 @@ def measurements_from_arrays(time, motor_torque, motor_speed, load_speed=None, l
 
 def _check_header(header, path):
     missing = [name for name in REQUIRED_COLUMNS if name not in header]
+    separator = next((sep for sep in (";", "\t") if len(header) == 1 and sep in header[0]), None)
+    if missing and separator:
+        raise ValueError(f"{path}: the columns are separated by {separator!r}; the format is comma-separated "
+                         f"with a decimal point (save as CSV with ',' as separator)")
     if missing:
         raise ValueError(
             f"{path}: missing column{'s' if len(missing) > 1 else ''} {', '.join(missing)}; "
