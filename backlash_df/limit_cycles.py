@@ -639,7 +639,7 @@ def prediction_rows(predictions):
               "A error", "w error", "closest miss"]
     rows = []
     for prediction in predictions:
-        miss = f"{prediction.near_misses[0].distance:.2%}" if prediction.near_misses else ""
+        miss = f"{100 * prediction.near_misses[0].distance:.2f} %" if prediction.near_misses else ""
         for cycle in prediction.cycles:
             sim = cycle.simulated
             found = sim is not None and sim.found

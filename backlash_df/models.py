@@ -437,6 +437,48 @@ class BacklashModel:
         params = ", ".join(f"{key}={value!r}" for key, value in self.plant_params.items())
         return f"make_model({self.name!r}, {params})"
 
+    def plot(self, ax=None, extent=3.0, n=241):
+        """The law over the phase plane: T(theta_d, dtheta_d) as a colour map (as Figure 2 (b)-(d)).
+
+        The black line encloses the set where the law transmits no torque.  The
+        exact model is drawn in contact (theta_b = +-alpha), where its torque (1)
+        is a function of the state; which side is in contact is its memory (14).
+
+        Parameters
+        ----------
+        ax : matplotlib Axes, optional
+        extent : float
+            theta_d spans +-extent alpha (rad); dtheta_d spans +-extent k alpha / c
+            (rad/s), where the boundaries k theta_d + c dtheta_d = +-k alpha cross
+            the axis (+-extent alpha per second if c = 0).
+        n : int
+            Grid points per axis.
+
+        Returns
+        -------
+        Axes
+            The axes drawn on; ``ax.figure`` holds them and the colour bar.
+        """
+        import matplotlib.pyplot as plt
+        from matplotlib.colors import TwoSlopeNorm
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(6.5, 4.5), layout="constrained")
+        x_max = extent * self.half_gap
+        v_max = extent * self.half_gap * (self.stiffness / self.damping if self.damping > 0.0 else 1.0)
+        x, v = np.meshgrid(np.linspace(-x_max, x_max, n), np.linspace(-v_max, v_max, n))
+        torque = self._map(x, v)
+        limit = max(float(np.abs(torque).max()), np.finfo(float).tiny)
+        mesh = ax.pcolormesh(x, v, torque, cmap="RdBu_r", norm=TwoSlopeNorm(0.0, -limit, limit), shading="auto")
+        ax.contour(x, v, (torque != 0.0).astype(float), levels=[0.5], colors="k", linewidths=0.8)
+        ax.figure.colorbar(mesh, ax=ax, label="shaft torque T (N m)")
+        ax.set_xlabel("theta_d (rad)")
+        ax.set_ylabel("dtheta_d/dt (rad/s)")
+        beta = f", beta = {self.rubber_thickness:.4g} rad" if self.name == "rubber" else ""
+        ax.set_title(f"{self.name} {EQUATIONS[self.name]}: k = {self.stiffness:.4g} N m/rad, "
+                     f"c = {self.damping:.4g} N m s/rad, alpha = {self.half_gap:.4g} rad{beta}", fontsize="medium")
+        return ax
+
     def __eq__(self, other):
         return type(self) is type(other) and self.plant_params == other.plant_params
 
@@ -473,6 +515,10 @@ class StaticModel(BacklashModel):
     def __call__(self, theta_d, dtheta_d):
         return self.torque(theta_d, dtheta_d)
 
+    def _map(self, theta_d, dtheta_d):
+        """The torque drawn by :meth:`plot`."""
+        return self.torque(theta_d, dtheta_d)
+
 
 class ExactModel(BacklashModel):
     """The exact model: torque (1) with the limited integrator (14) for theta_b.
@@ -493,6 +539,13 @@ class ExactModel(BacklashModel):
         v = _as_float(dtheta_d, "dtheta_d")
         tb = _as_float(theta_b, "theta_b")
         return np.vectorize(lambda a, b, s: exact_torque(a, b, s, k, c, alpha), otypes=[float])(x, v, tb)
+
+    def _map(self, theta_d, dtheta_d):
+        """Torque (1) in contact, drawn by :meth:`plot`: k theta_d + c dtheta_d -+ k alpha outside
+        the release set (5), zero inside it."""
+        k, c, alpha, _ = self.params
+        y = k * theta_d + c * dtheta_d
+        return np.where(y >= k * alpha, y - k * alpha, np.where(y <= -k * alpha, y + k * alpha, 0.0))
 
     def torque_along(self, time, theta_d, dtheta_d, theta_b0=0.0):
         """Integrate (14) along a uniformly sampled trajectory.

@@ -38,6 +38,7 @@ import dataclasses
 import io
 import json
 import math
+import textwrap
 
 import numpy as np
 
@@ -415,8 +416,8 @@ class TableOne:
         return rows
 
     def to_text(self):
-        """The table as aligned text, one block per setup."""
-        lines = []
+        """The table as aligned text, one block per setup, after a line saying what is integrated."""
+        lines = [textwrap.fill(_WHAT, 100), ""]
         for comparison in self.comparisons:
             setup = comparison.setup
             lines.append(f"setup {setup.name}: T_preload = {setup.preload:g} N m, a_dist = {setup.amplitude:g} N m "
@@ -437,21 +438,64 @@ class TableOne:
         return "\n".join(lines)
 
     def to_csv(self):
-        """The rows as CSV text (SI units)."""
+        """The rows as CSV text; each numeric column's name ends with its unit
+        (``integral_N_m_s``, ``error_percent``, ``rms_error_N_m``, ``rms_error_percent``)."""
         buffer = io.StringIO()
-        writer = csv.DictWriter(buffer, fieldnames=list(self.rows[0]), lineterminator="\n")
-        writer.writeheader()
-        writer.writerows(self.rows)
+        writer = csv.writer(buffer, lineterminator="\n")
+        writer.writerow([f"{key}_{_CSV_UNITS[key]}" if _CSV_UNITS.get(key) else key for key in self.rows[0]])
+        writer.writerows([["" if value is None else value for value in row.values()] for row in self.rows])
         return buffer.getvalue()
 
     def to_json(self):
-        """Setups and rows as JSON text (SI units)."""
+        """Setups and rows as JSON text (SI units, listed under ``units``)."""
         setups = [dict(dataclasses.asdict(c.setup), driver=c.driver, dt=c.dt, periodicity=c.periodicity)
                   for c in self.comparisons]
-        return json.dumps(dict(setups=setups, rows=self.rows), indent=2) + "\n"
+        units = {"integral": "N m s", "error_percent": "%", "rms_error": "N m", "rms_error_percent": "%"}
+        return json.dumps(dict(quantity=_WHAT, units=units, setups=setups, rows=self.rows), indent=2) + "\n"
 
     def __repr__(self):
         return self.to_text()
+
+    def plot(self, axes=None):
+        """Bars of each law's error against the exact model, grouped by setup.
+
+        Top: error of the cycle integral of T (the printed Table I column), per
+        cent; bottom: RMS of T - T_exact over the cycle, per cent of the exact
+        torque's RMS.  A bar is missing where the exact integral is zero.
+
+        Returns
+        -------
+        ndarray of Axes
+            The two axes drawn on.
+        """
+        import matplotlib.pyplot as plt
+
+        if axes is None:
+            _, axes = plt.subplots(2, 1, sharex=True, figsize=(8, 6), layout="constrained")
+        setups = [comparison.setup.name for comparison in self.comparisons]
+        names = list(dict.fromkeys(row["model"] for row in self.rows if row["model"] != "exact"))
+        width = 0.8 / max(len(names), 1)
+        for ax, key, label in ((axes[0], "error_percent", "integral error (%)"),
+                               (axes[1], "rms_error_percent", "RMS error (% of exact)")):
+            for j, name in enumerate(names):
+                values = [next((row[key] for row in self.rows if row["setup"] == setup and row["model"] == name),
+                               None) for setup in setups]
+                heights = [np.nan if value is None else value for value in values]
+                ax.bar(np.arange(len(setups)) + (j - 0.5 * (len(names) - 1)) * width, heights, width,
+                       label=_LABELS[name])
+            ax.axhline(0.0, color="0.4", lw=0.6)
+            ax.set_ylabel(label)
+            ax.grid(True, axis="y", alpha=0.3)
+        axes[1].set_xticks(np.arange(len(setups)), setups)
+        axes[0].set_title("Table I: each law along the simulated cycle against the exact model (1), (14)")
+        axes[0].legend(fontsize=8)
+        return axes
+
+
+_WHAT = ("Table I: integral of the shaft torque T over one disturbance cycle (N m s) of each law, "
+         "evaluated along the same simulated trajectory, against the exact model (1), (14); "
+         "RMS of T - T_exact over that cycle (N m).")
+_CSV_UNITS = {"integral": "N_m_s", "rms_error": "N_m"}  # the other numeric columns name their unit (percent)
 
 
 def _cell(value, spec):

@@ -4,6 +4,7 @@ No printed number of the paper is a target (reading notes, item 9); the tests
 check convergence, balances and the paper's qualitative claims.
 """
 
+import csv
 import json
 
 import numpy as np
@@ -12,7 +13,7 @@ from click.testing import CliRunner
 
 from backlash_df import make_model
 from backlash_df.cli import main
-from backlash_df.reproduce import PAPER_PLANT, SETUPS, Setup, compare_torques, figure2_maps, integrated_torque
+from backlash_df.reproduce import PAPER_PLANT, SETUPS, Setup, TableOne, compare_torques, figure2_maps, integrated_torque
 
 DT = 4e-5
 WARMUP = 10
@@ -115,6 +116,26 @@ def test_figure2_regions_follow_5_and_the_pull_areas_are_where_26_breaks_it():
     assert np.all(regions[pull & (x > 0)] <= 0) and np.all(regions[pull & (x < 0)] >= 0)
 
 
+def test_table_one_plot_draws_the_table(comparisons):
+    """The bars are the table: one per law and setup, heights = error_percent and rms_error_percent."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    table = TableOne((comparisons[("one-sided", DT)], comparisons[("crossing", DT)]))
+    axes = table.plot()
+    try:
+        assert len(axes) == 2
+        for ax, key in zip(axes, ("error_percent", "rms_error_percent")):
+            heights = sorted(bar.get_height() for bar in ax.patches)
+            expected = sorted(row[key] for row in table.rows if row["model"] != "exact")
+            np.testing.assert_allclose(heights, expected, rtol=1e-12)
+        assert [tick.get_text() for tick in axes[1].get_xticklabels()] == ["one-sided", "crossing"]
+    finally:
+        plt.close("all")
+
+
 # ---------------------------------------------------------------- command line
 
 
@@ -125,9 +146,17 @@ def test_cli_table1_writes_csv_and_json(tmp_path):
         result = runner.invoke(main, ["reproduce", "table1", "--dt", "5e-5", "--out", str(out)])
         assert result.exit_code == 0, result.output
         assert "phase plane (23)" in result.output and "crossing" in result.output
-    rows = json.loads((tmp_path / "table.json").read_text())["rows"]
+        assert "integral of the shaft torque T over one disturbance cycle (N m s)" in " ".join(result.output.split())
+    payload = json.loads((tmp_path / "table.json").read_text())
+    rows = payload["rows"]
     assert {row["setup"] for row in rows} == set(SETUPS)
-    assert (tmp_path / "table.csv").read_text().splitlines()[0].startswith("setup,model,integral")
+    assert payload["units"]["integral"] == "N m s"
+    with open(tmp_path / "table.csv", newline="") as handle:
+        table = list(csv.DictReader(handle))
+    assert list(table[0]) == ["setup", "model", "integral_N_m_s", "error_percent", "rms_error_N_m", "rms_error_percent"]
+    for line, row in zip(table, rows, strict=True):
+        assert float(line["integral_N_m_s"]) == row["integral"]
+        assert line["error_percent"] == ("" if row["error_percent"] is None else repr(row["error_percent"]))
 
 
 def test_cli_figures_write_png(tmp_path):
@@ -144,9 +173,9 @@ def test_cli_figures_write_png(tmp_path):
     [
         (["table1", "--out", "table.txt"], "table1 is written as .csv or .json"),
         (["figure2", "--out", "figure.csv"], "figure2 is written as .png"),
-        (["figure3", "--setup", "nope"], "unknown setup 'nope'"),
-        (["table1", "--driver", "hysteresis"], "unknown driver model 'hysteresis'"),
-        (["table1", "--dt", "0.01"], "--dt must lie in"),
+        (["figure3", "--setup", "nope"], "'nope' is not one of 'one-sided', 'crossing'"),
+        (["table1", "--driver", "hysteresis"], "'hysteresis' is not one of 'exact'"),
+        (["table1", "--dt", "0.01"], "'--dt': 0.01 is not in the range"),
     ],
 )
 def test_cli_bad_arguments_exit_2_with_one_line(tmp_path, args, message):
