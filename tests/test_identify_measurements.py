@@ -186,6 +186,8 @@ BAD_FILES = {
                         f"only {MIN_SAMPLES - 1} samples"),
     "time in milliseconds": (_set("time", lambda c: 1e3 * c["time"]), None,
                              r"time steps of 1 s over a record of 399 s: time looks like milliseconds"),
+    "time in microseconds": (_set("time", lambda c: 1e6 * c["time"]), None,
+                             r"time steps of 1000 s over a record of 399000 s: time looks like microseconds"),
     "all-zero torque": (_set("motor_torque", lambda c: 0.0 * c["time"]), None,
                         r"motor_torque is constant \(0 N m in all 400 rows\): no excitation"),
     "all-zero speeds": (_set("motor_speed", lambda c: 0.0 * c["time"]), None,

@@ -267,9 +267,10 @@ def _check_time(time, source):
             f"resample the record to a uniform grid"
         )
     if median > MAX_SAMPLING_INTERVAL:
+        unit = "milliseconds" if median / 1e3 <= MAX_SAMPLING_INTERVAL else "microseconds or another unit"
         raise ValueError(
             f"{source}: time steps of {_num(median)} s over a record of {_num(time[-1] - time[0])} s: "
-            f"time looks like milliseconds, it must be in seconds (a drive record samples faster "
+            f"time looks like {unit}, it must be in seconds (a drive record samples faster "
             f"than every {MAX_SAMPLING_INTERVAL:g} s)"
         )
 
