@@ -187,12 +187,25 @@ def diagnose(data, rig_file, json_out, report_out):
     measurements = load_measurements(data, gear_ratio=rig.plant.gear_ratio)
     for note in measurements.notes:
         click.echo(f"note: {note}", err=True)
-    result = run_diagnosis(measurements, rig, workers=min(2, os.cpu_count() or 1))
+    from tqdm import tqdm
+
+    with tqdm(desc="diagnose: fits", unit="fit", file=sys.stderr, leave=False) as bar:
+        result = run_diagnosis(measurements, rig, workers=min(2, os.cpu_count() or 1),
+                               progress=lambda label: (bar.set_postfix_str(label[:40]), bar.update()))
     click.echo(f"cause: {result.cause}")
+    for cause in result.causes:
+        for name, parameter in cause["parameters"].items():
+            low, high = parameter["ci95"]
+            click.echo(f"  {cause['effect']} ({cause['side'] or '-'} side): {name} = {parameter['value']:.4g} "
+                       f"{parameter['unit']} (95 % CI {low:.4g} .. {high:.4g}), gain {100 * cause['gain']:.1f} %")
     click.echo(result.sentence)
-    for candidate in result.candidates:
-        click.echo(f"  {candidate.cause:17s} validation fit {candidate.mean_fit_percent:7.2f} %  "
-                   f"{'accepted' if candidate.accepted else ''}")
+    for model in (result.baseline, result.extended):
+        label = " + ".join(model.effects) or "none (baseline)"
+        fits = ", ".join(f"{name} {model.fit_percent[name]:.1f} % k-step / {model.free_run_fit_percent[name]:.1f} % "
+                         f"free run" for name in model.fit_percent)
+        click.echo(f"  validation fit of {label}: {fits}")
+    for warning in result.warnings:
+        click.echo(f"warning: {warning}")
     texts = {}
     if "--json" in outputs:
         texts["--json"] = result.to_json() + "\n"
@@ -261,6 +274,9 @@ def describing(rig_file, model_name, amplitudes, omegas, bias, json_out):
     for row in rows:
         rate = model.damping * row["omega"] / model.stiffness
         click.echo(f"{row['amplitude']:12.6g} {row['omega']:12.6g} {row['amplitude'] / model.half_gap:9.4g} "
-                   f"{rate:9.3g} {row['gain']:15.8g} {row['phase_deg']:12.6f} {row['mean_torque']:13.6g}")
+                   f"{rate:9.3g} {row['gain']:15.6g} {row['phase_deg']:12.4f} {row['mean_torque']:13.4g}")
     payload = {"model": model.name, "rig": str(rig_file), "bias": bias, "points": rows}
     outputs.write({"--json": json.dumps(payload, indent=2) + "\n"})
+
+
+from . import cli_sweeps  # noqa: E402, F401  (registers ``map`` on the group; it imports ``main``)

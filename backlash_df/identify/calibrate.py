@@ -74,7 +74,7 @@ _UNITS = {"motor_inertia": "kg m^2", "load_inertia": "kg m^2", "stiffness": "N m
           "half_gap": "rad", "theta_d0": "rad"}
 _RELATIVE_RANGE = 0.3  # data-sheet values are trusted to +-30 %
 _SUBSTEPS = 2  # RK4 steps per sample
-_THETA_GRID_POINTS = 33  # starting theta_d0 searched on a grid of step alpha / 4
+_THETA_GRID_POINTS = 33  # starting theta_d0 searched on a grid over its range
 DEFAULT_HORIZON = 0.1  # s, length of the k-step segments
 #: Smallest free-run fit (%) of the k-step solution on every speed for the free-run refinement.
 FREE_RUN_MIN = 50.0
@@ -521,10 +521,8 @@ def _free_parameters(measurements, rig, effects, values0, window, free_run):
         else:
             rows.append((name, (1 - _RELATIVE_RANGE) * value, (1 + _RELATIVE_RANGE) * value, value, value,
                          _UNITS[name]))
-    alpha = nominal["half_gap"]
-    torque_twist = float(np.max(np.abs(measurements.motor_torque))) / nominal["stiffness"]
-    reach = 4.0 * alpha + 2.0 * torque_twist
-    rows.append(("theta_d0", -reach, reach, alpha + torque_twist, 0.0, "rad"))
+    centre, reach = theta_d0_range(measurements, rig)
+    rows.append(("theta_d0", centre - reach, centre + reach, 0.25 * reach, centre, "rad"))
     if free_run:
         speed_range = float(np.ptp(measurements.speeds)) + 1e-9
         data = data_states(measurements, 0.0, [window[0]])[0]
@@ -537,6 +535,19 @@ def _free_parameters(measurements, rig, effects, values0, window, free_run):
         rows.append((effect.value_key, low, high, effect.scale(rig, measurements), effect.null, effect.unit))
     return [(name, float(np.clip(values0.get(name, nominal_), low, high)), low, high, scale, nominal_, unit)
             for name, low, high, scale, nominal_, unit in rows]
+
+
+def theta_d0_range(measurements, rig):
+    """Centre and half width (rad) of the range of the twist offset ``theta_d0``.
+
+    The half width is ``4 alpha`` plus twice the twist of the largest torque;
+    the centre is 0, or minus the mean measured twist (the encoders' zeros are
+    independent, so the measured twist holds up to an arbitrary constant).
+    """
+    plant = rig.plant
+    reach = 4.0 * plant.half_gap + 2.0 * float(np.max(np.abs(measurements.motor_torque))) / plant.stiffness
+    twist = getattr(measurements, "twist", None)
+    return (0.0 if twist is None else -float(np.mean(twist))), reach
 
 
 def _robust_stderr(jacobian, residual, clusters, scales):
@@ -554,20 +565,19 @@ def _robust_stderr(jacobian, residual, clusters, scales):
 
 
 def _theta_d0_by_grid(model, values, starts, stops, measured, weights):
-    """Starting ``theta_d0`` (rad): the best of a grid over ``[-4 alpha, 4 alpha]`` around the twist.
+    """Starting ``theta_d0`` (rad): the best of a grid over its range (:func:`theta_d0_range`).
 
     The prediction error is far from convex in theta_d0: a start on the wrong
     side of the gap leads the fit into a local minimum with the half gap at a
     bound, so the fit starts from the global minimum of this 1-D cut.
     """
-    alpha = values["half_gap"]
 
     def cost(theta_d0):
         states, _ = model.run(values | {"theta_d0": theta_d0}, starts, stops)
         return float(np.sum(((measured - model.speeds_of(states)) * weights) ** 2))
 
-    centre = values.get("theta_d0", 0.0)
-    grid = centre + np.linspace(-4.0 * alpha, 4.0 * alpha, _THETA_GRID_POINTS)
+    centre, reach = theta_d0_range(model.measurements, model.rig)
+    grid = centre + np.linspace(-reach, reach, _THETA_GRID_POINTS)
     return float(grid[int(np.argmin([cost(theta) for theta in grid]))])
 
 
