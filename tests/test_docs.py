@@ -218,3 +218,76 @@ def test_math_is_rendered_by_the_bundled_mathjax(built_docs):
     mathjax = built_docs / "_static" / "mathjax"
     assert (mathjax / "tex-chtml.js").stat().st_size > 100_000
     assert list((mathjax / "output" / "chtml" / "fonts" / "woff-v2").glob("*.woff"))
+
+
+# --------------------------------------------------------------------------- the README's promise: .plot()
+
+
+def _all_axes(drawn):
+    """True if ``drawn`` is one matplotlib Axes or an array of them (what every ``.plot()`` returns)."""
+    import numpy as np
+    from matplotlib.axes import Axes
+
+    items = [drawn] if isinstance(drawn, Axes) else list(np.ravel(np.asarray(drawn, dtype=object)))
+    return bool(items) and all(isinstance(item, Axes) for item in items)
+
+
+def test_result_objects_plot_and_return_their_axes():
+    """README: "every result object has a .plot()"; each returns its Axes (an ndarray for several panels)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    import backlash_df as bd
+    from backlash_df.reproduce import PAPER_PLANT, TableOne, compare_torques
+    from backlash_df.simulate import simulate_two_mass
+
+    rig = bd.load_rig(ROOT / "examples" / "load_feedback.toml")
+    comparison = compare_torques("one-sided", dt=1e-4, warmup_cycles=2)
+    results = {
+        "StaticModel": rig.make_model("phase-plane"),
+        "ExactModel": rig.make_model("exact"),
+        "DescribingFunctionResult": bd.describing_function_grid(rig.make_model(), [0.06, 0.1], [10.0, 100.0]),
+        "ValidityMap": bd.phase_plane_validity(5895.0, 3.0, 0.05, [0.5, 2.0], [0.01, 0.1]),
+        "LimitCyclePrediction": bd.predict_limit_cycles(rig, "phase-plane"),
+        "SimulationResult": simulate_two_mass(PAPER_PLANT, "phase-plane", 0.05, 1e-4, motor_torque=1.0),
+        "TorqueComparison": comparison,
+        "TableOne": TableOne((comparison,)),
+        "Measurements": bd.load_measurements(ROOT / "examples" / "diagnose_rubber.csv"),
+    }
+    try:
+        for name, result in results.items():
+            assert _all_axes(result.plot()), name
+            plt.close("all")
+    finally:
+        plt.close("all")
+
+
+@pytest.mark.parametrize("name", ["phase-plane", "rubber", "dead-zone", "exact"])
+def test_model_plot_shows_the_law(name):
+    """The colour map of a model's .plot() is its torque on the drawn grid (the exact model: in contact)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from backlash_df import make_model
+
+    k, c, alpha = 5895.0, 3.0, 0.05
+    model = make_model(name, stiffness=k, damping=c, half_gap=alpha, rubber_thickness=0.02)
+    ax = model.plot(n=41)
+    try:
+        mesh = ax.collections[0]
+        x, v = np.meshgrid(np.linspace(-3 * alpha, 3 * alpha, 41), np.linspace(-3 * alpha * k / c, 3 * alpha * k / c, 41))
+        if name == "exact":  # (1) with theta_b = +-alpha outside the release set (5)
+            y = k * x + c * v
+            expected = np.where(np.abs(y) >= k * alpha, y - np.sign(y) * k * alpha, 0.0)
+        else:
+            expected = model.torque(x, v)
+        np.testing.assert_allclose(np.asarray(mesh.get_array()).reshape(x.shape), expected, rtol=1e-12, atol=1e-9)
+        assert ax.get_xlabel() == "theta_d (rad)" and "(rad/s)" in ax.get_ylabel()
+    finally:
+        plt.close("all")
