@@ -1,0 +1,149 @@
+"""``backlash-df map`` (and the executor options shared by sweeps): registered on the main group.
+
+``--workers N`` runs the cells on a local process pool of N processes, with
+``--dask`` on a ``dask.distributed.LocalCluster`` of N single-threaded workers;
+``--scheduler ADDRESS`` runs them on an existing Dask cluster.  The cells are
+pure functions of (rig, values), so the result does not depend on the choice.
+"""
+
+import contextlib
+
+import click
+
+from .cli import main
+
+__all__ = ["executor_for", "parse_values", "map_command"]
+
+
+def parse_values(option, text):
+    """Grid values from ``START:STOP:N`` (linear), ``START:STOP:N:log`` (geometric) or ``V1,V2,...``.
+
+    Raises
+    ------
+    ValueError
+        One line naming ``option``.
+    """
+    import numpy as np
+
+    parts = text.split(":")
+    try:
+        if len(parts) == 1:
+            return np.array([float(item) for item in text.split(",")])
+        if len(parts) in (3, 4) and (len(parts) == 3 or parts[3] == "log"):
+            start, stop, count = float(parts[0]), float(parts[1]), int(parts[2])
+            if count < 1 or (len(parts) == 4 and not (start > 0 and stop > 0)):
+                raise ValueError
+            return (np.geomspace if len(parts) == 4 else np.linspace)(start, stop, count)
+    except ValueError:
+        pass
+    raise ValueError(f"{option} {text!r}: give START:STOP:N, START:STOP:N:log (positive ends) or V1,V2,...")
+
+
+@contextlib.contextmanager
+def executor_for(workers, dask=False, scheduler=None):
+    """A ``concurrent.futures.Executor`` for ``--workers/--dask/--scheduler`` (``None``: serial).
+
+    Parameters
+    ----------
+    workers : int
+        Local processes (1: run in this process, unless ``dask``).
+    dask : bool
+        Use a ``dask.distributed.LocalCluster`` of ``workers`` single-threaded workers.
+    scheduler : str, optional
+        Address of an existing Dask scheduler (``tcp://host:8786``).
+    """
+    if workers < 1:
+        raise ValueError(f"--workers must be >= 1, got {workers}")
+    if dask or scheduler:
+        try:
+            import distributed
+        except ImportError:
+            raise ValueError("--dask/--scheduler need dask.distributed: pip install 'backlash-df[dask]'") from None
+        with contextlib.ExitStack() as stack:
+            if scheduler:
+                try:
+                    client = stack.enter_context(distributed.Client(scheduler, timeout="10s"))
+                except OSError as error:
+                    raise ValueError(f"--scheduler {scheduler}: cannot connect ({error})") from None
+            else:
+                cluster = stack.enter_context(distributed.LocalCluster(
+                    n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None))
+                client = stack.enter_context(distributed.Client(cluster))
+            yield client.get_executor()
+        return
+    if workers == 1:
+        yield None
+        return
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(workers) as pool:
+        yield pool
+
+
+def executor_options(function):
+    """Add ``--workers``, ``--dask`` and ``--scheduler`` to a command."""
+    function = click.option("--scheduler", default=None, metavar="ADDRESS",
+                            help="Run on an existing Dask cluster (scheduler address).")(function)
+    function = click.option("--dask", is_flag=True, help="With --workers: a dask.distributed LocalCluster.")(function)
+    return click.option("--workers", type=int, default=1, show_default=True,
+                        help="Processes running the cells (a local process pool).")(function)
+
+
+@main.command("map")
+@click.argument("rig_file", type=click.Path(dir_okay=False))
+@click.option("--x", "x_spec", nargs=2, default=("kp", "5:60:12"), show_default=True, metavar="NAME VALUES",
+              help="First rig value and its grid: START:STOP:N, START:STOP:N:log or V1,V2,...")
+@click.option("--y", "y_spec", nargs=2, default=("ti", "0.1:2:10:log"), show_default=True, metavar="NAME VALUES",
+              help="Second rig value and its grid.")
+@click.option("--model", "models", multiple=True, metavar="NAME",
+              help="Torque law (repeatable; default: the rig's [model] backlash).")
+@click.option("--no-simulate", is_flag=True, help="DF verdicts only (no time simulation).")
+@executor_options
+@click.option("--json", "json_out", type=click.Path(dir_okay=False), help="Write the map as JSON.")
+@click.option("--report", "report_out", type=click.Path(dir_okay=False), help="Write a self-contained HTML report.")
+@click.option("--plot", "plot_out", type=click.Path(dir_okay=False), help="Save the figure (PNG).")
+def map_command(rig_file, x_spec, y_spec, models, no_simulate, workers, dask, scheduler, json_out, report_out,
+                plot_out):
+    """Design map of RIG_FILE over two rig values: DF verdicts and simulation side by side.
+
+    Example: backlash-df map RIG --x kp 5:60:40 --y ti 0.1:2:40:log --workers 2
+    """
+    import html
+    import json
+    from pathlib import Path
+
+    from .config import load_rig
+    from .models import MODEL_NAMES
+    from .report import Outputs
+    from .sweeps import VERDICTS, design_map, rig_with
+
+    outputs = Outputs({"--json": json_out, "--report": report_out, "--plot": plot_out})
+    rig = load_rig(rig_file)
+    rig.require_controller()
+    models = list(dict.fromkeys(models or [rig.model]))
+    for name in models:
+        if name not in MODEL_NAMES:
+            raise ValueError(f"--model: unknown model {name!r}; choose one of: {', '.join(MODEL_NAMES)}")
+    x_values, y_values = parse_values("--x", x_spec[1]), parse_values("--y", y_spec[1])
+    rig_with(rig_with(rig, x_spec[0], x_values[0]), y_spec[0], y_values[0])  # names checked before any work
+    with executor_for(workers, dask, scheduler) as executor:
+        dmap = design_map(rig, x_values, y_values, x=x_spec[0], y=y_spec[0], models=models,
+                          simulate=not no_simulate, executor=executor)
+    click.echo(f"design map of {rig_file}: {x_spec[0]} ({x_values.size}) x {y_spec[0]} ({y_values.size})")
+    for name in dmap.models:
+        counts = ", ".join(f"{v} {int((dmap.df_verdict[name] == v).sum())}" for v in VERDICTS)
+        agree = f"; agrees with simulation on {dmap.agreement(name):.1%}" if name in dmap.sim_verdict else ""
+        click.echo(f"  {name}: DF {counts}{agree}")
+    texts = {}
+    if "--json" in outputs:
+        texts["--json"] = json.dumps({"rig": str(rig_file), **dmap.to_dict()}, indent=2) + "\n"
+    if "--report" in outputs:
+        rig_text = html.escape(Path(rig_file).read_text(encoding="utf-8"))
+        texts["--report"] = dmap.report_html(title=f"Design map: {rig_file}", rig_text=rig_text)
+    if "--plot" in outputs:
+        import io
+
+        buffer = io.BytesIO()
+        dmap.plot()["figure"].savefig(buffer, format="png", dpi=110, bbox_inches="tight")
+        texts["--plot"] = buffer.getvalue()
+    outputs.write(texts)
