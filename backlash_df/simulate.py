@@ -880,7 +880,7 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None):
     window : float
         Fraction of the record (at its end) examined for shaft contact.
     bound : float, optional
-        Largest |theta_d| (rad) of a run that has not diverged (default ``1e3
+        Largest ``|theta_d|`` (rad) of a run that has not diverged (default ``1e3
         alpha``, five times the largest amplitude the DF search considers).  A run
         that exceeds it, overflows or turns NaN is ``"diverged"``: never a cycle or rest.
 
