@@ -70,3 +70,47 @@ def test_bad_rig_names_the_file(tmp_path):
     result = run("df", "--rig", path, "--amplitude", "0.1", "--omega", "10")
     assert result.exit_code == 2
     assert str(path) in result.output and "stiffness" in result.output
+
+
+def test_mean_torque_is_zero_at_zero_bias_relative_to_the_torque_scale(rig, tmp_path):
+    """An odd law has no mean torque without bias: printed 0 at A = 1e300 as at A = 0.06 rad
+    (the quadrature's round-off scales with |N| A, so the zeroing is relative)."""
+    out = tmp_path / "df.json"
+    result = run("df", "--rig", rig, "--model", "phase-plane", "--amplitude", "0.06,1e3,1e300", "--omega", "100",
+                 "--json", out)
+    assert result.exit_code == 0, result.output
+    points = json.loads(out.read_text())["points"]
+    assert [point["mean_torque"] for point in points] == [0.0, 0.0, 0.0]
+    assert points[2]["gain"] == pytest.approx(abs(5895.0 + 300j), rel=1e-9)  # A >> alpha: N -> k + j c w
+
+
+@pytest.mark.parametrize("bias", [0.02, -0.07, 1e-6])
+def test_mean_torque_with_bias_matches_an_independent_quadrature(rig, tmp_path, bias):
+    """Dead-zone (24) with bias b: the mean torque (1 / 2 pi) int T(b + A sin phi) dphi, by scipy's quad."""
+    from scipy.integrate import quad
+
+    k, alpha, amplitude = 5895.0, 0.05, 0.1
+
+    def torque(phi):
+        x = bias + amplitude * np.sin(phi)
+        return k * (x - alpha) if x > alpha else (k * (x + alpha) if x < -alpha else 0.0)
+
+    ratios = (np.array([alpha, -alpha]) - bias) / amplitude
+    crossings = np.arcsin(ratios[np.abs(ratios) <= 1.0])  # where x crosses +-alpha
+    breaks = sorted(np.concatenate([crossings, np.pi - crossings]) % (2 * np.pi))
+    expected = quad(torque, 0.0, 2 * np.pi, points=breaks, epsabs=1e-10, epsrel=1e-12, limit=200)[0] / (2 * np.pi)
+    out = tmp_path / "df.json"
+    result = run("df", "--rig", rig, "--model", "dead-zone", "--amplitude", amplitude, "--omega", "10",
+                 "--bias", bias, "--json", out)
+    assert result.exit_code == 0, result.output
+    mean = json.loads(out.read_text())["points"][0]["mean_torque"]
+    assert mean != 0.0
+    assert mean == pytest.approx(expected, rel=1e-8, abs=1e-9 * k * amplitude)
+
+
+def test_help_lists_the_valid_models():
+    result = run("df", "--help")
+    assert result.exit_code == 0
+    text = " ".join(result.output.split())
+    for name in ("dead-zone", "damped-dead-zone", "phase-plane", "rubber", "exact", "elasto-backlash"):
+        assert name in text
