@@ -80,3 +80,58 @@ def test_load_and_gear_ratio_errors(table, key, value, match):
     data[table][key] = value
     with pytest.raises(RigError, match=match):
         rig_from_dict(data)
+
+
+@pytest.mark.parametrize("table, key, value, shown", [
+    ("plant", "stiffness", 1e300, "1e+300 N m/rad is outside the accepted range [1e-06, 1e+12] N m/rad"),
+    ("plant", "motor_inertia", 1e-300, "1e-300 kg m^2 is outside the accepted range [1e-10, 1e+10] kg m^2"),
+    ("plant", "half_gap", 1e300, "1e+300 rad is outside the accepted range [1e-09, 3.14159] rad"),
+    ("plant", "damping", 1e13, "[0, 1e+12] N m s/rad"),
+    ("plant", "gear_ratio", 1e6, "1e+06 is outside the accepted range [0.0001, 100000]"),
+    ("controller", "kp", 1e300, "[0, 1e+10] N m s/rad"),
+    ("controller", "ti", 1e-300, "[1e-06, 1e+06] s"),
+    ("controller", "delay", 1e300, "1e+300 s is outside the accepted range [0, 10] s"),
+    ("controller", "torque_lag", 1e3, "[0, 100] s"),
+    ("load", "torque", -1e300, "-1e+300 N m is outside the accepted range [-1e+09, 1e+09] N m"),
+])
+def test_extreme_values_are_refused_with_key_value_and_range(table, key, value, shown):
+    data = {"plant": dict(PLANT), "controller": {"kp": 30.0, "ti": 0.5}, "load": {}}
+    data[table][key] = value
+    with pytest.raises(RigError, match=r"\[" + table + r"\] " + key) as info:
+        rig_from_dict(data, source="rig.toml")
+    assert shown in str(info.value)
+    assert str(info.value).startswith("rig.toml: ")
+
+
+def test_real_drives_at_both_ends_of_the_ranges_are_accepted():
+    """A miniature servo and a wind-turbine drive train load (documented in backlash_df.config)."""
+    servo = dict(motor_inertia=2e-7, load_inertia=1e-6, stiffness=0.5, damping=1e-4, half_gap=1e-4)
+    turbine = dict(motor_inertia=500.0, load_inertia=3e8, stiffness=5e9, damping=1e7, half_gap=2e-3,
+                   gear_ratio=120.0)
+    for plant in (servo, turbine):
+        rig = rig_from_dict({"plant": plant, "controller": {"kp": 1e-3 if plant is servo else 1e8, "ti": 0.05,
+                                                             "delay": 1e-4}})
+        assert rig.plant.stiffness == plant["stiffness"]
+
+
+def test_rubber_law_needs_a_rubber_thickness(tmp_path):
+    """With beta = 0 the rubber law (40) is the phase plane law (23): asking for it is refused."""
+    rig = load_rig(write(tmp_path, GOOD))
+    with pytest.raises(RigError, match=r"model 'rubber' needs \[plant\] rubber_thickness > 0"):
+        rig.make_model("rubber")
+    with pytest.raises(RigError, match=r"rig\.toml: model 'rubber' needs"):
+        load_rig(write(tmp_path, GOOD + '\n[model]\nbacklash = "rubber"\n'))
+    with_beta = load_rig(write(tmp_path, GOOD.replace("half_gap = 0.05", "half_gap = 0.05\nrubber_thickness = 0.02")))
+    model = with_beta.make_model("rubber")
+    assert model.rubber_thickness == 0.02
+    # the band carries torque where the phase plane law has none: in the band, before steel contact
+    assert model.torque(0.045, 0.0) > 0.0
+    assert with_beta.make_model("phase-plane").torque(0.045, 0.0) == 0.0
+
+
+def test_rig_file_not_utf8_names_the_file(tmp_path):
+    path = tmp_path / "rig.toml"
+    path.write_bytes(("# Tr\u00e4gheit\n" + GOOD).encode("latin-1"))
+    with pytest.raises(RigError, match=r"rig\.toml: not a UTF-8 text file \(byte 0xe4 at offset 4\)") as info:
+        load_rig(path)
+    assert str(info.value).startswith(str(path))
