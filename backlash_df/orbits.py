@@ -117,8 +117,9 @@ def _contact_right(law, k, c, alpha, x, v, tb):
         return x - alpha, (1.0, 0.0, 0.0)
     if law == REVISED_DEAD_ZONE:
         return k * (x - alpha) + c * v, (k, c, 0.0)
-    if law == EXACT:
-        return tb - alpha, (0.0, 0.0, 1.0)
+    if law == EXACT:  # theta_b on its stop (14) with y = theta_d + (c / k) dtheta_d beyond it
+        lead = x - alpha + c * v / k
+        return (tb - alpha, (0.0, 0.0, 1.0)) if tb - alpha <= lead else (lead, (1.0, c / k, 0.0))
     if v > 0.0:  # phase plane: theta_d reaches theta*(v), (19)-(20)
         ts, slope = _theta_star_slope(v, k, c, alpha)
         return x - ts, (1.0, -slope, 0.0)
@@ -256,12 +257,20 @@ class _Loop:
             return -1
         return 0
 
-    def after_event(self, target, q):
-        """State continued into ``target``: the exact model's theta_b set on its stop (14)."""
-        if self.exact and target != 0:
-            q = q.copy()
-            q[-1] = target * self.alpha
-        return q
+    def after_event(self, before, target, q, monodromy):
+        """State and monodromy continued into ``target``: the exact model's theta_b set on its stop (14).
+
+        At contact and at release theta_b sits on the stop of the side touched
+        (``+-alpha``): the projection removes round-off, and its derivative (the
+        theta_b row zeroed) enters the monodromy; at contact the saltation matrix
+        has zeroed that row already.
+        """
+        if not self.exact:
+            return q, monodromy
+        q, monodromy = q.copy(), monodromy.copy()
+        q[-1] = (target or before) * self.alpha
+        monodromy[-1] = 0.0
+        return q, monodromy
 
     def saltation(self, before, after, q, normal):
         """Saltation matrix ``I + (f_after - f_before) n^T / (n^T f_before)`` at an event."""
@@ -296,13 +305,13 @@ class _Loop:
         """Affine map of an augmented transition matrix on a state."""
         return e_aug[:-1, :-1] @ q + e_aug[:-1, -1]
 
-    def segment(self, mode, q, remaining, step, track):
+    def segment(self, mode, q, remaining, step, track, start=0.0):
         """Flow in ``mode`` for at most ``remaining`` s; returns (duration, state, exit or None, transition).
 
         Samples every ``step`` s check the exit functions (and, by a cubic Hermite
         fit of value and slope, an excursion past zero between two samples); a
-        crossing is located by :meth:`locate`.  ``track`` collects ``(t, q, mode)``;
-        the transition is the augmented matrix from ``q`` to the returned state.
+        crossing is located by :meth:`locate`.  ``track`` collects ``(start + t, q,
+        mode)``; the transition is the augmented matrix from ``q`` to the returned state.
         """
         ladder = self.ladder(mode, step)
         transition = np.eye(self.size + 1)
@@ -322,7 +331,7 @@ class _Loop:
                 return t_a + fraction * step, self.apply(e_event, q_a), (ex_a[index][0], index), e_event @ transition
             transition = e_step @ transition
             if track is not None:
-                track.append((t_a + (remaining - t_a if last else step), q_b, mode))
+                track.append((start + (remaining if last else t_a + step), q_b, mode))
             if last:
                 return remaining, q_b, None, transition
             t_a, q_a, ex_a = t_a + step, q_b, ex_b
@@ -397,7 +406,7 @@ class _Loop:
         if track is not None:
             track.append((0.0, q, mode))
         while True:
-            duration, q_end, exit_, transition = self.segment(mode, q, period - t, step, track)
+            duration, q_end, exit_, transition = self.segment(mode, q, period - t, step, track, t)
             segments.append((t, mode, q, duration))
             monodromy = transition[:-1, :-1] @ monodromy
             t += duration
@@ -406,7 +415,7 @@ class _Loop:
             target, index = exit_
             normal = self.exits(mode, q_end)[index][2]
             monodromy = self.saltation(mode, target, q_end, normal) @ monodromy
-            q = self.after_event(target, q_end)
+            q, monodromy = self.after_event(mode, target, q_end, monodromy)
             events.append((t, mode, target))
             mode = target
             if track is not None:
@@ -644,9 +653,7 @@ def _seed_unknowns(loop, seed):
     from .simulate import MeasuredCycle, SimulationResult, measure_limit_cycle
 
     if isinstance(seed, PeriodicOrbit):
-        if seed.state.shape != (loop.size,):
-            raise ValueError("seed: a PeriodicOrbit of another loop (different states)")
-        return np.append(seed.state, seed.period)
+        return np.append(_orbit_seed(loop, seed), seed.period)
     if isinstance(seed, SimulationResult):
         return _simulation_seed(loop, seed, measure_limit_cycle(seed))
     if isinstance(seed, MeasuredCycle):
@@ -664,6 +671,23 @@ def _seed_unknowns(loop, seed):
         raise ValueError(f"seed: (amplitude rad, omega rad/s > 0[, bias rad]) expected, got {seed!r}")
     amplitude, omega, bias = (values + [0.0])[:3]
     return np.append(loop.harmonic_seed(amplitude, omega, bias), 2.0 * math.pi / omega)
+
+
+def _orbit_seed(loop, orbit):
+    """Section state from an orbit, possibly of another law or Pade order: states matched by name.
+
+    States the orbit lacks come from the harmonic seed; the exact model's theta_b is
+    set on the stop of the side the section point lies on.
+    """
+    if orbit.state_names == loop.names:
+        return orbit.state.copy()
+    q = loop.harmonic_seed(orbit.amplitude, orbit.omega, orbit.bias)
+    theirs = dict(zip(orbit.state_names, orbit.state))
+    for i, name in enumerate(loop.names):
+        q[i] = theirs.get(name, q[i])
+    if loop.exact and "theta_b" not in theirs:
+        q[-1] = math.copysign(loop.alpha, loop.c_x @ q - orbit.bias)
+    return q
 
 
 def _simulation_seed(loop, result, measured):

@@ -1,0 +1,294 @@
+"""Exact periodic orbits by shooting: against time simulation, finite differences and Pade orders.
+
+The references are independent of the shooting code: the project's exact-discretisation
+simulation kernel (its own event location by bisection, no saltation matrices), finite
+differences of the period map (events relocated, so they test the saltation matrices),
+and convergence of the Pade approximant of a dead time with its order.
+"""
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import backlash_df as bd
+from backlash_df.orbits import (
+    OrbitNotFound,
+    PeriodicOrbit,
+    exact_orbits,
+    orbit_residual,
+    orbit_state_names,
+    periodic_orbit,
+)
+from backlash_df.simulate import measure_limit_cycle, simulate_linear, simulate_rig, simulated_limit_cycle
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+@pytest.fixture(scope="module")
+def load_rig():
+    return bd.load_rig(EXAMPLES / "load_feedback.toml")
+
+
+@pytest.fixture(scope="module")
+def lag_rig():
+    return bd.load_rig(EXAMPLES / "motor_lag_feedback.toml")
+
+
+@pytest.fixture(scope="module")
+def load_orbit(load_rig):
+    return periodic_orbit(load_rig, "phase-plane", bd.predict_limit_cycles(load_rig).cycles[0])
+
+
+@pytest.fixture(scope="module")
+def lag_orbits(lag_rig):
+    """The separating (unstable) and the stable cycle of the bistable motor-lag loop."""
+    return exact_orbits(lag_rig, bd.predict_limit_cycles(lag_rig, "phase-plane"))
+
+
+def _delay_rig(delay=0.0005):
+    """The issue's near-critical tuning: motor feedback, c = 10, kp = 222, ti = 0.3 s, dead time."""
+    return bd.rig_from_dict({
+        "plant": {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0, "damping": 10.0, "half_gap": 0.05},
+        "controller": {"feedback": "motor", "kp": 222.0, "ti": 0.3, "speed_filter": 0.0076,
+                       "torque_lag": 0.0015, "delay": delay},
+    })
+
+
+def _start(orbit, offset=None):
+    """``initial=`` of simulate_rig: the orbit's section state (plus an offset), loop states only."""
+    state = orbit.state if offset is None else orbit.state + offset
+    return {name: value for name, value in zip(orbit.state_names, state) if not name.startswith(("pade", "theta_b"))}
+
+
+def _simulate_from(rig, model, orbit, t_end, dt, offset=None):
+    """The project's simulation kernel started on the orbit's section state (theta_b included)."""
+    system = bd.drive_loop(rig).linear_part()
+    state = orbit.state if offset is None else orbit.state + offset
+    theta_b = state[-1] if orbit.state_names[-1] == "theta_b" else 0.0
+    load = rig.load.torque
+    return simulate_linear(system, rig.make_model(model), t_end, dt, z0=state[:system.A.shape[0]], theta_b0=theta_b,
+                           inputs=lambda time: np.stack([0.0 * time, load + 0.0 * time], axis=1))
+
+
+def _monodromy(rig, model, orbit):
+    _, jacobian = orbit_residual(rig, model, np.append(orbit.state, orbit.period))
+    return jacobian[:-1, :-1] + np.eye(orbit.state.size)
+
+
+# --------------------------------------------------------------------------- against simulation
+
+
+def test_load_feedback_orbit_matches_a_long_converged_simulation(load_rig, load_orbit):
+    # started from the DF kick, 180 periods: the deviation decays as |mu|max^n = 0.926^n
+    cycle = bd.predict_limit_cycles(load_rig).cycles[0]
+    result = simulate_rig(load_rig, "phase-plane", t_end=12.0, dt=2e-5, kick=cycle.amplitude * cycle.omega)
+    measured = measure_limit_cycle(result, periods=20, rtol=1e-6)
+    assert measured.found
+    assert measured.omega == pytest.approx(load_orbit.omega, rel=1e-6)
+    assert measured.amplitude == pytest.approx(load_orbit.amplitude, rel=1e-5)
+    assert measured.peak == pytest.approx(load_orbit.peak, rel=1e-5)
+    assert abs(measured.bias) < 1e-6 and abs(load_orbit.bias) < 1e-12  # odd symmetry: centred in the gap
+    assert load_orbit.stable and load_orbit.residual < 1e-10
+    assert abs(load_orbit.multipliers[0] - 1.0) < 1e-8  # the trivial multiplier of an autonomous orbit
+    # and the DF's first-harmonic error the issue quotes: about 10 % high
+    assert cycle.amplitude / load_orbit.amplitude - 1.0 == pytest.approx(0.102, abs=0.005)
+
+
+@pytest.mark.parametrize("model", ["phase-plane", "exact", "damped-dead-zone"])
+def test_one_period_of_simulation_from_the_state_returns_to_it(load_rig, load_orbit, model):
+    orbit = periodic_orbit(load_rig, model, load_orbit)
+    steps = 4096  # the grid lands on T; the kernel is exact between events
+    result = _simulate_from(load_rig, model, orbit, orbit.period, orbit.period / steps)
+    loop_states = result.states.shape[1]
+    scale = np.abs(result.states).max(axis=0)
+    assert np.abs((result.states[-1] - orbit.state[:loop_states]) / scale).max() < 1e-9
+    assert result.events == len(orbit.events)
+
+
+def test_motor_lag_stable_orbit_is_the_simulated_cycle(lag_rig, lag_orbits):
+    unstable, stable = lag_orbits
+    assert stable.stable and not unstable.stable
+    # started slightly off the orbit (|mu|max = 0.97 makes a start from rest slow to settle)
+    result = _simulate_from(lag_rig, "phase-plane", stable, 300 * stable.period, stable.period / 1024,
+                            1e-5 * stable.state)
+    measured = measure_limit_cycle(result, periods=20, rtol=1e-6)
+    assert measured.omega == pytest.approx(stable.omega, rel=1e-6)
+    assert measured.amplitude == pytest.approx(stable.amplitude, rel=1e-5)
+
+
+# --------------------------------------------------------------------------- Floquet stability
+
+
+def _deviation_along(rig, model, orbit, periods, size):
+    """Component along the dominant non-trivial Floquet mode, sampled once a period, of a perturbed run."""
+    values, right = np.linalg.eig(_monodromy(rig, model, orbit))
+    order = np.argsort(-np.abs(values))
+    dominant = next(i for i in order if abs(values[i] - 1.0) > 1e-6)
+    mu = values[dominant]
+    assert abs(mu.imag) < 1e-12  # a real dominant multiplier on these rigs
+    left = np.linalg.inv(right)[dominant].real
+    mode = right[:, dominant].real
+    offset = size * mode / np.abs(mode).max() * np.abs(orbit.state).max()
+    steps = 2048
+    result = _simulate_from(rig, model, orbit, periods * orbit.period, orbit.period / steps, offset)
+    returns = result.states[::steps] - orbit.state
+    return mu.real, returns @ left
+
+
+def test_stable_orbit_perturbation_decays_at_the_floquet_rate(load_rig, load_orbit):
+    # 1e-4 of the state's size: nonlinear effects ~1e-6, round-off of the deviation well below
+    mu, deviation = _deviation_along(load_rig, "phase-plane", load_orbit, periods=12, size=1e-4)
+    assert load_orbit.max_multiplier == pytest.approx(mu)
+    rates = deviation[1:] / deviation[:-1]
+    assert np.allclose(rates, mu, rtol=2e-5)
+    assert mu < 1.0
+
+
+def test_unstable_orbit_perturbation_grows_at_the_floquet_rate(lag_rig, lag_orbits):
+    # the separating cycle barely enters contact (A = 1.06 alpha): a smaller kick keeps it linear
+    unstable = lag_orbits[0]
+    mu, deviation = _deviation_along(lag_rig, "phase-plane", unstable, periods=10, size=1e-6)
+    assert mu == pytest.approx(unstable.max_multiplier) and mu > 1.0
+    assert np.allclose(deviation[1:] / deviation[:-1], mu, rtol=1e-5)
+
+
+def test_the_separating_orbit_divides_rest_from_the_stable_cycle(lag_rig, lag_orbits):
+    # simulation cannot find the unstable orbit, but it sees both sides of it
+    unstable, stable = lag_orbits
+    grow, shrink = 1.02 * unstable.state, 0.98 * unstable.state
+    outside = simulated_limit_cycle(lag_rig, "phase-plane", t_end=4.0, initial=_start(unstable, grow - unstable.state))[0]
+    inside = simulated_limit_cycle(lag_rig, "phase-plane", t_end=4.0, initial=_start(unstable, shrink - unstable.state))[0]
+    assert outside.found and outside.amplitude == pytest.approx(stable.amplitude, rel=1e-3)
+    assert not inside.found
+
+
+# --------------------------------------------------------------------------- the Jacobian
+
+
+@pytest.mark.parametrize("model", ["phase-plane", "exact", "damped-dead-zone", "revised-dead-zone"])
+def test_monodromy_matches_finite_differences_of_the_period_map(load_rig, load_orbit, model):
+    orbit = periodic_orbit(load_rig, model, load_orbit)
+    unknowns = np.append(orbit.state, orbit.period)
+    _, jacobian = orbit_residual(load_rig, model, unknowns)
+    scale = np.append(np.abs(orbit.state).max() * np.ones(orbit.state.size), orbit.period)
+    numeric = np.empty_like(jacobian)
+    for j, name in enumerate(orbit.state_names + ("period",)):
+        h = 1e-6 * scale[j]
+        plus, _ = orbit_residual(load_rig, model, unknowns + h * np.eye(unknowns.size)[j])
+        if name == "theta_b":  # on its stop in contact: theta_b < alpha would open the gap (one-sided)
+            numeric[:, j] = (plus - orbit_residual(load_rig, model, unknowns)[0]) / h
+            continue
+        minus, _ = orbit_residual(load_rig, model, unknowns - h * np.eye(unknowns.size)[j])
+        numeric[:, j] = (plus - minus) / (2.0 * h)
+    error = np.abs(numeric - jacobian) * scale  # each column in units of its unknown's size
+    assert error.max() < 1e-6 * (np.abs(jacobian) * scale).max()
+    if model != "revised-dead-zone":  # (27) is continuous at its switches: saltation = identity
+        # the check is sharp enough to see the saltation matrices: without them M is far off
+        no_saltation = _flows_only(load_rig, model, orbit)
+        assert (np.abs(no_saltation - jacobian[:-1, :-1]) * scale[:-1]).max() > 1e3 * error.max()
+
+
+def _flows_only(load_rig, model, orbit):
+    """M - I without the saltation matrices: what a naive product of mode flows gives."""
+    from scipy.linalg import expm
+
+    from backlash_df.orbits import _loop
+
+    loop = _loop(load_rig, load_rig.make_model(model), 6)
+    _, _, _, _, segments = loop.period_map(orbit.state, orbit.period)
+    product = np.eye(orbit.state.size)
+    for _, mode, _, duration in segments:
+        product = expm(loop.aug[mode][:-1, :-1] * duration) @ product
+    return product - np.eye(orbit.state.size)
+
+
+# --------------------------------------------------------------------------- dead time
+
+
+def test_dead_time_orbit_converges_with_the_pade_order_and_bounds_the_simulation():
+    rig = _delay_rig()
+    seed = (0.2109, 267.3)
+    amplitudes = {order: periodic_orbit(rig, None, seed, pade_order=order).amplitude for order in (2, 4, 6)}
+    assert abs(amplitudes[6] - amplitudes[4]) < 1e-9 * amplitudes[6]
+    assert abs(amplitudes[4] - amplitudes[2]) > 100 * abs(amplitudes[6] - amplitudes[4])
+    # the simulation's dead time at a fine step against this reference: the issue's 1e-4
+    measured, _ = simulated_limit_cycle(rig, None, t_end=20.0, dt=1.25e-5, kick=seed[0] * seed[1], periods=20, rtol=1e-5)
+    assert measured.amplitude == pytest.approx(amplitudes[6], rel=1e-4)
+
+
+def test_dead_time_states_are_named(lag_rig):
+    rig = dataclasses.replace(lag_rig, controller=dataclasses.replace(lag_rig.controller, delay=1e-4))
+    names = orbit_state_names(rig, "exact", pade_order=3)
+    assert names[-4:] == ("pade_1", "pade_2", "pade_3", "theta_b")
+
+
+# --------------------------------------------------------------------------- seeds, results, errors
+
+
+def test_seeds_of_every_kind_reach_the_same_orbit(load_rig, load_orbit):
+    measured, result = simulated_limit_cycle(load_rig, "phase-plane", t_end=5.0, kick=15.0)
+    for seed in (measured, result, (0.16, 98.0, 0.0), load_orbit):
+        orbit = periodic_orbit(load_rig, "phase-plane", seed)
+        assert orbit.period == pytest.approx(load_orbit.period, rel=1e-9)
+        assert orbit.amplitude == pytest.approx(load_orbit.amplitude, rel=1e-9)
+
+
+def test_exact_orbits_are_deduplicated_and_sorted(lag_rig, lag_orbits):
+    prediction = bd.predict_limit_cycles(lag_rig, "phase-plane")
+    measured, _ = simulated_limit_cycle(lag_rig, "phase-plane", t_end=2.0, initial=_start(lag_orbits[1]))
+    orbits = exact_orbits(lag_rig, prediction, simulated=measured)
+    assert [o.stable for o in orbits] == [False, True]
+    assert orbits[0].amplitude < orbits[1].amplitude
+    # DF error against the exact orbits: the unstable cycle is nearly sinusoidal
+    assert prediction.cycles[0].amplitude == pytest.approx(orbits[0].amplitude, rel=1e-3)
+
+
+def test_load_torque_moves_the_orbit_off_centre(load_rig, load_orbit):
+    rig = dataclasses.replace(load_rig, load=dataclasses.replace(load_rig.load, torque=20.0))
+    orbit = periodic_orbit(rig, "phase-plane", (load_orbit.amplitude, load_orbit.omega, 0.0))
+    result = _simulate_from(rig, "phase-plane", orbit, orbit.period, orbit.period / 4096)
+    scale = np.abs(result.states).max(axis=0)
+    assert np.abs((result.states[-1] - orbit.state) / scale).max() < 1e-9
+    assert abs(orbit.bias) > 1e-3
+
+
+def test_result_object(load_orbit):
+    data = load_orbit.to_dict()
+    assert data["omega"] == pytest.approx(2.0 * math.pi / data["period"])
+    assert data["multipliers"][0] == pytest.approx([1.0, 0.0], abs=1e-8)
+    assert data["max_multiplier"] == pytest.approx(abs(complex(*data["multipliers"][1])))
+    assert data["stable"] is True and data["events"] == 4
+    assert "stable" in repr(load_orbit) and "A=0.1505" in repr(load_orbit)
+    # section at the maximum of theta_d (the DF seed's phase): release, left contact, release, right contact
+    assert [(before, after) for _, before, after in load_orbit.events] == [(1, 0), (0, -1), (-1, 0), (0, 1)]
+    assert load_orbit.time[0] == 0.0 and load_orbit.time[-1] == pytest.approx(load_orbit.period)
+    # the sampled torque: zero well inside the gap (theta* >= alpha - c v / k), the side's sign in contact
+    inside = np.abs(load_orbit.theta_d) < 0.05 - 3.0 * np.abs(load_orbit.dtheta_d).max() / 5895.0
+    assert inside.any() and np.all(load_orbit.torque[inside] == 0.0)
+    outside = (np.abs(load_orbit.theta_d) > 0.05) & (load_orbit.torque != 0.0)
+    assert np.all(np.sign(load_orbit.torque[outside]) == np.sign(load_orbit.theta_d[outside]))
+
+
+def test_plot_returns_three_axes(load_orbit):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    ax = load_orbit.plot()
+    assert ax.shape == (3,) and ax[2].get_xlabel() == "theta_d (rad)"
+
+
+def test_no_cycle_and_bad_input_are_one_line_errors(load_rig, load_orbit):
+    with pytest.raises(OrbitNotFound, match="dead-zone"):
+        periodic_orbit(load_rig, "dead-zone")  # the classical DF predicts no cycle here
+    with pytest.raises(OrbitNotFound):
+        periodic_orbit(load_rig, "dead-zone", (0.16, 98.0))  # nor is there one
+    with pytest.raises(ValueError, match="elasto-backlash.*not affine"):
+        periodic_orbit(load_rig, "elasto-backlash", (0.16, 98.0))
+    with pytest.raises(ValueError, match="seed"):
+        periodic_orbit(load_rig, "phase-plane", (0.16, -98.0))
+    with pytest.raises(ValueError, match="unknowns must hold 5 states"):
+        orbit_residual(load_rig, "phase-plane", np.zeros(3))
+    assert isinstance(load_orbit, PeriodicOrbit)
