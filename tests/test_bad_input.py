@@ -11,6 +11,7 @@ few run the installed console script.
 
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -348,6 +349,16 @@ def test_an_existing_file_keeps_its_mode(work):
                                        "--json", "df.json"])
     assert result.exit_code == 0, result.output
     assert out.stat().st_mode & 0o777 == 0o640 and out.read_text().startswith("{")
+
+
+def test_accepted_predict_run_writes_both_outputs_and_the_report_reads_as_text(work):
+    """Exit 0, JSON and HTML written; the report shows no Python repr such as ``MeasuredCycle(amplitude=...)``."""
+    result = CliRunner().invoke(main, ["predict", "rig.toml", "--json", "out.json", "--report", "out.html"])
+    assert result.exit_code == 0, result.output
+    assert json.loads((work / "out.json").read_text())["limit_cycles"][0]["model"] == "phase-plane"
+    report = (work / "out.html").read_text()
+    assert "limit cycle: A = " in report
+    assert not re.search(r"\b[A-Z][A-Za-z]+\([a-z_]+=", report), re.search(r"\b[A-Z][A-Za-z]+\([a-z_]+=.{0,40}", report)
 
 
 def test_reproduce_figure2_writes_a_png(work):
