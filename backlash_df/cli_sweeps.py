@@ -132,7 +132,7 @@ def map_command(rig_file, x_spec, y_spec, models, no_simulate, workers, dask, sc
     click.echo(f"design map of {rig_file}: {x_spec[0]} ({x_values.size}) x {y_spec[0]} ({y_values.size})")
     for name in dmap.models:
         counts = ", ".join(f"{v} {int((dmap.df_verdict[name] == v).sum())}" for v in VERDICTS)
-        agree = f"; agrees with simulation on {dmap.agreement(name):.1%}" if name in dmap.sim_verdict else ""
+        agree = f"; agrees with simulation on {100 * dmap.agreement(name):.1f} %" if name in dmap.sim_verdict else ""
         click.echo(f"  {name}: DF {counts}{agree}")
     texts = {}
     if "--json" in outputs:

@@ -126,7 +126,7 @@ class NearMiss:
     distance: float
 
     def __repr__(self):
-        return f"NearMiss(A={self.amplitude:.6g} rad, omega={self.omega:.6g} rad/s, distance={self.distance:.3%})"
+        return f"NearMiss(A={self.amplitude:.6g} rad, omega={self.omega:.6g} rad/s, distance={100 * self.distance:.3f} %)"
 
 
 @dataclasses.dataclass(frozen=True)

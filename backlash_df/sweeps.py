@@ -228,7 +228,7 @@ class DesignMap:
         rows = []
         for name in self.models:
             counts = [int(np.sum(self.df_verdict[name] == v)) for v in VERDICTS]
-            agree = f"{self.agreement(name):.1%}" if name in self.sim_verdict else ""
+            agree = f"{100 * self.agreement(name):.1f} %" if name in self.sim_verdict else ""
             rows.append([name, *counts, agree])
         plotted = self.plot()
         sections = [("", '<div class="summary"><p>Each cell: the describing-function verdict (left) and the '
