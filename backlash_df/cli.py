@@ -147,7 +147,14 @@ def predict(rig_file, models, json_out, report_out, exact):
 @click.option("--dt", type=click.FloatRange(0.0, 1e-3, min_open=True, max_open=True), default=2e-5,
               show_default=True, help="figure3/table1: simulation step, s, in (0, 1e-3).")
 def reproduce(what, out, setup, driver, dt):
-    """Recompute the paper's Figure 2, Figure 3 or Table I and print it as text."""
+    """Recompute the paper's Figure 2, Figure 3 or Table I and print it as text.
+
+    Table I: the integral of the shaft torque T over one disturbance cycle (N m s)
+    for each law, evaluated along one simulated trajectory, against the exact
+    model (1), (14), and the RMS of T - T_exact (N m).  --out table.csv names
+    each column's unit (integral_N_m_s, error_percent, rms_error_N_m,
+    rms_error_percent); --out table.json lists them under "units".
+    """
     from . import reproduce as paper
     from .report import figure_png
 
