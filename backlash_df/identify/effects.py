@@ -85,7 +85,9 @@ class Effect:
 
     @property
     def value_key(self):
-        """Key of the parameter in a model's value dictionary: ``name_side`` (or ``name``)."""
+        """Key of the parameter in a model's value dictionary: ``name_side``, ``rubber_thickness`` or ``name``."""
+        if self.name == "rubber":
+            return "rubber_thickness"
         return f"{self.name}_{self.side}" if self.side else self.name
 
     def bounds(self, rig, measurements):
