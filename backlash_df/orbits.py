@@ -85,6 +85,10 @@ DEFAULT_PADE_ORDER = 6
 _SAMPLES_PER_PERIOD = 128  # at least this many boundary checks per period
 _RATE_STEP = 0.25  # and a sample step of at most 0.25 / (fastest loop eigenvalue)
 _MAX_EVENTS = 200  # per period: more means chattering (Zeno) or a lost orbit
+_MAX_STEP = 0.25  # largest Newton change of an unknown, relative to its range over the orbit
+_FIRST_TRY = 12  # Newton iterations from a harmonic seed before relaxing it by simulation
+_RELAX_PERIODS = 40  # seed periods simulated to relax a seed
+_COLLAPSED = 1e-6  # an orbit whose peak is below this fraction of alpha has collapsed (rest)
 _LEVELS = 53  # dyadic rungs step 2^-j: events located to 2^-52 of a sample step
 
 
@@ -650,12 +654,12 @@ def orbit_residual(rig, model, unknowns, *, pade_order=DEFAULT_PADE_ORDER):
 
 def _seed_unknowns(loop, seed):
     """Packed (q0, T) from a seed: LimitCycle, MeasuredCycle, tuple, PeriodicOrbit or SimulationResult."""
-    from .simulate import MeasuredCycle, SimulationResult, measure_limit_cycle
+    from .simulate import MeasuredCycle, SimulationResult
 
     if isinstance(seed, PeriodicOrbit):
         return np.append(_orbit_seed(loop, seed), seed.period)
     if isinstance(seed, SimulationResult):
-        return _simulation_seed(loop, seed, measure_limit_cycle(seed))
+        return _simulation_seed(loop, seed)
     if isinstance(seed, MeasuredCycle):
         if not seed.found:
             raise ValueError(f"seed: the simulation measured no limit cycle ({seed.verdict})")
@@ -690,19 +694,32 @@ def _orbit_seed(loop, orbit):
     return q
 
 
-def _simulation_seed(loop, result, measured):
-    """Section state at the last maximum of theta_d in a simulation; Pade states from the harmonic seed."""
-    if not measured.found:
-        raise ValueError(f"seed: the simulation shows no limit cycle ({measured.verdict})")
-    v = result.dtheta_d
+def _simulation_seed(loop, result):
+    """Section state at the last maximum of theta_d in a simulation, period from its last upward crossings.
+
+    Over the second half of the record, theta_d must cross its mid-range at least
+    three times with the shaft in contact at some time; the Pade states (dead time)
+    come from the harmonic seed of that swing.
+    """
+    from .simulate import _upward_crossings
+
+    half = result.time >= 0.5 * result.time[-1]
+    time, x, v = result.time[half], result.theta_d[half], result.dtheta_d[half]
+    if not np.all(np.isfinite(x)) or not np.any(result.mode[half] != 0):
+        raise OrbitNotFound("the simulation from the seed diverges or leaves the shaft out of contact: no orbit near it")
+    center, swing = 0.5 * (x.max() + x.min()), 0.5 * (x.max() - x.min())
+    crossings = _upward_crossings(time, x - center)
     tops = np.nonzero((v[:-1] > 0.0) & (v[1:] <= 0.0))[0]
+    if crossings.size < 3 or tops.size == 0 or swing <= _COLLAPSED * loop.alpha:
+        raise OrbitNotFound("the simulation from the seed shows no oscillation to start from")
+    period = crossings[-1] - crossings[-2]
     i = tops[-1] if abs(v[tops[-1]]) < abs(v[tops[-1] + 1]) else tops[-1] + 1
-    q = loop.harmonic_seed(measured.amplitude, measured.omega, measured.bias)
+    q = loop.harmonic_seed(swing, 2.0 * math.pi / period, center)
     n = result.states.shape[1]
-    q[:n] = result.states[i]
+    q[:n] = result.states[half][i]
     if loop.exact:
-        q[-1] = result.theta_b[i]
-    return np.append(q, 2.0 * math.pi / measured.omega)
+        q[-1] = result.theta_b[half][i]
+    return np.append(q, period)
 
 
 def _scales(loop, track, period):
@@ -716,7 +733,12 @@ def _scales(loop, track, period):
 
 
 def _newton(loop, unknowns, tol, max_iter):
-    """Damped Newton on the scaled shooting residual; returns (unknowns, scaled residual, monodromy, events, segments)."""
+    """Damped Newton on the scaled shooting residual; returns (unknowns, scaled residual, monodromy, events, segments).
+
+    A step changes no unknown by more than ``_MAX_STEP`` of its range over the orbit,
+    and a trial that loses every contact (heading for rest in the gap) is refused;
+    then Armijo backtracking.
+    """
     track = []
     residual, jacobian, monodromy, events, segments = loop.residual(unknowns, track)
     scale = _scales(loop, track, unknowns[-1])
@@ -730,12 +752,12 @@ def _newton(loop, unknowns, tol, max_iter):
             step = np.linalg.solve(jacobian, -residual)
         except np.linalg.LinAlgError:
             raise OrbitNotFound("singular shooting Jacobian (the section is not transversal, or the orbit is degenerate)") from None
-        damping = 1.0
+        damping = min(1.0, _MAX_STEP / np.abs(step / scale).max())
         while True:
             trial = unknowns + damping * step
             try:
                 out = loop.residual(trial)
-                trial_norm = np.abs(out[0] / scale).max()
+                trial_norm = np.abs(out[0] / scale).max() if out[3] or not events else math.inf
             except OrbitNotFound:
                 trial_norm = math.inf
             if trial_norm < (1.0 - 1e-4 * damping) * norm:
@@ -804,10 +826,53 @@ def periodic_orbit(rig, model=None, seed=None, *, tol=1e-10, max_iter=50, pade_o
         if not cycles:
             raise OrbitNotFound(f"no seed: the describing function of {model.name!r} predicts no limit cycle; pass seed=")
         seed = cycles[0]
-    unknowns, norm, monodromy, events, segments = _newton(loop, _seed_unknowns(loop, seed), tol, max_iter)
+    unknowns = _seed_unknowns(loop, seed)
+    if isinstance(seed, PeriodicOrbit) or _is_simulation(seed):
+        return _solve(loop, unknowns, tol, max_iter)
+    try:
+        return _solve(loop, unknowns, tol, min(max_iter, _FIRST_TRY))
+    except OrbitNotFound as first:
+        try:
+            return _solve(loop, _relaxed(loop, rig, unknowns), tol, max_iter)
+        except OrbitNotFound as second:
+            raise OrbitNotFound(f"from the seed: {first}; from the seed relaxed by simulation: {second}") from None
+
+
+def _is_simulation(seed):
+    from .simulate import SimulationResult
+
+    return isinstance(seed, SimulationResult)
+
+
+def _solve(loop, unknowns, tol, max_iter):
+    """Newton from packed unknowns to a :class:`PeriodicOrbit` with shaft contact."""
+    unknowns, norm, monodromy, events, _ = _newton(loop, unknowns, tol, max_iter)
     if not events:
         raise OrbitNotFound("Newton converged to a motion without shaft contact (rest or drift in the gap)")
-    return _orbit(loop, unknowns, norm, monodromy, events)
+    orbit = _orbit(loop, unknowns, norm, monodromy, events)
+    if orbit.peak < _COLLAPSED * loop.alpha:
+        raise OrbitNotFound(f"Newton converged to rest against a side of the gap (peak {orbit.peak:.2g} rad, "
+                            f"{len(events)} events): a sliding contact, not a limit cycle")
+    return orbit
+
+
+def _relaxed(loop, rig, unknowns):
+    """Unknowns from the loop simulated for ``_RELAX_PERIODS`` seed periods from the seed's state.
+
+    A seed near an attracting orbit (a DF cycle far off, as where the loci are
+    nearly tangent) ends close to it; the project's simulation kernel runs it.
+    """
+    from .simulate import default_step, simulate_linear
+
+    system = drive_loop(rig).linear_part()
+    n = system.A.shape[0]
+    q0, period = unknowns[:-1], unknowns[-1]
+    theta_b = float(np.clip(q0[-1], -loop.alpha, loop.alpha)) if loop.exact else 0.0
+    dt = min(default_step(system, loop.model), period / 64.0)
+    load = rig.load.torque
+    result = simulate_linear(system, loop.model, _RELAX_PERIODS * period, dt, z0=q0[:n], theta_b0=theta_b,
+                             inputs=lambda time: np.stack([0.0 * time, load + 0.0 * time], axis=1))
+    return _simulation_seed(loop, result)
 
 
 def _orbit(loop, unknowns, norm, monodromy, events):

@@ -119,6 +119,21 @@ def test_motor_lag_stable_orbit_is_the_simulated_cycle(lag_rig, lag_orbits):
     assert measured.amplitude == pytest.approx(stable.amplitude, rel=1e-5)
 
 
+def test_near_tangent_loci_the_far_off_df_seed_still_finds_the_simulated_orbit(load_rig):
+    # kp = 10, ti = 1 s: DF 0.0740 rad at 57.6 rad/s, the loop cycles at 0.0604 rad, 43.6 rad/s;
+    # Newton from the DF seed alone fails, the seed relaxed by simulation converges
+    rig = dataclasses.replace(load_rig, controller=dataclasses.replace(load_rig.controller, kp=10.0, ti=1.0))
+    cycle = bd.predict_limit_cycles(rig, "phase-plane").cycles[0]
+    orbit = periodic_orbit(rig, "phase-plane", cycle)
+    measured, result = simulated_limit_cycle(rig, "phase-plane", t_end=20.0, kick=cycle.amplitude * cycle.omega)
+    from_simulation = periodic_orbit(rig, "phase-plane", result)
+    assert from_simulation.period == pytest.approx(orbit.period, rel=1e-9)
+    assert measured.amplitude == pytest.approx(orbit.amplitude, rel=1e-3)  # default step and rtol
+    assert orbit.stable and orbit.peak / orbit.amplitude > 1.1  # far from a sinusoid
+    assert cycle.amplitude / orbit.amplitude - 1.0 == pytest.approx(0.226, abs=0.005)
+    assert cycle.omega / orbit.omega - 1.0 == pytest.approx(0.322, abs=0.005)
+
+
 # --------------------------------------------------------------------------- Floquet stability
 
 
