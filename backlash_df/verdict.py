@@ -28,8 +28,12 @@ and names one of
 ``unstable``
     the loop in contact is unstable and no stable cycle caps the growth;
 ``undetermined``
-    the DF and the simulations disagree (typically nearly tangent loci), the
-    motion does not settle, or a loop stable in contact diverges.
+    the DF predicts a stable cycle that no simulation reaches, the motion does
+    not settle, or a loop stable in contact diverges.
+
+Where the simulations reach a cycle the DF misses or misplaces (nearly tangent
+loci, a slow motion far from the DF's sinusoid), the verdict follows the
+simulations and says ``DF UNRELIABLE`` in its reason (``df_agrees`` False).
 """
 
 import dataclasses
@@ -42,7 +46,7 @@ __all__ = ["VERDICTS", "LinearStability", "Probe", "LoopVerdict", "linear_stabil
 VERDICTS = ("no oscillation", "limit cycle", "bistable", "unstable", "undetermined")
 
 PADE_ORDER = 8
-DISTURBANCES = (1.5, 3.0, 6.0, 12.0, 24.0)  # kick sizes a / alpha from rest
+DISTURBANCES = (1.1, 1.5, 3.0, 6.0, 12.0, 24.0)  # kick sizes a / alpha from rest
 AMPLITUDE_MATCH, OMEGA_MATCH = 0.2, 0.1  # DF cycle "is" the simulated one within these relative errors
 _SAME_CYCLE = 0.01  # relative amplitude difference of two runs that reached the same cycle
 
@@ -248,6 +252,12 @@ class LoopVerdict:
         (rad) from which the loop settled.
     cycle : MeasuredCycle or None
         The stable cycle the simulations reached (the smallest, if several).
+    df_agrees : bool or None
+        Whether the DF's stable cycles agree with the simulations (a stable DF
+        cycle within 20 % in amplitude and 10 % in frequency of the simulated
+        one, or none where none is simulated); None where the simulations
+        decided nothing.  False flags nearly tangent loci or a motion far from
+        the DF's sinusoid: the verdict rests on the simulations.
     orbits : tuple of PeriodicOrbit
         Exact periodic orbits by shooting (:func:`~backlash_df.orbits.exact_orbits`),
         if asked for; empty otherwise.
@@ -266,6 +276,7 @@ class LoopVerdict:
     disturbance_source: str = ""
     settles_up_to: float = None
     cycle: object = None
+    df_agrees: bool = None
     orbits: tuple = ()
     orbit_note: str = ""
 
@@ -283,6 +294,7 @@ class LoopVerdict:
             "disturbance_source": self.disturbance_source or None,
             "settles_up_to": self.settles_up_to,
             "simulated_cycle": None if self.cycle is None else self.cycle.to_dict(),
+            "df_agrees": self.df_agrees,
             "probes": [probe.to_dict() for probe in self.probes],
             "exact_orbits": [orbit.to_dict() for orbit in self.orbits],
         }
@@ -361,18 +373,15 @@ def _decide(prediction, contact, probes, orbits=()):
     if not cycles:
         if prediction.stable_cycles:
             return "undetermined", (f"{_df_words(prediction)}, but every simulated kick up to {largest:.3g} rad "
-                                    "settles"), {"settles_up_to": largest}
+                                    "settles"), {"settles_up_to": largest, "df_agrees": False}
         return "no oscillation", f"settles from every kick up to {largest:.3g} rad; {_df_words(prediction)}", \
-            {"settles_up_to": largest}
+            {"settles_up_to": largest, "df_agrees": True}
     cycle = min((p.measured for p in cycles), key=lambda m: m.amplitude)
-    fields = {"cycle": cycle}
-    agrees = "DF agrees"
-    if _matching_df_cycle(prediction, cycle) is None:
-        exact = _exact_match(orbits, cycle)
-        if exact is None:
-            return "undetermined", (f"simulation cycles at A = {cycle.amplitude:.4g} rad, w = {cycle.omega:.4g} "
-                                    f"rad/s but {_df_words(prediction)}"), fields
-        agrees = f"the exact orbit confirms it; {_df_words(prediction)}"
+    agrees = _matching_df_cycle(prediction, cycle) is not None
+    fields = {"cycle": cycle, "df_agrees": agrees}
+    confirmed = "; the exact orbit confirms it" if _exact_match(orbits, cycle) is not None else ""
+    agrees = "DF agrees" if agrees else f"DF UNRELIABLE here: {_df_words(prediction)}"
+    agrees += confirmed
     runaway = (f"; kicks from {min(p.disturbance for p in diverged):.3g} rad diverge (contact loop "
                f"{contact.describe()})" if diverged else "")
     distinct = [p.measured for p in cycles if abs(p.measured.amplitude / cycle.amplitude - 1.0) > _SAME_CYCLE]
@@ -426,7 +435,7 @@ def judge_loop(rig, prediction, linear=None, t_end=20.0, max_t_end=160.0, distur
         Also find the exact periodic orbits (:mod:`backlash_df.orbits`; the
         rig's own loop only): an unstable one gives the disturbance that
         starts a bistable loop hunting, a stable one on the simulated cycle
-        settles a disagreement of the DF.
+        confirms it.
 
     Returns
     -------

@@ -4,7 +4,8 @@ The rigs are the examples and the issue's cases: ``motor_lag_feedback.toml`` wit
 dead time of 0.5 ms and ``load_feedback.toml`` with kp = 3000 (both unstable with the
 gear in contact), ``motor_lag_feedback.toml`` as it is (bistable), ``load_feedback.toml``
 (limit cycle), ``motor_feedback.toml`` (no oscillation) and ``load_feedback.toml`` with
-kp = 10, ti = 1 s (nearly tangent loci: the DF is 23 % off in amplitude, 32 % in w).
+kp = 10, ti = 1 s (nearly tangent loci: the DF is 23 % off in amplitude, 32 % in w; the verdict
+follows the simulations and flags the DF).
 """
 
 import dataclasses
@@ -128,16 +129,19 @@ def test_limit_cycle_and_no_oscillation():
     rig, calm = judged("calm")
     assert calm.verdict.verdict == "no oscillation"
     assert calm.verdict.settles_up_to == pytest.approx(24.0 * rig.plant.half_gap)
+    assert calm.verdict.df_agrees is True
     assert calm.verdict.contact_loop.stable and calm.verdict.open_loop.status == "marginal"  # free load: s = 0
 
 
-def test_tangent_loci_are_undetermined():
+def test_tangent_loci_follow_the_simulation_and_flag_the_df():
     _, prediction = judged("tangent")
     verdict = prediction.verdict
-    assert verdict.verdict == "undetermined"
     df = prediction.stable_cycles[0]
     assert abs(df.omega / verdict.cycle.omega - 1.0) > 0.2  # the DF misses the simulated frequency
-    assert "DF" in verdict.reason
+    assert verdict.verdict == "limit cycle" and verdict.df_agrees is False
+    assert "DF UNRELIABLE" in verdict.reason
+    _, agreed = judged("cycle")
+    assert agreed.verdict.df_agrees is True and "DF agrees" in agreed.verdict.reason
 
 
 def test_every_verdict_is_one_of_the_five_and_serialises():
