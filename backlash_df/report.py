@@ -79,8 +79,8 @@ def check_output_path(path, option="output"):
     Parameters
     ----------
     path : str or Path
-        The file to write.  A symbolic link is followed (``/dev/stdout`` works);
-        an existing device or pipe is written as it is.
+        The file to write.  A symbolic link is followed; ``-`` and ``/dev/stdout``
+        are the standard output; an existing device or pipe is written as it is.
     option : str
         The option or argument that named the path, for the message.
 
@@ -105,10 +105,13 @@ def check_output_path(path, option="output"):
             raise ValueError(f"{where}: cannot write to it (permission denied)")
         return
     parent = target.parent
+    shown = parent if Path(path).is_symlink() else Path(path).parent  # a link: where it points
+    if parent.exists() and not parent.is_dir():
+        raise ValueError(f"{where}: {shown} is a file, not a directory")
     if not parent.is_dir():
-        raise ValueError(f"{where}: directory {Path(path).parent} does not exist")
+        raise ValueError(f"{where}: directory {shown} does not exist")
     if not os.access(parent, os.W_OK | os.X_OK):
-        raise ValueError(f"{where}: directory {Path(path).parent} is not writable")
+        raise ValueError(f"{where}: directory {shown} is not writable")
     if target.exists() and not os.access(target, os.W_OK):
         raise ValueError(f"{where}: file exists and is not writable")
 
@@ -118,7 +121,10 @@ _FD_PATH = re.compile(r"/(?:dev/fd|proc/self/fd)/(\d+)")
 
 
 def _descriptor(path):
-    """The open file descriptor that ``/dev/stdout``, ``/dev/fd/N`` or ``/proc/self/fd/N`` names, or None."""
+    """The open file descriptor that ``-`` or ``/dev/stdout`` (standard output), ``/dev/fd/N`` or
+    ``/proc/self/fd/N`` names, or None."""
+    if str(path) == "-":
+        return 1
     name = os.path.abspath(path)
     match = _FD_PATH.fullmatch(name)
     return int(match[1]) if match else _STANDARD_STREAMS.get(name)
@@ -167,8 +173,8 @@ def write_output(path, data):
     A regular file is written to a temporary file beside it and renamed into
     place, with the mode ``open`` would give it (the umask applies; an existing
     file keeps its mode).  A symbolic link is written through, not replaced; a
-    device or pipe is written directly; ``/dev/stdout``, ``/dev/stderr`` and
-    ``/dev/fd/N`` write to the process's open descriptor.
+    device or pipe is written directly; ``-`` and ``/dev/stdout`` (standard
+    output), ``/dev/stderr`` and ``/dev/fd/N`` write to the process's open descriptor.
     """
     if _descriptor(path) is not None:
         _write_descriptor(_descriptor(path), data)

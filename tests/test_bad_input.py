@@ -85,7 +85,8 @@ def assert_refused(result, words, folder):
     assert "Traceback" not in result.output
     for word in words:
         assert word in lines[0], (word, lines[0])
-    left = sorted(path.name for path in folder.rglob("*") if path.name not in {"rig.toml", "data.csv", "folder"})
+    left = sorted(path.name for path in folder.rglob("*")
+                  if path.name not in {"rig.toml", "data.csv", "folder", "dangling.json"})
     assert left == [], left
 
 
@@ -173,6 +174,10 @@ OUTPUT_CASES = {
     "predict json is a directory": (["predict", "rig.toml", "--json", "folder"], ["'--json'", "is a directory"]),
     "predict one file twice": (["predict", "rig.toml", "--json", "out.txt", "--report", "out.txt"],
                                ["--report out.txt", "same file as --json"]),
+    "predict json below a file": (["predict", "rig.toml", "--json", "rig.toml/out.json"],
+                                  ["--json rig.toml/out.json", "rig.toml is a file, not a directory"]),
+    "predict json link into nowhere": (["predict", "rig.toml", "--json", "dangling.json"],
+                                       ["--json dangling.json", "gone", "does not exist"]),
     "df json in missing dir": (["df", "--rig", "rig.toml", "--amplitude", "0.1", "--omega", "10", "--json",
                                 "nodir/df.json"], ["--json nodir/df.json", "does not exist"]),
     "df json is a directory": (["df", "--rig", "rig.toml", "--amplitude", "0.1", "--omega", "10", "--json",
@@ -192,6 +197,7 @@ OUTPUT_CASES = {
 
 @pytest.mark.parametrize("args, words", list(OUTPUT_CASES.values()), ids=list(OUTPUT_CASES))
 def test_bad_output_path_is_refused_before_computing(work, no_computation, args, words):
+    (work / "dangling.json").symlink_to(work / "gone" / "out.json")
     assert_refused(CliRunner().invoke(main, args), words, work)
 
 
@@ -317,9 +323,10 @@ def test_unknown_command_and_option(work):
 # --------------------------------------------------------------------------- accepted inputs
 
 
-def test_accepted_df_run_writes_json_with_the_umask(work):
-    """Exit 0, no warning (numba's FutureWarning on broadcast views is gone), mode 0644 under umask 022."""
-    old = os.umask(0o022)
+@pytest.mark.parametrize("umask, mode", [(0o022, 0o644), (0o077, 0o600), (0o002, 0o664)])
+def test_accepted_df_run_writes_json_with_the_umask(work, umask, mode):
+    """Exit 0, no warning (numba's FutureWarning on broadcast views is gone), the mode the umask gives."""
+    old = os.umask(umask)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error")
@@ -329,7 +336,7 @@ def test_accepted_df_run_writes_json_with_the_umask(work):
         os.umask(old)
     assert result.exit_code == 0, result.output
     assert len(json.loads((work / "df.json").read_text())["points"]) == 2
-    assert (work / "df.json").stat().st_mode & 0o777 == 0o644
+    assert (work / "df.json").stat().st_mode & 0o777 == mode
 
 
 def test_a_symlink_given_as_output_is_written_through(work):
@@ -376,10 +383,18 @@ def _script():
     return script
 
 
-def _run(work, *args, umask=None):
+def _run(work, *args):
     return subprocess.run([_script(), *args], cwd=work, capture_output=True, text=True, timeout=300,
-                          stdin=subprocess.DEVNULL, env={**os.environ, "MPLBACKEND": "Agg"},
-                          preexec_fn=None if umask is None else (lambda: os.umask(umask)))
+                          stdin=subprocess.DEVNULL, env={**os.environ, "MPLBACKEND": "Agg"})
+
+
+def test_json_to_dash_is_standard_output(work):
+    result = CliRunner().invoke(main, ["df", "--rig", "rig.toml", "--amplitude", "0.1", "--omega", "10",
+                                       "--json", "-"])
+    assert result.exit_code == 0, result.output
+    table, _, payload = result.output.partition("{")
+    assert "gain (N m/rad)" in table and json.loads("{" + payload)["points"][0]["omega"] == 10.0
+    assert not (work / "-").exists()
 
 
 def test_process_json_to_dev_stdout_follows_the_table(work):
@@ -394,8 +409,7 @@ def test_process_json_to_dev_stdout_follows_the_table(work):
 @pytest.mark.parametrize("args, words", [
     (["predict", "rig.toml", "--json", "nodir/x.json"], ["--json nodir/x.json"]),
     (["df", "--rig", "rig.toml", "--amplitude", "-0.1", "--omega", "1"], ["'--amplitude'"]),
-    (["reproduce", "table1", "--out", "nodir/t.csv"], ["--out nodir/t.csv"]),
-], ids=["predict output path", "df usage error", "reproduce output path"])
+], ids=["predict output path", "df usage error"])
 def test_process_error_is_one_line_on_stderr(work, args, words):
     result = _run(work, *args)
     assert result.returncode == 2
@@ -403,10 +417,3 @@ def test_process_error_is_one_line_on_stderr(work, args, words):
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("backlash-df: error: "), result.stderr
     assert all(word in lines[0] for word in words)
-
-
-def test_process_file_honours_a_strict_umask(work):
-    result = _run(work, "df", "--rig", "rig.toml", "--amplitude", "0.1", "--omega", "10", "--json", "df.json",
-                  umask=0o077)
-    assert result.returncode == 0, result.stderr
-    assert (work / "df.json").stat().st_mode & 0o777 == 0o600
