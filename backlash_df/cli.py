@@ -26,6 +26,9 @@ def _fail(message, code=2):
     sys.exit(code)
 
 
+_NO_ARGS_IS_HELP = getattr(click.exceptions, "NoArgsIsHelpError", ())  # click >= 8.2
+
+
 class _Group(click.Group):
     """A click group whose errors are one line: ``ValueError`` and usage errors, exit code 2."""
 
@@ -34,6 +37,9 @@ class _Group(click.Group):
             return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
         try:
             value = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except _NO_ARGS_IS_HELP as error:  # the bare group: its help, as click prints it
+            error.show()
+            sys.exit(error.exit_code)
         except click.ClickException as error:
             command = error.ctx.command_path if getattr(error, "ctx", None) else "backlash-df"
             hint = f" (see '{command} --help')" if isinstance(error, click.UsageError) else ""

@@ -8,6 +8,7 @@ is computed, and a command writes all its files or none.
 
 import base64
 import contextlib
+import fcntl
 import html
 import io
 import os
@@ -93,9 +94,11 @@ def check_output_path(path, option="output"):
     where = f"{option} {path}"
     if _descriptor(path) is not None:
         try:
-            os.fstat(_descriptor(path))
+            mode = fcntl.fcntl(_descriptor(path), fcntl.F_GETFL) & os.O_ACCMODE
         except OSError:
             raise ValueError(f"{where}: no such open file descriptor") from None
+        if mode == os.O_RDONLY:
+            raise ValueError(f"{where}: open for reading only")
         return
     target, stream = _target(path)
     if target.is_dir():
@@ -251,7 +254,7 @@ class Outputs:
                 for done in written:
                     with contextlib.suppress(OSError):
                         os.unlink(done)
-                raise ValueError(f"{option} {path}: cannot write ({error.strerror}); "
-                                 f"the files written before it were removed") from None
+                removed = f"; removed {', '.join(map(str, written))}, written before it" if written else ""
+                raise ValueError(f"{option} {path}: cannot write ({error.strerror}){removed}") from None
             if not existed:
                 written.append(path)

@@ -180,6 +180,8 @@ OUTPUT_CASES = {
                                        ["--json dangling.json", "gone", "does not exist"]),
     "df json in missing dir": (["df", "--rig", "rig.toml", "--amplitude", "0.1", "--omega", "10", "--json",
                                 "nodir/df.json"], ["--json nodir/df.json", "does not exist"]),
+    "df json to standard input": (["df", "--rig", "rig.toml", "--amplitude", "0.1", "--omega", "10", "--json",
+                                   "/dev/stdin"], ["--json /dev/stdin"]),
     "df json is a directory": (["df", "--rig", "rig.toml", "--amplitude", "0.1", "--omega", "10", "--json",
                                 "folder"], ["'--json'", "is a directory"]),
     "diagnose json in missing dir": (["diagnose", "data.csv", "--rig", "rig.toml", "--json", "nodir/d.json"],
@@ -206,7 +208,7 @@ def test_a_failed_write_removes_the_files_written_before_it(tmp_path):
     first, second = tmp_path / "a.json", tmp_path / "b.html"
     outputs = Outputs({"--json": first, "--report": second})
     second.mkdir()
-    with pytest.raises(ValueError, match=r"--report .*b\.html: cannot write .*removed"):
+    with pytest.raises(ValueError, match=r"--report .*b\.html: cannot write \(.*\); removed .*a\.json, written before it"):
         outputs.write({"--json": "{}", "--report": "<html></html>"})
     assert not first.exists()
     assert [path.name for path in tmp_path.iterdir()] == ["b.html"]
@@ -313,6 +315,14 @@ def test_diagnose_refuses_bad_input(work, no_computation, csv_text, rig, words):
 
 def test_diagnose_without_rig(work, no_computation):
     assert_refused(CliRunner().invoke(main, ["diagnose", "data.csv"]), ["Missing option '--rig'"], work)
+
+
+def test_bare_command_prints_its_help(work):
+    result = CliRunner().invoke(main, [])
+    assert result.exit_code == 2
+    assert "Usage: backlash-df" in result.output and "error:" not in result.output
+    for command in ("predict", "df", "diagnose", "reproduce"):
+        assert command in result.output
 
 
 def test_unknown_command_and_option(work):
