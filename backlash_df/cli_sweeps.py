@@ -11,6 +11,7 @@ import contextlib
 import click
 
 from .cli import main
+from .models import MODEL_NAMES
 
 __all__ = ["executor_for", "parse_values", "map_command"]
 
@@ -95,7 +96,7 @@ def executor_options(function):
               help="First rig value and its grid: START:STOP:N, START:STOP:N:log or V1,V2,...")
 @click.option("--y", "y_spec", nargs=2, default=("ti", "0.1:2:10:log"), show_default=True, metavar="NAME VALUES",
               help="Second rig value and its grid.")
-@click.option("--model", "models", multiple=True, metavar="NAME",
+@click.option("--model", "models", multiple=True, type=click.Choice(MODEL_NAMES),
               help="Torque law (repeatable; default: the rig's [model] backlash).")
 @click.option("--no-simulate", is_flag=True, help="DF verdicts only (no time simulation).")
 @executor_options
@@ -113,8 +114,7 @@ def map_command(rig_file, x_spec, y_spec, models, no_simulate, workers, dask, sc
     from pathlib import Path
 
     from .config import load_rig
-    from .models import MODEL_NAMES
-    from .report import Outputs
+    from .report import Outputs, figure_png
     from .sweeps import VERDICTS, design_map, rig_with
 
     outputs = Outputs({"--json": json_out, "--report": report_out, "--plot": plot_out})
@@ -122,8 +122,7 @@ def map_command(rig_file, x_spec, y_spec, models, no_simulate, workers, dask, sc
     rig.require_controller()
     models = list(dict.fromkeys(models or [rig.model]))
     for name in models:
-        if name not in MODEL_NAMES:
-            raise ValueError(f"--model: unknown model {name!r}; choose one of: {', '.join(MODEL_NAMES)}")
+        rig.make_model(name)  # a law the rig cannot describe (rubber without beta) stops here
     x_values, y_values = parse_values("--x", x_spec[1]), parse_values("--y", y_spec[1])
     rig_with(rig_with(rig, x_spec[0], x_values[0]), y_spec[0], y_values[0])  # names checked before any work
     with executor_for(workers, dask, scheduler) as executor:
@@ -141,9 +140,5 @@ def map_command(rig_file, x_spec, y_spec, models, no_simulate, workers, dask, sc
         rig_text = html.escape(Path(rig_file).read_text(encoding="utf-8"))
         texts["--report"] = dmap.report_html(title=f"Design map: {rig_file}", rig_text=rig_text)
     if "--plot" in outputs:
-        import io
-
-        buffer = io.BytesIO()
-        dmap.plot()["figure"].savefig(buffer, format="png", dpi=110, bbox_inches="tight")
-        texts["--plot"] = buffer.getvalue()
+        texts["--plot"] = figure_png(dmap.plot()["figure"], dpi=110)
     outputs.write(texts)

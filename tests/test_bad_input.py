@@ -24,6 +24,7 @@ from click.testing import CliRunner
 import backlash_df.identify
 import backlash_df.limit_cycles
 import backlash_df.reproduce
+import backlash_df.sweeps
 from backlash_df.cli import main
 from backlash_df.report import Outputs
 
@@ -68,6 +69,7 @@ def no_computation(monkeypatch):
     monkeypatch.setattr(backlash_df.reproduce, "table1", _never)
     monkeypatch.setattr(backlash_df.reproduce, "compare_torques", _never)
     monkeypatch.setattr(backlash_df.reproduce, "figure2_maps", _never)
+    monkeypatch.setattr(backlash_df.sweeps, "design_map", _never)
 
 
 def rig_with(old, new):
@@ -311,6 +313,22 @@ def test_diagnose_refuses_bad_input(work, no_computation, csv_text, rig, words):
         (work / "rig.toml").write_text(rig)
     result = CliRunner().invoke(main, ["diagnose", data, "--rig", rig_file, "--json", "d.json", "--report", "d.html"])
     assert_refused(result, words, work)
+
+
+MAP_CASES = {
+    "json in missing dir": (["--json", "nodir/m.json"], ["--json nodir/m.json", "does not exist"]),
+    "plot is a directory": (["--plot", "folder"], ["'--plot'", "is a directory"]),
+    "unknown model": (["--model", "coulomb"], ["'--model'", "'coulomb' is not one of"]),
+    "rubber without beta": (["--model", "rubber"], ["rig.toml", "rubber_thickness > 0"]),
+    "bad grid": (["--x", "kp", "5:60"], ["--x '5:60'", "START:STOP:N"]),
+    "unknown rig value": (["--x", "gain", "1,2"], ["gain"]),
+    "no workers": (["--workers", "0"], ["--workers must be >= 1"]),
+}
+
+
+@pytest.mark.parametrize("args, words", list(MAP_CASES.values()), ids=list(MAP_CASES))
+def test_map_refuses_bad_input_before_computing(work, no_computation, args, words):
+    assert_refused(CliRunner().invoke(main, ["map", "rig.toml", *args]), words, work)
 
 
 def test_diagnose_without_rig(work, no_computation):
