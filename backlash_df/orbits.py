@@ -86,7 +86,7 @@ _SAMPLES_PER_PERIOD = 128  # at least this many boundary checks per period
 _RATE_STEP = 0.25  # and a sample step of at most 0.25 / (fastest loop eigenvalue)
 _MAX_EVENTS = 200  # per period: more means chattering (Zeno) or a lost orbit
 _MAX_STEP = 0.25  # largest Newton change of an unknown, relative to its range over the orbit
-_FIRST_TRY = 12  # Newton iterations from a harmonic seed before relaxing it by simulation
+_FIRST_TRY = 8  # Newton iterations from a harmonic seed before relaxing it by simulation
 _RELAX_PERIODS = 40  # seed periods simulated to relax a seed
 _COLLAPSED = 1e-6  # an orbit whose peak is below this fraction of alpha has collapsed (rest)
 _LEVELS = 53  # dyadic rungs step 2^-j: events located to 2^-52 of a sample step
@@ -483,7 +483,7 @@ def _resolve_model(rig, model):
 # --------------------------------------------------------------------------- results
 
 
-@dataclasses.dataclass(frozen=True, repr=False)
+@dataclasses.dataclass(frozen=True, repr=False, eq=False)
 class PeriodicOrbit:
     """A periodic orbit of the closed loop, found by shooting, with its Floquet multipliers.
 
@@ -751,7 +751,8 @@ def _newton(loop, unknowns, tol, max_iter):
         try:
             step = np.linalg.solve(jacobian, -residual)
         except np.linalg.LinAlgError:
-            raise OrbitNotFound("singular shooting Jacobian (the section is not transversal, or the orbit is degenerate)") from None
+            raise OrbitNotFound(f"singular shooting Jacobian with {len(events)} contact events per period "
+                                "(Newton heading for rest, or a degenerate orbit)") from None
         damping = min(1.0, _MAX_STEP / np.abs(step / scale).max())
         while True:
             trial = unknowns + damping * step
@@ -814,8 +815,8 @@ def periodic_orbit(rig, model=None, seed=None, *, tol=1e-10, max_iter=50, pade_o
     >>> rig = bd.rig_from_dict({"plant": {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0,
     ...     "damping": 3.0, "half_gap": 0.05}, "controller": {"kp": 30.0, "ti": 0.5, "speed_filter": 0.002}})
     >>> orbit = periodic_orbit(rig, "phase-plane", seed=(0.166, 98.7))
-    >>> round(orbit.amplitude, 4), orbit.stable
-    (0.1511, True)
+    >>> round(orbit.amplitude, 4), round(orbit.omega, 2), orbit.stable
+    (0.1505, 95.86, True)
     """
     model = _resolve_model(rig, model)
     loop = _loop(rig, model, pade_order)
@@ -887,7 +888,7 @@ def _orbit(loop, unknowns, norm, monodromy, events):
     torque = np.array([loop.torque(mode, q) for _, q, mode in track])
     multipliers = _sorted_multipliers(np.linalg.eigvals(monodromy))
     return PeriodicOrbit(
-        period=period, omega=omega, amplitude=abs(first), peak=_peak(loop, track, period, mean), bias=mean,
+        period=period, omega=omega, amplitude=float(abs(first)), peak=_peak(loop, track, period, mean), bias=float(mean),
         multipliers=multipliers, stable=bool(np.all(np.abs(multipliers[1:]) < 1.0)), state=q0.copy(),
         residual=float(norm), events=tuple((float(t), int(a), int(b)) for t, a, b in events),
         model=loop.model.name, state_names=loop.names, pade_order=loop.pade_order,
@@ -950,7 +951,8 @@ def exact_orbits(rig, prediction, simulated=None, *, pade_order=DEFAULT_PADE_ORD
     ----------
     rig : Rig
     prediction : LimitCyclePrediction
-        Its cycles (stable and unstable) seed the shooting with its torque law.
+        Its cycles (stable and unstable) and its closest near miss (where the loci
+        miss, the loop may still cycle) seed the shooting with its torque law.
     simulated : MeasuredCycle or SimulationResult, optional
         A simulated cycle as a further seed (a state on it for a SimulationResult).
     pade_order : int
@@ -963,7 +965,7 @@ def exact_orbits(rig, prediction, simulated=None, *, pade_order=DEFAULT_PADE_ORD
         within 1e-5 (relative) are one.  Seeds from which shooting fails are skipped.
     """
     model = rig.make_model(prediction.model)
-    seeds = list(prediction.cycles)
+    seeds = list(prediction.cycles) + list(prediction.near_misses[:1])
     if simulated is not None and (not hasattr(simulated, "found") or simulated.found):
         seeds.append(simulated)
     orbits = []
