@@ -13,9 +13,11 @@ import html
 import io
 import os
 import re
+import shutil
 import stat
 import sys
 import tempfile
+import uuid
 from pathlib import Path
 
 __all__ = ["figure_png", "figure_html", "table_html", "html_page", "Outputs", "check_output_path", "write_output"]
@@ -170,6 +172,39 @@ def _write_descriptor(fd, data):
         stream.flush()
 
 
+def _stage(target, data):
+    """Write ``data`` to a temporary file beside ``target`` with the mode ``open`` would give
+    ``target``; returns the temporary path (renamed into place by the caller)."""
+    mode = "wb" if isinstance(data, bytes) else "w"
+    encoding = None if isinstance(data, bytes) else "utf-8"
+    file_mode = _new_file_mode(target)
+    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.")
+    try:
+        with os.fdopen(fd, mode, encoding=encoding) as handle:
+            handle.write(data)
+        os.chmod(tmp, file_mode)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+    return tmp
+
+
+def _write_stream(path, data):
+    """Write to a descriptor path (``-``, ``/dev/stdout``, ``/dev/fd/N``) or an existing device or pipe."""
+    fd = _descriptor(path)
+    if fd is not None:
+        _write_descriptor(fd, data)
+        return
+    with open(path, "wb" if isinstance(data, bytes) else "w", encoding=None if isinstance(data, bytes) else "utf-8") \
+            as handle:
+        handle.write(data)
+
+
+def _is_stream(path):
+    return _descriptor(path) is not None or _target(path)[1]
+
+
 def write_output(path, data):
     """Write ``data`` (str or bytes) to ``path``; a reader never sees half a file.
 
@@ -179,27 +214,7 @@ def write_output(path, data):
     device or pipe is written directly; ``-`` and ``/dev/stdout`` (standard
     output), ``/dev/stderr`` and ``/dev/fd/N`` write to the process's open descriptor.
     """
-    if _descriptor(path) is not None:
-        _write_descriptor(_descriptor(path), data)
-        return
-    target, stream = _target(path)
-    mode = "wb" if isinstance(data, bytes) else "w"
-    encoding = None if isinstance(data, bytes) else "utf-8"
-    if stream:
-        with open(target, mode, encoding=encoding) as handle:
-            handle.write(data)
-        return
-    file_mode = _new_file_mode(target)
-    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.")
-    try:
-        with os.fdopen(fd, mode, encoding=encoding) as handle:
-            handle.write(data)
-        os.chmod(tmp, file_mode)
-        os.replace(tmp, target)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+    Outputs({"output": path}).write({"output": data})
 
 
 class Outputs:
@@ -241,20 +256,64 @@ class Outputs:
         return option in self.paths
 
     def write(self, texts):
-        """Write ``texts[option]`` to each option's path; on a failure remove what this call wrote.
+        """Write ``texts[option]`` (str or bytes) to each option's path: all files or none.
 
-        Build every text before calling: nothing is computed between two writes.
+        Every regular file is first written in full to a temporary file beside
+        it; only then are they renamed into place.  If a step fails, the
+        temporary files are removed, files this call created are removed and
+        files it replaced get their old content back; then a ``ValueError``
+        names the option and the path.  Streams (standard output, pipes) are
+        written last, when every file is in place.  Build every text before
+        calling: nothing is computed between two writes.
         """
-        written = []
-        for option, path in self.paths.items():
-            existed = os.path.exists(path)
+        files = {option: path for option, path in self.paths.items() if not _is_stream(path)}
+        staged = {}
+        for option, path in files.items():
             try:
-                write_output(path, texts[option])
+                staged[option] = _stage(_target(path)[0], texts[option])
             except OSError as error:
-                for done in written:
-                    with contextlib.suppress(OSError):
-                        os.unlink(done)
-                removed = f"; removed {', '.join(map(str, written))}, written before it" if written else ""
-                raise ValueError(f"{option} {path}: cannot write ({error.strerror}){removed}") from None
-            if not existed:
-                written.append(path)
+                self._discard(staged.values())
+                raise ValueError(f"{option} {path}: cannot write ({error.strerror}); no output written") from None
+        placed = []
+        for option, path in files.items():
+            target = _target(path)[0]
+            try:
+                backup = _backup(target)
+                os.replace(staged.pop(option), target)
+            except OSError as error:
+                self._discard(staged.values())
+                _roll_back(placed)
+                raise ValueError(f"{option} {path}: cannot write ({error.strerror}); no output written") from None
+            placed.append((target, backup))
+        self._discard(backup for _, backup in placed if backup is not None)
+        for option, path in self.paths.items():
+            if option not in files:
+                _write_stream(path, texts[option])
+
+    @staticmethod
+    def _discard(paths):
+        for path in list(paths):
+            with contextlib.suppress(OSError):
+                os.unlink(path)
+
+
+def _backup(target):
+    """A hard link (or copy) of an existing ``target`` beside it, to restore it; None if there is none."""
+    if not target.exists():
+        return None
+    backup = target.with_name(f".{target.name}.{uuid.uuid4().hex[:12]}.old")
+    try:
+        os.link(target, backup)
+    except OSError:
+        shutil.copy2(target, backup)
+    return backup
+
+
+def _roll_back(placed):
+    """Undo renames: restore replaced files from their backups, remove the files created."""
+    for target, backup in reversed(placed):
+        with contextlib.suppress(OSError):
+            if backup is None:
+                os.unlink(target)
+            else:
+                os.replace(backup, target)

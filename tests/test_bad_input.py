@@ -205,15 +205,21 @@ def test_bad_output_path_is_refused_before_computing(work, no_computation, args,
     assert_refused(CliRunner().invoke(main, args), words, work)
 
 
-def test_a_failed_write_removes_the_files_written_before_it(tmp_path):
-    """All or none: the second file cannot be written (a directory appeared), so the first goes too."""
+@pytest.mark.parametrize("existed", [False, True])
+def test_a_failed_write_leaves_the_files_as_they_were(tmp_path, existed):
+    """All or none: the second file cannot be written (a directory appeared after the check), so the
+    first is removed (new) or gets its old content and mode back (existing); no temporary file is left."""
     first, second = tmp_path / "a.json", tmp_path / "b.html"
+    if existed:
+        first.write_text("old")
+        first.chmod(0o640)
     outputs = Outputs({"--json": first, "--report": second})
     second.mkdir()
-    with pytest.raises(ValueError, match=r"--report .*b\.html: cannot write \(.*\); removed .*a\.json, written before it"):
+    with pytest.raises(ValueError, match=r"--report .*b\.html: cannot write \(.*\); no output written"):
         outputs.write({"--json": "{}", "--report": "<html></html>"})
-    assert not first.exists()
-    assert [path.name for path in tmp_path.iterdir()] == ["b.html"]
+    assert sorted(path.name for path in tmp_path.iterdir()) == (["a.json", "b.html"] if existed else ["b.html"])
+    if existed:
+        assert first.read_text() == "old" and first.stat().st_mode & 0o777 == 0o640
 
 
 @pytest.mark.skipif(os.geteuid() == 0, reason="root may write anywhere")
@@ -384,6 +390,7 @@ def test_an_existing_file_keeps_its_mode(work):
                                        "--json", "df.json"])
     assert result.exit_code == 0, result.output
     assert out.stat().st_mode & 0o777 == 0o640 and out.read_text().startswith("{")
+    assert not list(work.glob(".*")), list(work.glob(".*"))  # no temporary or backup file left
 
 
 def test_accepted_predict_run_writes_both_outputs_and_the_report_reads_as_text(work):
