@@ -153,8 +153,8 @@ class _Loop:
         law = model.law
         if law == RUBBER and model.rubber_thickness == 0.0:
             law = PHASE_PLANE
-        if law == EXACT and model.damping == 0.0:
-            law = DEAD_ZONE  # Remark 2: the exact model without damping is the dead-zone
+        if model.damping == 0.0 and law in (DAMPED_DEAD_ZONE, REVISED_DEAD_ZONE, PHASE_PLANE, EXACT):
+            law = DEAD_ZONE  # without damping every law is the dead-zone (24) (Remark 2 for the exact model)
         if law not in (DEAD_ZONE, DAMPED_DEAD_ZONE, REVISED_DEAD_ZONE, PHASE_PLANE, EXACT):
             raise ValueError(
                 f"periodic_orbit: the {model.name!r} law is not affine inside its modes; "
@@ -886,7 +886,8 @@ def _orbit(loop, unknowns, norm, monodromy, events):
     time = np.array([t for t, _, _ in track])
     states = np.array([q for _, q, _ in track])
     torque = np.array([loop.torque(mode, q) for _, q, mode in track])
-    multipliers = _sorted_multipliers(np.linalg.eigvals(monodromy))
+    scale = _scales(loop, track, period)[:-1]
+    multipliers = _sorted_multipliers(monodromy, loop.field(loop.initial_mode(q0), q0), scale)
     return PeriodicOrbit(
         period=period, omega=omega, amplitude=float(abs(first)), peak=_peak(loop, track, period, mean), bias=float(mean),
         multipliers=multipliers, stable=bool(np.all(np.abs(multipliers[1:]) < 1.0)), state=q0.copy(),
@@ -896,9 +897,19 @@ def _orbit(loop, unknowns, norm, monodromy, events):
     )
 
 
-def _sorted_multipliers(values):
-    """The multiplier closest to 1 first, then the others by decreasing modulus."""
-    trivial = int(np.argmin(np.abs(values - 1.0)))
+def _sorted_multipliers(monodromy, rate, scale):
+    """Eigenvalues of the monodromy: the trivial one first, then the others by decreasing modulus.
+
+    The trivial multiplier's eigenvector is the flow direction ``rate`` at the
+    section point (a shift along the orbit returns shifted); it is picked by that
+    eigenvector, not by its value, so a non-trivial multiplier near 1 (a fold) is
+    not mistaken for it.  Directions are compared with each state divided by its
+    range ``scale`` over the orbit.
+    """
+    values, vectors = np.linalg.eig(monodromy)
+    vectors, rate = vectors / scale[:, None], rate / scale
+    alignment = np.abs(rate.conj() @ vectors) / (np.linalg.norm(vectors, axis=0) * np.linalg.norm(rate))
+    trivial = int(np.argmax(alignment))
     rest = np.delete(values, trivial)
     return np.concatenate([[values[trivial]], rest[np.argsort(-np.abs(rest), kind="stable")]])
 
