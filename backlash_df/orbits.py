@@ -70,7 +70,7 @@ from .models import (
     BacklashModel,
     theta_star,
 )
-from .simulate import _ladder
+from .simulate import LinearPart, _ladder, _mode_matrices
 
 __all__ = [
     "OrbitNotFound",
@@ -146,86 +146,83 @@ def _mirrored(function, law, k, c, alpha, x, v, tb):
 # --------------------------------------------------------------------------- the loop as a hybrid system
 
 
+def _orbit_law(model, rig):
+    """Law code the shooting runs for ``model``, or a one-line ``ValueError`` if it cannot."""
+    law = model.law
+    if law == RUBBER and model.rubber_thickness == 0.0:
+        law = PHASE_PLANE
+    if model.damping == 0.0 and law in (DAMPED_DEAD_ZONE, REVISED_DEAD_ZONE, PHASE_PLANE, EXACT):
+        law = DEAD_ZONE  # without damping every law is the dead-zone (24) (Remark 2 for the exact model)
+    if law not in (DEAD_ZONE, DAMPED_DEAD_ZONE, REVISED_DEAD_ZONE, PHASE_PLANE, EXACT):
+        raise ValueError(
+            f"periodic_orbit: the {model.name!r} law is not affine inside its modes; "
+            "exact orbits need dead-zone, damped-dead-zone, revised-dead-zone, phase-plane, exact "
+            "(or rubber with rubber_thickness = 0)"
+        )
+    if rig.load.coulomb > 0.0:
+        raise ValueError("periodic_orbit: [load] coulomb > 0 is not supported (Coulomb friction is not affine)")
+    return law
+
+
+def _with_pade(part, order):
+    """The loop with the measured speed's dead time replaced by a Pade approximant of ``order``.
+
+    Returns a delay-free :class:`~backlash_df.simulate.LinearPart` whose states are
+    the loop's, then ``pade_1 .. pade_p``.  The approximant (``control.pade``) is
+    realised in the normalised time ``t / delay`` and balanced, so that its entries
+    stay moderate (the companion form in ``t`` has entries up to ``delay^-p``).
+    """
+    if order < 1:
+        raise ValueError(f"pade_order must be an integer >= 1, got {order!r}")
+    pade = ct.ss(ct.tf(*ct.pade(1.0, order)))
+    ap, bp, cp, dp = (np.asarray(m, dtype=float) for m in (pade.A, pade.B, pade.C, pade.D))
+    ap, (scale, _) = linalg.matrix_balance(ap, permute=False, separate=True)
+    ap, bp, cp = ap / part.delay, bp / scale[:, None] / part.delay, cp * scale
+    n, p = part.A.shape[0], ap.shape[0]
+    a_mat = np.zeros((n + p, n + p))
+    a_mat[:n, :n] = part.A + dp[0, 0] * np.outer(part.e_d, part.d)
+    a_mat[:n, n:] = np.outer(part.e_d, cp[0])
+    a_mat[n:, :n] = np.outer(bp[:, 0], part.d)
+    a_mat[n:, n:] = ap
+
+    def pad(row):
+        return np.concatenate([row, np.zeros(p)])
+
+    return LinearPart(A=a_mat, b=pad(part.b), E=np.vstack([part.E, np.zeros((p, part.E.shape[1]))]),
+                      c_x=pad(part.c_x), c_v=pad(part.c_v), input_names=part.input_names,
+                      state_names=part.state_names + tuple(f"pade_{i + 1}" for i in range(p)))
+
+
 class _Loop:
-    """The closed loop as a piecewise-affine hybrid system (see module docs)."""
+    """The closed loop as a piecewise-affine hybrid system (see module docs).
+
+    ``aug[m]`` is the augmented matrix ``[[F_m, g_m], [0, 0]]`` of mode ``m`` over
+    ``[q, 1]``, from :func:`backlash_df.simulate._mode_matrices` (the simulation
+    kernel's own), with the constant load torque in ``g_m`` and the speed reference 0.
+    """
 
     def __init__(self, rig, model, pade_order):
-        law = model.law
-        if law == RUBBER and model.rubber_thickness == 0.0:
-            law = PHASE_PLANE
-        if model.damping == 0.0 and law in (DAMPED_DEAD_ZONE, REVISED_DEAD_ZONE, PHASE_PLANE, EXACT):
-            law = DEAD_ZONE  # without damping every law is the dead-zone (24) (Remark 2 for the exact model)
-        if law not in (DEAD_ZONE, DAMPED_DEAD_ZONE, REVISED_DEAD_ZONE, PHASE_PLANE, EXACT):
-            raise ValueError(
-                f"periodic_orbit: the {model.name!r} law is not affine inside its modes; "
-                "exact orbits need dead-zone, damped-dead-zone, revised-dead-zone, phase-plane, exact "
-                "(or rubber with rubber_thickness = 0)"
-            )
-        if getattr(rig.load, "coulomb", 0.0) > 0.0:
-            raise ValueError("periodic_orbit: [load] coulomb > 0 is not supported (Coulomb friction is not affine)")
-        self.model, self.law = model, law
+        self.law = _orbit_law(model, rig)
+        self.model, self.exact = model, self.law == EXACT
         self.k, self.c, self.alpha = model.stiffness, model.damping, model.half_gap
         part = drive_loop(rig).linear_part()
-        a_mat, b, c_x, c_v, names = part.A, part.b, part.c_x, part.c_v, list(part.state_names)
-        self.pade_order = 0
-        if part.delay > 0.0:
-            a_mat, b, c_x, c_v, names = self._with_pade(part, int(pade_order))
-            self.pade_order = int(pade_order)
-        n_loop = a_mat.shape[0]
-        self.fast = max(np.abs(np.linalg.eigvals(
-            part.A + np.outer(part.b, self.k * part.c_x + self.c * part.c_v))).max(), 1e-3)
-        if part.delay > 0.0:
-            self.fast = max(self.fast, 1.0 / part.delay)
-        self.exact = law == EXACT
-        size = n_loop + (1 if self.exact else 0)
-        self.size = size
-        self.names = tuple(names + (["theta_b"] if self.exact else []))
-        pad = np.zeros(size - n_loop)
-        self.c_x = np.concatenate([c_x, pad])
-        self.c_v = np.concatenate([c_v, pad])
-        self.e_b = np.zeros(size)
-        if self.exact:
-            self.e_b[-1] = 1.0
-        self.rows = np.array([self.c_x, self.c_v, self.e_b])  # (theta_d, dtheta_d, theta_b) = rows @ q
-        fixed = np.zeros(size)
-        fixed[:part.A.shape[0]] = part.E[:, 1] * rig.load.torque  # constant load torque; reference r = 0
-        b_full = np.concatenate([b, pad])
-        self.b = b_full
-        self.damping_on = 0.0 if law == DEAD_ZONE else self.c
-        self.aug = {}
-        for side in (-1, 0, 1):
-            m_aug = np.zeros((size + 1, size + 1))
-            m_aug[:n_loop, :n_loop] = a_mat
-            m_aug[:size, size] = fixed
-            if side:
-                m_aug[:size, :size] += np.outer(b_full, self.k * self.c_x + self.damping_on * self.c_v)
-                m_aug[:size, size] -= b_full * self.k * side * self.alpha
-            elif self.exact:  # (12), (14): d theta_b/dt = (k / c) (theta_d - theta_b) + dtheta_d
-                m_aug[-2, :size] = self.k / self.c * self.c_x + self.c_v
-                m_aug[-2, -2] = -self.k / self.c
-            self.aug[side] = m_aug
-        self.free_matrix = a_mat
+        contact = part.A + np.outer(part.b, self.k * part.c_x + self.c * part.c_v)
+        self.fast = max(np.abs(np.linalg.eigvals(contact)).max(), 1e-3, 1.0 / part.delay if part.delay else 0.0)
+        self.pade_order = int(pade_order) if part.delay > 0.0 else 0
+        self.part = _with_pade(part, self.pade_order) if part.delay > 0.0 else part
+        n = self.part.A.shape[0]
+        keep = list(range(n)) + ([n] if self.exact else []) + [n + 1]  # q = [z, (theta_b)], then 1
+        matrices = _mode_matrices(self.part, model, self.law, [], np.array([0.0, rig.load.torque]))
+        self.aug = {side: m_aug[np.ix_(keep, keep)] for side, m_aug in zip((-1, 0, 1), matrices)}
+        self.size = len(keep) - 1
+        self.names = self.part.state_names + (("theta_b",) if self.exact else ())
+        pad = np.zeros(self.size - n)
+        self.c_x, self.c_v = np.concatenate([self.part.c_x, pad]), np.concatenate([self.part.c_v, pad])
+        e_b = np.zeros(self.size)
+        e_b[-1] = 1.0 if self.exact else 0.0
+        self.rows = np.array([self.c_x, self.c_v, e_b])  # (theta_d, dtheta_d, theta_b) = rows @ q
+        self.damping_on = 0.0 if self.law == DEAD_ZONE else self.c
         self._ladders = {}
-
-    @staticmethod
-    def _with_pade(part, order):
-        """Loop matrices with the measured speed's delay replaced by a Pade approximant of ``order``."""
-        if order < 1:
-            raise ValueError(f"pade_order must be an integer >= 1, got {order!r}")
-        # realised in the normalised time t / delay (then balanced), so the entries stay moderate
-        pade = ct.ss(ct.tf(*ct.pade(1.0, order)))
-        ap, bp, cp, dp = (np.asarray(m, dtype=float) for m in (pade.A, pade.B, pade.C, pade.D))
-        ap, (scale, _) = linalg.matrix_balance(ap, permute=False, separate=True)
-        ap, bp, cp = ap / part.delay, bp / scale[:, None] / part.delay, cp * scale
-        n, p = part.A.shape[0], ap.shape[0]
-        a_mat = np.zeros((n + p, n + p))
-        a_mat[:n, :n] = part.A + dp[0, 0] * np.outer(part.e_d, part.d)
-        a_mat[:n, n:] = np.outer(part.e_d, cp[0])
-        a_mat[n:, :n] = np.outer(bp[:, 0], part.d)
-        a_mat[n:, n:] = ap
-        pad = np.zeros(p)
-        names = list(part.state_names) + [f"pade_{i + 1}" for i in range(p)]
-        return a_mat, np.concatenate([part.b, pad]), np.concatenate([part.c_x, pad]), np.concatenate([part.c_v, pad]), names
 
     # ------------------------------------------------------------------ modes and boundaries
 
@@ -447,8 +444,8 @@ class _Loop:
         theta_d; the other states follow from it; the mean state is the loop's
         equilibrium with theta_d = bias.
         """
-        n = self.free_matrix.shape[0]
-        a_mat, b, c_x = self.free_matrix, self.b[:n], self.c_x[:n]
+        a_mat, b, c_x = self.part.A, self.part.b, self.part.c_x
+        n = a_mat.shape[0]
         response = np.linalg.solve(1j * omega * np.eye(n) - a_mat, b)
         phasor = response * (amplitude / (c_x @ response))
         border = np.zeros((n + 1, n + 1))
