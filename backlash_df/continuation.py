@@ -1,0 +1,515 @@
+"""Branches of exact periodic orbits over one rig value, by pseudo-arclength continuation.
+
+The unknowns of the shooting problem of :mod:`backlash_df.orbits` (the state
+``q0`` on the section ``dtheta_d = 0`` and the period ``T``) are extended by the
+parameter ``p`` (any numeric value of the rig file, :func:`~backlash_df.sweeps.rig_with`).
+With ``y = (q0, T, p)`` scaled component-wise, a branch point solves
+
+    R(q0, T; p) = 0                         (orbits.orbit_residual: phi_T(q0) = q0, dtheta_d(q0) = 0)
+    t . (y - y_pred) = 0                    (pseudo-arclength: Keller, 1977)
+
+with the predictor ``y_pred = y_k + ds t_k`` along the unit tangent ``t_k`` (the
+null vector of ``[dR/d(q0, T), dR/dp]``, oriented like the previous one).  The
+Jacobian in ``(q0, T)`` is the shooting solver's exact one (monodromy with
+saltation matrices); ``dR/dp`` is a central difference.  Because the arclength,
+not ``p``, parametrises the branch, the corrector passes through folds where the
+branch turns back in ``p``.  Every accepted point is polished by
+:func:`~backlash_df.orbits.periodic_orbit` at its ``p``, so each point is a periodic
+orbit to the shooting tolerance and carries its Floquet multipliers.
+
+Special points are marked between consecutive branch points (AUTO and MatCont
+name them the same way):
+
+``fold``
+    the tangent's ``p`` component changes sign (a saddle-node of cycles: a
+    Floquet multiplier passes +1);
+``period doubling``
+    stability changes with the critical multiplier near -1;
+``torus``
+    stability changes with a complex pair leaving the unit circle (Neimark-Sacker);
+``stability change``
+    stability changes otherwise (a multiplier passes +1 away from a detected fold);
+``grazing``
+    the number of contact/release events per period changes: a contact is born
+    or lost (the grazing bifurcation of a piecewise-smooth loop), or the
+    branch ends because the orbit stopped touching the stop (shooting fails there).
+
+The describing function's branch (:func:`~backlash_df.predict_limit_cycles` at
+a set of values) is computed beside it.  Laws and loops the shooting solver
+cannot handle (rubber with beta > 0, elasto-backlash) raise its ``ValueError``.
+"""
+
+import dataclasses
+import functools
+import math
+
+import numpy as np
+
+from .orbits import OrbitNotFound, orbit_residual, periodic_orbit
+from .sweeps import rig_with, run_cells
+
+__all__ = ["BranchPoint", "SpecialPoint", "Branch", "continue_limit_cycles", "branch_plot"]
+
+
+@dataclasses.dataclass(frozen=True)
+class BranchPoint:
+    """One point of a branch: the parameter value and the exact orbit there."""
+
+    parameter: float
+    orbit: object
+
+    def to_dict(self):
+        """JSON-ready: the parameter and the orbit's summary."""
+        return {"parameter": float(self.parameter), **self.orbit.to_dict()}
+
+
+@dataclasses.dataclass(frozen=True)
+class SpecialPoint:
+    """A bifurcation or end marked between two branch points (module docs).
+
+    Attributes
+    ----------
+    kind : str
+        ``fold``, ``period doubling``, ``torus``, ``stability change``, ``grazing``
+        or ``end`` (the branch stopped before the range end: ``detail`` says why).
+    parameter : float
+        Estimated parameter value (linear interpolation between the two points).
+    amplitude : float
+        Estimated amplitude A (rad) there.
+    detail : str
+    """
+
+    kind: str
+    parameter: float
+    amplitude: float
+    detail: str = ""
+
+    def to_dict(self):
+        """JSON-ready."""
+        return dataclasses.asdict(self)
+
+
+@dataclasses.dataclass(frozen=True)
+class Branch:
+    """A branch of periodic orbits over one rig value, with the DF branch beside it.
+
+    Attributes
+    ----------
+    parameter : str
+        The rig value continued (e.g. ``"kp"``).
+    model : str
+    points : tuple of BranchPoint
+        In arclength order (the parameter may go back and forth at folds).
+    special : tuple of SpecialPoint
+    df : tuple of (float, LimitCyclePrediction)
+        DF predictions at a set of parameter values.
+    value_range : (float, float)
+        The requested range.
+    rig : Rig
+        The rig continued (for :meth:`orbit_at`).
+    """
+
+    parameter: str
+    model: str
+    points: tuple
+    special: tuple
+    df: tuple
+    value_range: tuple
+    rig: object = dataclasses.field(default=None, repr=False, compare=False)
+
+    @property
+    def values(self):
+        """Parameter value of each point."""
+        return np.array([point.parameter for point in self.points])
+
+    @property
+    def amplitude(self):
+        """First-harmonic amplitude A of theta_d, rad, per point."""
+        return np.array([point.orbit.amplitude for point in self.points])
+
+    @property
+    def omega(self):
+        """Angular frequency, rad/s, per point."""
+        return np.array([point.orbit.omega for point in self.points])
+
+    @property
+    def stable(self):
+        """Stability (Floquet) per point."""
+        return np.array([point.orbit.stable for point in self.points])
+
+    def orbit_at(self, value):
+        """The exact orbit at ``value``, polished from the nearest branch point (raises OrbitNotFound)."""
+        nearest = min(self.points, key=lambda point: abs(point.parameter - value))
+        return _polish(_rig_of(self.rig, self.parameter, value), self.model, nearest.orbit)
+
+    def __repr__(self):
+        kinds = ", ".join(f"{s.kind} at {self.parameter}={s.parameter:.4g}" for s in self.special) or "none"
+        return (f"Branch({self.model}, {self.parameter} in [{self.values.min():.4g}, {self.values.max():.4g}], "
+                f"{len(self.points)} orbits, A in [{self.amplitude.min():.4g}, {self.amplitude.max():.4g}] rad; "
+                f"special points: {kinds})")
+
+    def to_dict(self):
+        """JSON: parameter, branch points (orbit summaries), special points and the DF branch."""
+        return {
+            "parameter": self.parameter,
+            "model": self.model,
+            "range": list(self.value_range),
+            "points": [point.to_dict() for point in self.points],
+            "special": [point.to_dict() for point in self.special],
+            "df": [{"parameter": float(value), "cycles": prediction.to_dicts()} for value, prediction in self.df],
+        }
+
+    def plot(self, axes=None):
+        """Amplitude and frequency against the parameter; see :func:`branch_plot`."""
+        return branch_plot(self, axes=axes)
+
+    def report_html(self, title="Continuation", rig_text=""):
+        """A self-contained HTML page: the branch figure and the special points."""
+        from .report import figure_html, html_page, table_html
+
+        figure = self.plot()[0].figure
+        rows = [[s.kind, f"{s.parameter:.6g}", f"{s.amplitude:.5g}", s.detail] for s in self.special]
+        sections = [("", f'<div class="summary"><p>{len(self.points)} exact periodic orbits (shooting, '
+                         f"Floquet multipliers) of the {self.model} law continued in {self.parameter}; solid: "
+                         "stable, dashed: unstable; markers: the describing function's cycles.</p></div>")]
+        if rig_text:
+            sections.append(("Rig", f"<pre>{rig_text}</pre>"))
+        sections += [("Branch", figure_html(figure, f"A and w against {self.parameter}")),
+                     ("Special points", table_html(["kind", self.parameter, "A (rad)", "detail"], rows,
+                                                   text_columns=(0, 3)))]
+        return html_page(title, sections)
+
+
+def branch_plot(branch, axes=None):
+    """Amplitude A (rad) and frequency w (rad/s) of the branch against the parameter.
+
+    Stable stretches solid, unstable dashed; the DF cycles as markers (filled:
+    stable by Loeb's criterion); special points annotated.
+
+    Returns
+    -------
+    ndarray of Axes
+        ``[amplitude axis, frequency axis]``.
+    """
+    import matplotlib.pyplot as plt
+
+    if axes is None:
+        _, axes = plt.subplots(2, 1, sharex=True, figsize=(7.5, 6))
+    values, stable = branch.values, branch.stable
+    for ax, series in zip(axes, (branch.amplitude, branch.omega)):
+        start = 0
+        for end in list(np.nonzero(stable[1:] != stable[:-1])[0] + 1) + [len(values)]:
+            piece = slice(start, min(end + 1, len(values)))
+            ax.plot(values[piece], series[piece], color="C0", ls="-" if stable[start] else "--", lw=1.6)
+            start = end
+        for value, prediction in branch.df:
+            for cycle in prediction.cycles:
+                y = cycle.amplitude if ax is axes[0] else cycle.omega
+                ax.plot(value, y, "o", color="C1", ms=4, mfc="C1" if cycle.stable else "none")
+    for point in branch.special:
+        axes[0].plot(point.parameter, point.amplitude, "s", color="k", ms=5, mfc="none")
+        axes[0].annotate(point.kind, (point.parameter, point.amplitude), textcoords="offset points",
+                         xytext=(4, 6), fontsize=8)
+    axes[0].plot([], [], color="C0", label="exact orbits, stable")
+    axes[0].plot([], [], color="C0", ls="--", label="exact orbits, unstable")
+    axes[0].plot([], [], "o", color="C1", ms=4, label="describing function")
+    axes[0].legend(fontsize=8)
+    axes[0].set_ylabel("A (rad)")
+    if branch.amplitude.max() > 20.0 * branch.amplitude.min():
+        axes[0].set_yscale("log")
+    axes[1].set_ylabel("w (rad/s)")
+    axes[1].set_xlabel(branch.parameter)
+    axes[0].set_title(f"{branch.model}: limit cycles against {branch.parameter}")
+    return np.asarray(axes)
+
+
+# --------------------------------------------------------------------------- the continuation
+
+
+@functools.lru_cache(maxsize=64)
+def _rig_of(rig, parameter, value):
+    return rig_with(rig, parameter, value)
+
+
+def _polish(rig, model, seed):
+    return periodic_orbit(rig, model, seed)
+
+
+def _unknowns(orbit):
+    return np.append(orbit.state, orbit.period)
+
+
+def _state_scale(unknowns):
+    return np.maximum(np.abs(unknowns), 1e-6 * np.abs(unknowns).max())
+
+
+class _Extended:
+    """Residual and Jacobian of the shooting problem in the scaled unknowns y = (q0, T, p) / scale."""
+
+    def __init__(self, rig, parameter, model, scale):
+        self.rig, self.parameter, self.model, self.scale = rig, parameter, model, scale
+
+    def rescale(self, unknowns):
+        """Scale the states by their current size; returns old / new scale (to carry a tangent over)."""
+        old = self.scale.copy()
+        self.scale[:-1] = _state_scale(unknowns)
+        return old / self.scale
+
+    def split(self, y):
+        x = y * self.scale
+        return x[:-1], float(x[-1])
+
+    def __call__(self, y):
+        unknowns, value = self.split(y)
+        residual, jacobian = orbit_residual(_rig_of(self.rig, self.parameter, value), self.model, unknowns)
+        step = 1e-6 * max(abs(value), self.scale[-1] * 1e-3)
+        plus = orbit_residual(rig_with(self.rig, self.parameter, value + step), self.model, unknowns)[0]
+        minus = orbit_residual(rig_with(self.rig, self.parameter, value - step), self.model, unknowns)[0]
+        d_value = (plus - minus) / (2.0 * step)
+        return residual, np.column_stack([jacobian, d_value]) * self.scale
+
+
+def _tangent(jacobian, previous):
+    """Unit null vector of ``jacobian`` (n x n+1), oriented along ``previous``."""
+    bordered = np.vstack([jacobian, previous])
+    rhs = np.zeros(bordered.shape[0])
+    rhs[-1] = 1.0
+    tangent = np.linalg.solve(bordered, rhs)
+    tangent /= np.linalg.norm(tangent)
+    return tangent if tangent @ previous >= 0.0 else -tangent
+
+
+def _correct(extended, y_pred, tangent, tol=1e-9, iterations=10):
+    """Newton on [R(y); t (y - y_pred)] = 0.
+
+    Returns (y, iterations used, Jacobian of R at the last iterate but one), or (None, iterations, None).
+    """
+    y = y_pred.copy()
+    for count in range(1, iterations + 1):
+        try:
+            residual, jacobian = extended(y)
+        except OrbitNotFound:
+            return None, count, None
+        system = np.vstack([jacobian, tangent])
+        rhs = -np.append(residual, tangent @ (y - y_pred))
+        try:
+            delta = np.linalg.solve(system, rhs)
+        except np.linalg.LinAlgError:
+            return None, count, None
+        y = y + delta
+        if np.abs(delta).max() < tol:
+            return y, count, jacobian
+    return None, iterations, None
+
+
+def _critical(orbit):
+    """Kind of stability change from the largest non-trivial multiplier."""
+    mu = orbit.multipliers[1] if orbit.multipliers.size > 1 else 1.0
+    if abs(mu.imag) > 1e-6 * abs(mu):
+        return "torus"
+    return "period doubling" if mu.real < 0.0 else "stability change"
+
+
+def _interpolate(a, b, fa, fb):
+    """Parameter and amplitude where ``f`` (linear between a and b) changes sign."""
+    w = fa / (fa - fb) if fa != fb else 0.5
+    return (a.parameter + w * (b.parameter - a.parameter), a.orbit.amplitude + w * (b.orbit.amplitude - a.orbit.amplitude))
+
+
+def _special_points(points, tangents):
+    """Folds, stability changes and grazing between consecutive points."""
+    marks = []
+    for (a, ta), (b, tb) in zip(zip(points[:-1], tangents[:-1]), zip(points[1:], tangents[1:])):
+        fold = ta[-1] * tb[-1] < 0.0
+        if fold:
+            value, amplitude = _interpolate(a, b, ta[-1], tb[-1])
+            marks.append(SpecialPoint("fold", value, amplitude, "the branch turns back in the parameter"))
+        if a.orbit.stable != b.orbit.stable and not fold:
+            unstable = b.orbit if a.orbit.stable else a.orbit
+            value, amplitude = _interpolate(a, b, a.orbit.max_multiplier - 1.0, b.orbit.max_multiplier - 1.0)
+            mu = unstable.multipliers[1]
+            marks.append(SpecialPoint(_critical(unstable), value, amplitude,
+                                      f"critical multiplier {mu.real:.4g}{mu.imag:+.4g}j"))
+        if len(a.orbit.events) != len(b.orbit.events):
+            marks.append(SpecialPoint("grazing", 0.5 * (a.parameter + b.parameter),
+                                      0.5 * (a.orbit.amplitude + b.orbit.amplitude),
+                                      f"contact events per period {len(a.orbit.events)} -> {len(b.orbit.events)}"))
+    return marks
+
+
+def _trace(extended, start, direction, bound, ds, ds_max, max_points, amplitude_cap):
+    """Continue from ``start`` (a polished orbit) with the parameter first moving in ``direction``.
+
+    Returns (points, tangents, reason): reason is None when ``bound`` was reached.
+    """
+    rig, parameter, model = extended.rig, extended.parameter, extended.model
+    y = np.append(_unknowns(start.orbit), start.parameter) / extended.scale
+    tangent = np.zeros(y.size)
+    tangent[-1] = direction
+    points, tangents = [start], []
+    tangent = _tangent(extended(y)[1], tangent)
+    tangents.append(tangent)
+    while len(points) < max_points:
+        y_new, used, jacobian = _correct(extended, y + ds * tangent, tangent)
+        orbit = None
+        if y_new is not None:
+            unknowns, value = extended.split(y_new)
+            seed = dataclasses.replace(points[-1].orbit, state=unknowns[:-1], period=float(unknowns[-1]))
+            try:
+                orbit = _polish(_rig_of(rig, parameter, value), model, seed)
+            except (OrbitNotFound, ValueError):
+                orbit = None
+        if orbit is None:
+            ds *= 0.5
+            if ds < 1e-6:
+                return points, tangents, "the corrector failed at every step size (the orbit grazes or is lost)"
+            continue
+        if (value - bound) * direction > 0.0:  # past the end: land on it
+            try:
+                last = _polish(_rig_of(rig, parameter, bound), model, orbit)
+                points.append(BranchPoint(bound, last))
+                tangents.append(tangent)
+            except OrbitNotFound:
+                pass
+            return points, tangents, None
+        points.append(BranchPoint(value, orbit))
+        if orbit.amplitude > amplitude_cap:
+            return points, tangents + [tangent], "amplitude cap"
+        # the corrector's last Jacobian (a step of < tol before) gives the new tangent;
+        # then the states are rescaled to their current size: relative steps as the orbit grows
+        tangent = _tangent(jacobian, tangent)
+        factor = extended.rescale(_unknowns(orbit))
+        tangent = tangent * factor / np.linalg.norm(tangent * factor)
+        y = np.append(_unknowns(orbit), value) / extended.scale
+        tangents.append(tangent)
+        ds = min(ds * 2.0, ds_max) if used <= 4 else (0.5 * ds if used >= 7 else ds)
+    return points, tangents, f"stopped after {max_points} points"
+
+
+def _contact_instability(rig, parameter, model, inside, outside):
+    """Where the loop with the shaft in full contact loses stability between two values (text), by bisection."""
+    from .loops import drive_loop
+
+    shaft = rig.make_model(model)
+
+    def unstable(value):
+        tuned = _rig_of(rig, parameter, value)
+        if tuned.controller.delay > 0.0:
+            return None
+        return bool(np.any(drive_loop(tuned).linear_poles(shaft.stiffness, shaft.damping).real > 0.0))
+
+    beyond = outside + 0.5 * (outside - inside)
+    if unstable(inside) is not False or not unstable(beyond):
+        return ""
+    for _ in range(60):
+        middle = 0.5 * (inside + beyond)
+        inside, beyond = (inside, middle) if unstable(middle) else (middle, beyond)
+    return f"; the loop with the shaft in contact loses stability at {parameter} = {0.5 * (inside + beyond):.6g}"
+
+
+def _df_prediction(rig, parameter, model, grid, value):
+    from .limit_cycles import predict_limit_cycles
+
+    return predict_limit_cycles(rig_with(rig, parameter, value), model, grid=grid)
+
+
+def _start(rig, parameter, model, values, seed):
+    """First orbit: from ``seed`` at ``values[0]``, else from the DF's or a simulation's cycle at the first value that has one."""
+    from .limit_cycles import predict_limit_cycles
+    from .simulate import simulated_limit_cycle
+
+    for value in values:
+        tuned = _rig_of(rig, parameter, value)
+        seeds = [seed] if seed is not None else []
+        if seed is None:
+            seeds += list(reversed(predict_limit_cycles(tuned, model, grid=(30, 40)).stable_cycles))
+            cycle = seeds[0] if seeds else None
+            kick = cycle.amplitude * cycle.omega if cycle is not None else 2.0 * tuned.plant.half_gap * 100.0
+            measured, _ = simulated_limit_cycle(tuned, model, t_end=10.0, max_t_end=40.0, kick=kick)
+            seeds += [measured] if measured.found else []
+        for candidate in seeds:
+            try:
+                return BranchPoint(float(value), periodic_orbit(tuned, model, candidate))
+            except (OrbitNotFound, ValueError):
+                continue
+        seed = None
+    raise OrbitNotFound(f"no periodic orbit found to start from at any of {len(values)} values of the parameter")
+
+
+def continue_limit_cycles(rig, parameter, values_or_range, model=None, *, seed=None, ds=0.05, ds_max=1.0,
+                          max_points=200, max_amplitude=40.0, df_values=25, df_grid=(30, 40), executor=None):
+    """Trace the branch of exact periodic orbits over one rig value (module docs).
+
+    Parameters
+    ----------
+    rig : Rig
+    parameter : str
+        A numeric rig value (:func:`~backlash_df.sweeps.rig_with`: ``"kp"``,
+        ``"ti"``, ``"stiffness"``, ``"load.torque"``, ...).
+    values_or_range : (float, float) or array_like
+        The range ``(from, to)``; with more values, their first and last are the
+        range and the DF is evaluated at all of them.
+    model : str, optional
+        Torque law (default the rig's); piecewise affine (:mod:`backlash_df.orbits`).
+    seed : optional
+        A seed of :func:`~backlash_df.orbits.periodic_orbit` at ``from``; default
+        the DF's largest stable cycle, else a simulated cycle, at the first of
+        a few values across the range that has one.
+    ds, ds_max : float
+        First and largest arclength step in the scaled unknowns (the range is 1).
+    max_points : int
+        Most branch points per direction.
+    max_amplitude : float
+        The branch ends where A exceeds this many half gaps (the cycle is then
+        growing without bound towards the loss of stability of the loop in contact).
+    df_values : int
+        DF predictions at this many values across the range (ignored if values are given).
+    df_grid : (int, int)
+        Scan grid of each DF prediction.
+    executor : concurrent.futures.Executor, optional
+        Runs the DF predictions (the continuation itself is sequential).
+
+    Returns
+    -------
+    Branch
+
+    Raises
+    ------
+    ValueError
+        Unknown parameter, range of one value, a law the shooting solver cannot handle.
+    OrbitNotFound
+        No orbit to start from anywhere in the range.
+    """
+    values = np.atleast_1d(np.asarray(values_or_range, dtype=float))
+    if values.size < 2 or values[0] == values[-1] or not np.all(np.isfinite(values)):
+        raise ValueError(f"continue: give a range of {parameter} (two different finite values), got {values_or_range!r}")
+    lo, hi = float(values[0]), float(values[-1])
+    model = rig.make_model(model).name
+    rig_with(rig_with(rig, parameter, lo), parameter, hi)  # names and values checked before any work
+    starts = np.linspace(lo, hi, 5) if seed is None else np.array([lo])
+    start = _start(rig, parameter, model, starts, seed)
+    unknowns = _unknowns(start.orbit)
+    amplitude_cap = max_amplitude * rig.plant.half_gap
+    direction = 1.0 if hi > lo else -1.0
+    extended = _Extended(rig, parameter, model, np.append(_state_scale(unknowns), abs(hi - lo)))
+    forward, t_forward, why_forward = _trace(extended, start, direction, hi, ds, ds_max, max_points, amplitude_cap)
+    points, tangents, reasons = forward, t_forward, [why_forward]
+    if start.parameter != lo:
+        extended = _Extended(rig, parameter, model, np.append(_state_scale(unknowns), abs(hi - lo)))
+        backward, t_backward, why_backward = _trace(extended, start, -direction, lo, ds, ds_max, max_points,
+                                                    amplitude_cap)
+        points = backward[::-1] + forward[1:]
+        tangents = [-t for t in t_backward[::-1]] + t_forward[1:]
+        reasons.append(why_backward)
+    special = _special_points(points, tangents)
+    for point, reason in zip((points[-1], points[0]), reasons):
+        if reason == "amplitude cap":
+            reason = f"A > {max_amplitude:g} alpha: the cycle grows without bound" + _contact_instability(
+                rig, parameter, model, start.parameter, point.parameter)
+        if reason is not None:
+            special.append(SpecialPoint("end", point.parameter, point.orbit.amplitude, reason))
+    df_at = np.linspace(lo, hi, df_values) if values.size == 2 else values
+    predictions = run_cells(functools.partial(_df_prediction, rig, parameter, model, tuple(df_grid)),
+                            [float(v) for v in df_at], executor)
+    return Branch(parameter, model, tuple(points), tuple(special), tuple(zip(df_at.tolist(), predictions)), (lo, hi),
+                  rig)
