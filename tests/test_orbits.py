@@ -134,6 +134,19 @@ def test_near_tangent_loci_the_far_off_df_seed_still_finds_the_simulated_orbit(l
     assert cycle.omega / orbit.omega - 1.0 == pytest.approx(0.322, abs=0.005)
 
 
+def test_every_switch_lies_on_the_laws_boundary_to_round_off(load_orbit):
+    # contact where theta_d = theta*(dtheta_d) (19), release where k (theta_d - alpha) + c dtheta_d = 0 (Theorem 1)
+    k, c, alpha = 5895.0, 3.0, 0.05
+    for time, before, after in load_orbit.events:
+        i = np.nonzero(load_orbit.time == time)[0][-1]  # the sample stored at the switch
+        x, v = load_orbit.theta_d[i], load_orbit.dtheta_d[i]
+        side = after or before
+        if after:
+            assert abs(side * x - bd.theta_star(side * v, k, c, alpha)) < 1e-14
+        else:
+            assert abs(k * (side * x - alpha) + c * side * v) < 1e-11 * k * alpha
+
+
 # --------------------------------------------------------------------------- Floquet stability
 
 
