@@ -705,7 +705,8 @@ def _simulation_seed(loop, result):
     half = result.time >= 0.5 * result.time[-1]
     time, x, v = result.time[half], result.theta_d[half], result.dtheta_d[half]
     if not np.all(np.isfinite(x)) or not np.any(result.mode[half] != 0):
-        raise OrbitNotFound("the simulation from the seed diverges or leaves the shaft out of contact: no orbit near it")
+        raise OrbitNotFound("the simulation from the seed diverges or leaves the shaft out of contact: "
+                            "no orbit near it")
     center, swing = 0.5 * (x.max() + x.min()), 0.5 * (x.max() - x.min())
     crossings = _upward_crossings(time, x - center)
     tops = np.nonzero((v[:-1] > 0.0) & (v[1:] <= 0.0))[0]
@@ -824,7 +825,8 @@ def periodic_orbit(rig, model=None, seed=None, *, tol=1e-10, max_iter=50, pade_o
 
         cycles = predict_limit_cycles(rig, model).cycles
         if not cycles:
-            raise OrbitNotFound(f"no seed: the describing function of {model.name!r} predicts no limit cycle; pass seed=")
+            raise OrbitNotFound(f"no seed: the describing function of {model.name!r} predicts no limit cycle; "
+                                "pass seed=")
         seed = cycles[0]
     unknowns = _seed_unknowns(loop, seed)
     if isinstance(seed, PeriodicOrbit) or _is_simulation(seed):
@@ -888,7 +890,8 @@ def _orbit(loop, unknowns, norm, monodromy, events):
     scale = _scales(loop, track, period)[:-1]
     multipliers = _sorted_multipliers(monodromy, loop.field(loop.initial_mode(q0), q0), scale)
     return PeriodicOrbit(
-        period=period, omega=omega, amplitude=float(abs(first)), peak=_peak(loop, track, period, mean), bias=float(mean),
+        period=period, omega=omega, amplitude=float(abs(first)), peak=_peak(loop, track, period, mean),
+        bias=float(mean),
         multipliers=multipliers, stable=bool(np.all(np.abs(multipliers[1:]) < 1.0)), state=q0.copy(),
         residual=float(norm), events=tuple((float(t), int(a), int(b)) for t, a, b in events),
         model=loop.model.name, state_names=loop.names, pade_order=loop.pade_order,

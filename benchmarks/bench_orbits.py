@@ -139,7 +139,8 @@ def dead_time_table():
         reference = orbit if order == 6 else reference
         print(f"  Pade order {order}: A = {orbit.amplitude:.10f} rad, w = {orbit.omega:.8f} rad/s, "
               f"|mu|max = {orbit.max_multiplier:.5f}, {seconds:.3f} s")
-    print(f"  DF (exact delay in G(jw)): A = {seed.amplitude:.5f} rad ({seed.amplitude / reference.amplitude - 1.0:+.2%}), "
+    print(f"  DF (exact delay in G(jw)): A = {seed.amplitude:.5f} rad "
+          f"({seed.amplitude / reference.amplitude - 1.0:+.2%}), "
           f"w = {seed.omega:.2f} rad/s ({seed.omega / reference.omega - 1.0:+.2%})")
     for dt in (None, 5e-5, 2.5e-5, 1.25e-5):
         measured, _ = simulated_limit_cycle(rig, None, t_end=20.0, dt=dt, kick=seed.amplitude * seed.omega,

@@ -186,9 +186,8 @@ def test_unstable_orbit_perturbation_grows_at_the_floquet_rate(lag_rig, lag_orbi
 def test_the_separating_orbit_divides_rest_from_the_stable_cycle(lag_rig, lag_orbits):
     # simulation cannot find the unstable orbit, but it sees both sides of it
     unstable, stable = lag_orbits
-    grow, shrink = 1.02 * unstable.state, 0.98 * unstable.state
-    outside = simulated_limit_cycle(lag_rig, "phase-plane", t_end=4.0, initial=_start(unstable, grow - unstable.state))[0]
-    inside = simulated_limit_cycle(lag_rig, "phase-plane", t_end=4.0, initial=_start(unstable, shrink - unstable.state))[0]
+    outside, _ = simulated_limit_cycle(lag_rig, "phase-plane", t_end=4.0, initial=_start(unstable, 0.02 * unstable.state))
+    inside, _ = simulated_limit_cycle(lag_rig, "phase-plane", t_end=4.0, initial=_start(unstable, -0.02 * unstable.state))
     assert outside.found and outside.amplitude == pytest.approx(stable.amplitude, rel=1e-3)
     assert not inside.found
 
@@ -243,7 +242,8 @@ def test_dead_time_orbit_converges_with_the_pade_order_and_bounds_the_simulation
     assert abs(amplitudes[6] - amplitudes[4]) < 1e-9 * amplitudes[6]
     assert abs(amplitudes[4] - amplitudes[2]) > 100 * abs(amplitudes[6] - amplitudes[4])
     # the simulation's dead time at a fine step against this reference: the 1e-4
-    measured, _ = simulated_limit_cycle(rig, None, t_end=20.0, dt=1.25e-5, kick=seed[0] * seed[1], periods=20, rtol=1e-5)
+    measured, _ = simulated_limit_cycle(rig, None, t_end=20.0, dt=1.25e-5, kick=seed[0] * seed[1],
+                                        periods=20, rtol=1e-5)
     assert measured.amplitude == pytest.approx(amplitudes[6], rel=1e-4)
 
 
