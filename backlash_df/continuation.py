@@ -31,8 +31,14 @@ name them the same way):
     stability changes otherwise (a multiplier passes +1 away from a detected fold);
 ``grazing``
     the number of contact/release events per period changes: a contact is born
-    or lost (the grazing bifurcation of a piecewise-smooth loop), or the
-    branch ends because the orbit stopped touching the stop (shooting fails there).
+    or lost (the grazing bifurcation of a piecewise-smooth loop);
+``birth``
+    the amplitude shrinks to zero (below alpha / 1000): the cycle is born from
+    rest, a Hopf-like onset of the contact loop (extrapolated to A = 0);
+``end``
+    the branch stops inside the range: the amplitude grows without bound (the
+    loop with the shaft in contact loses stability, located from its poles),
+    or the corrector fails (``detail`` says which).
 
 The describing function's branch (:func:`~backlash_df.predict_limit_cycles` at
 a set of values) is computed beside it.  Laws and loops the shooting solver
@@ -70,8 +76,8 @@ class SpecialPoint:
     Attributes
     ----------
     kind : str
-        ``fold``, ``period doubling``, ``torus``, ``stability change``, ``grazing``
-        or ``end`` (the branch stopped before the range end: ``detail`` says why).
+        ``fold``, ``period doubling``, ``torus``, ``stability change``, ``grazing``,
+        ``birth`` or ``end`` (module docs; ``detail`` says more).
     parameter : float
         Estimated parameter value (linear interpolation between the two points).
     amplitude : float
@@ -313,16 +319,32 @@ def _critical(orbit):
 def _interpolate(a, b, fa, fb):
     """Parameter and amplitude where ``f`` (linear between a and b) changes sign."""
     w = fa / (fa - fb) if fa != fb else 0.5
-    return (a.parameter + w * (b.parameter - a.parameter), a.orbit.amplitude + w * (b.orbit.amplitude - a.orbit.amplitude))
+    return (float(a.parameter + w * (b.parameter - a.parameter)),
+            float(a.orbit.amplitude + w * (b.orbit.amplitude - a.orbit.amplitude)))
+
+
+def _fold(points, index):
+    """Turning point near ``points[index]``, ``points[index + 1]``: vertex of p(A) through the three nearest points."""
+    turn = index if abs(points[index].parameter - points[max(index - 1, 0)].parameter) < abs(
+        points[index + 1].parameter - points[min(index + 2, len(points) - 1)].parameter) else index + 1
+    trio = points[max(turn - 1, 0):turn + 2]
+    amplitude = np.array([point.orbit.amplitude for point in trio])
+    value = np.array([point.parameter for point in trio])
+    if len(trio) == 3 and np.ptp(amplitude) > 0.0:
+        c2, c1, c0 = np.polyfit(amplitude, value, 2)
+        top = -c1 / (2.0 * c2) if c2 != 0.0 else math.nan
+        if amplitude.min() <= top <= amplitude.max():
+            return float(np.polyval([c2, c1, c0], top)), float(top)
+    return float(value[1 if len(trio) == 3 else 0]), float(amplitude[1 if len(trio) == 3 else 0])
 
 
 def _special_points(points, tangents):
     """Folds, stability changes and grazing between consecutive points."""
     marks = []
-    for (a, ta), (b, tb) in zip(zip(points[:-1], tangents[:-1]), zip(points[1:], tangents[1:])):
+    for index, ((a, ta), (b, tb)) in enumerate(zip(zip(points[:-1], tangents[:-1]), zip(points[1:], tangents[1:]))):
         fold = ta[-1] * tb[-1] < 0.0
         if fold:
-            value, amplitude = _interpolate(a, b, ta[-1], tb[-1])
+            value, amplitude = _fold(points, index)
             marks.append(SpecialPoint("fold", value, amplitude, "the branch turns back in the parameter"))
         if a.orbit.stable != b.orbit.stable and not fold:
             unstable = b.orbit if a.orbit.stable else a.orbit
@@ -337,7 +359,7 @@ def _special_points(points, tangents):
     return marks
 
 
-def _trace(extended, start, direction, bound, ds, ds_max, max_points, amplitude_cap):
+def _trace(extended, start, direction, bound, ds, ds_max, max_points, amplitude_bounds):
     """Continue from ``start`` (a polished orbit) with the parameter first moving in ``direction``.
 
     Returns (points, tangents, reason): reason is None when ``bound`` was reached.
@@ -373,8 +395,10 @@ def _trace(extended, start, direction, bound, ds, ds_max, max_points, amplitude_
                 pass
             return points, tangents, None
         points.append(BranchPoint(value, orbit))
-        if orbit.amplitude > amplitude_cap:
+        if orbit.amplitude > amplitude_bounds[1]:
             return points, tangents + [tangent], "amplitude cap"
+        if orbit.amplitude < amplitude_bounds[0]:
+            return points, tangents + [tangent], "amplitude floor"
         # the corrector's last Jacobian (a step of < tol before) gives the new tangent;
         # then the states are rescaled to their current size: relative steps as the orbit grows
         tangent = _tangent(jacobian, tangent)
@@ -384,6 +408,15 @@ def _trace(extended, start, direction, bound, ds, ds_max, max_points, amplitude_
         tangents.append(tangent)
         ds = min(ds * 2.0, ds_max) if used <= 4 else (0.5 * ds if used >= 7 else ds)
     return points, tangents, f"stopped after {max_points} points"
+
+
+def _extrapolate_to_zero(pair):
+    """Parameter where the amplitude reaches zero, linear through two points (last one nearer zero)."""
+    a, b = pair
+    if b.orbit.amplitude == a.orbit.amplitude:
+        return float(b.parameter)
+    w = b.orbit.amplitude / (a.orbit.amplitude - b.orbit.amplitude)
+    return float(b.parameter + w * (b.parameter - a.parameter))
 
 
 def _contact_instability(rig, parameter, model, inside, outside):
@@ -489,15 +522,15 @@ def continue_limit_cycles(rig, parameter, values_or_range, model=None, *, seed=N
     starts = np.linspace(lo, hi, 5) if seed is None else np.array([lo])
     start = _start(rig, parameter, model, starts, seed)
     unknowns = _unknowns(start.orbit)
-    amplitude_cap = max_amplitude * rig.plant.half_gap
+    amplitude_bounds = (1e-3 * rig.plant.half_gap, max_amplitude * rig.plant.half_gap)
     direction = 1.0 if hi > lo else -1.0
     extended = _Extended(rig, parameter, model, np.append(_state_scale(unknowns), abs(hi - lo)))
-    forward, t_forward, why_forward = _trace(extended, start, direction, hi, ds, ds_max, max_points, amplitude_cap)
+    forward, t_forward, why_forward = _trace(extended, start, direction, hi, ds, ds_max, max_points, amplitude_bounds)
     points, tangents, reasons = forward, t_forward, [why_forward]
     if start.parameter != lo:
         extended = _Extended(rig, parameter, model, np.append(_state_scale(unknowns), abs(hi - lo)))
         backward, t_backward, why_backward = _trace(extended, start, -direction, lo, ds, ds_max, max_points,
-                                                    amplitude_cap)
+                                                    amplitude_bounds)
         points = backward[::-1] + forward[1:]
         tangents = [-t for t in t_backward[::-1]] + t_forward[1:]
         reasons.append(why_backward)
@@ -506,7 +539,11 @@ def continue_limit_cycles(rig, parameter, values_or_range, model=None, *, seed=N
         if reason == "amplitude cap":
             reason = f"A > {max_amplitude:g} alpha: the cycle grows without bound" + _contact_instability(
                 rig, parameter, model, start.parameter, point.parameter)
-        if reason is not None:
+        if reason == "amplitude floor":
+            value = _extrapolate_to_zero(points[-2:] if point is points[-1] else points[1::-1])
+            special.append(SpecialPoint("birth", value, 0.0, "the cycle shrinks to rest: Hopf-like onset of the "
+                                        f"contact loop at {parameter} = {value:.6g} (A -> 0 extrapolated)"))
+        elif reason is not None:
             special.append(SpecialPoint("end", point.parameter, point.orbit.amplitude, reason))
     df_at = np.linspace(lo, hi, df_values) if values.size == 2 else values
     predictions = run_cells(functools.partial(_df_prediction, rig, parameter, model, tuple(df_grid)),
