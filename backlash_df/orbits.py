@@ -10,11 +10,14 @@ free, right contact)::
 
 so the flow inside a mode is a matrix exponential of the augmented matrix
 ``[[F_m, g_m], [0, 0]]``.  A mode is left when its boundary function crosses zero
-(contact: ``theta_d = alpha`` for (24)-(26), ``theta_d = theta*(dtheta_d)`` for (19)-(23),
-``theta_b = alpha`` for (14); release: ``theta_d = alpha`` for (24)-(26),
-``k (theta_d - alpha) + c dtheta_d = 0`` (Theorem 1) otherwise); each crossing is
-bracketed on a sampled trajectory and located by the Illinois method on the exact
-flow down to round-off, the state kept just past the boundary.
+(contact: ``theta_d = alpha`` for (24)-(26), ``k (theta_d - alpha) + c dtheta_d = 0``
+for (27), ``theta_d = theta*(dtheta_d)`` for (19)-(23), ``theta_b = alpha`` for (14);
+release: ``theta_d = alpha`` for (24)-(26), ``k (theta_d - alpha) + c dtheta_d = 0``
+(Theorem 1) otherwise).  Each crossing is bracketed on the trajectory sampled at least
+128 times a period (a cubic fit of value and slope flags an excursion past zero between
+two samples) and located by binary search on a dyadic ladder ``exp(M h 2^-j)``, as the
+simulation kernel locates its events: to 2^-52 of the sample step, the state kept just
+past the boundary.
 
 **Shooting.**  The unknowns are the state ``q0`` on the Poincare section
 ``dtheta_d = 0`` (an extremum of theta_d) and the period ``T``; the residual

@@ -81,7 +81,7 @@ def design_map_sweep(path, kp, ti):
               f"agree {np.mean(predicted == simulated):6.1%} "
               f"(predicted only {np.sum(predicted & ~simulated)}, simulated only {np.sum(simulated & ~predicted)})")
     (ROOT / "build").mkdir(exist_ok=True)
-    dmap.plot()["figure"].savefig(ROOT / "build" / f"design_map_{path.stem}.png", dpi=100, bbox_inches="tight")
+    dmap.plot()[0, 0].figure.savefig(ROOT / "build" / f"design_map_{path.stem}.png", dpi=100, bbox_inches="tight")
 
 
 def main():
