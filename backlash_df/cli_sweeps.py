@@ -1,4 +1,4 @@
-"""``backlash-df map`` (and the executor options shared by sweeps): registered on the main group.
+"""``backlash-df map`` and ``backlash-df continue`` (and the executor options they share): registered on the main group.
 
 ``--workers N`` runs the cells on a local process pool of N processes, with
 ``--dask`` on a ``dask.distributed.LocalCluster`` of N single-threaded workers;
@@ -13,7 +13,7 @@ import click
 from .cli import main
 from .models import MODEL_NAMES
 
-__all__ = ["executor_for", "parse_values", "map_command"]
+__all__ = ["executor_for", "executor_options", "parse_values", "map_command", "continue_command"]
 
 
 def parse_values(option, text):
@@ -140,5 +140,71 @@ def map_command(rig_file, x_spec, y_spec, models, no_simulate, workers, dask, sc
         rig_text = html.escape(Path(rig_file).read_text(encoding="utf-8"))
         texts["--report"] = dmap.report_html(title=f"Design map: {rig_file}", rig_text=rig_text)
     if "--plot" in outputs:
-        texts["--plot"] = figure_png(dmap.plot()["figure"], dpi=110)
+        texts["--plot"] = figure_png(dmap.plot()[0, 0].figure, dpi=110)
+    outputs.write(texts)
+
+
+@main.command("continue")
+@click.argument("rig_file", type=click.Path(dir_okay=False))
+@click.option("--parameter", required=True, metavar="NAME",
+              help="Rig value to continue in: kp, ti, stiffness, load.torque, ... (any numeric key).")
+@click.option("--from", "start", type=float, required=True, help="First value of the parameter.")
+@click.option("--to", "stop", type=float, required=True, help="Last value of the parameter.")
+@click.option("--model", "model_name", default=None, metavar="NAME",
+              help="Torque law (default: the rig's [model] backlash); piecewise-affine laws only.")
+@click.option("--df-values", type=int, default=25, show_default=True,
+              help="Parameter values at which the describing function is evaluated beside the branch.")
+@executor_options
+@click.option("--json", "json_out", type=click.Path(dir_okay=False), help="Write the branch as JSON.")
+@click.option("--report", "report_out", type=click.Path(dir_okay=False), help="Write a self-contained HTML report.")
+@click.option("--plot", "plot_out", type=click.Path(dir_okay=False), help="Save the figure (PNG).")
+def continue_command(rig_file, parameter, start, stop, model_name, df_values, workers, dask, scheduler, json_out,
+                     report_out, plot_out):
+    """Branch of exact periodic orbits of RIG_FILE's loop over one rig value, the DF beside it.
+
+    Pseudo-arclength continuation of the shooting orbits, through folds; marks
+    folds, stability changes (Floquet), grazing and births.  The executor options
+    run the DF predictions.
+
+    Example: backlash-df continue RIG --parameter kp --from 5 --to 60
+    """
+    import html
+    import io
+    import json
+    from pathlib import Path
+
+    from .config import load_rig
+    from .continuation import continue_limit_cycles
+    from .models import MODEL_NAMES
+    from .report import Outputs
+
+    outputs = Outputs({"--json": json_out, "--report": report_out, "--plot": plot_out})
+    if model_name is not None and model_name not in MODEL_NAMES:
+        raise ValueError(f"--model: unknown model {model_name!r}; choose one of: {', '.join(MODEL_NAMES)}")
+    if df_values < 2:
+        raise ValueError(f"--df-values must be >= 2, got {df_values}")
+    rig = load_rig(rig_file)
+    rig.require_controller()
+    with executor_for(workers, dask, scheduler) as executor:
+        branch = continue_limit_cycles(rig, parameter, (start, stop), model_name, df_values=df_values,
+                                       executor=executor)
+    click.echo(repr(branch))
+    click.echo(f"{parameter:>12} {'A (rad)':>10} {'w (rad/s)':>10} {'bias (rad)':>11} {'|mu|max':>8}  stable")
+    for point in branch.points:
+        orbit = point.orbit
+        click.echo(f"{point.parameter:12.6g} {orbit.amplitude:10.5g} {orbit.omega:10.5g} {orbit.bias:11.4g} "
+                   f"{orbit.max_multiplier:8.4f}  {'yes' if orbit.stable else 'no'}")
+    for special in branch.special:
+        click.echo(f"{special.kind} at {parameter} = {special.parameter:.6g} (A = {special.amplitude:.4g} rad): "
+                   f"{special.detail}")
+    texts = {}
+    if "--json" in outputs:
+        texts["--json"] = json.dumps({"rig": str(rig_file), **branch.to_dict()}, indent=2) + "\n"
+    if "--report" in outputs:
+        rig_text = html.escape(Path(rig_file).read_text(encoding="utf-8"))
+        texts["--report"] = branch.report_html(title=f"Continuation in {parameter}: {rig_file}", rig_text=rig_text)
+    if "--plot" in outputs:
+        buffer = io.BytesIO()
+        branch.plot()[0].figure.savefig(buffer, format="png", dpi=110, bbox_inches="tight")
+        texts["--plot"] = buffer.getvalue()
     outputs.write(texts)
