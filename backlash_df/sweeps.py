@@ -236,7 +236,7 @@ class DesignMap:
                          "harmonic of theta_d) of the stable cycle.</p></div>")]
         if rig_text:
             sections.append(("Rig", f"<pre>{rig_text}</pre>"))
-        sections += [("Map", figure_html(plotted["figure"], f"{self.x_name} x {self.y_name}")),
+        sections += [("Map", figure_html(plotted[0, 0].figure, f"{self.x_name} x {self.y_name}")),
                      ("DF verdicts (cells) and agreement with simulation",
                       table_html(["model", *VERDICTS, "agreement"], rows))]
         return html_page(title, sections)
@@ -263,8 +263,9 @@ def design_map_plot(dmap, axes=None, levels=6):
 
     Returns
     -------
-    dict
-        ``{"axes": ndarray of Axes, "figure": Figure, "contours": list}``.
+    ndarray of Axes
+        Shape (n_models, columns), as every ``.plot()`` of the package returns
+        its axes; ``axes[0, 0].figure`` is the figure.
     """
     import matplotlib.pyplot as plt
     from matplotlib.colors import BoundaryNorm, ListedColormap
@@ -273,10 +274,9 @@ def design_map_plot(dmap, axes=None, levels=6):
     columns = 2 if dmap.sim_verdict else 1
     if axes is None:
         _, axes = plt.subplots(len(dmap.models), columns, figsize=(4.6 * columns, 3.8 * len(dmap.models)),
-                               squeeze=False, sharex=True, sharey=True)
+                               squeeze=False, sharex=True, sharey=True, layout="constrained")
     axes = np.asarray(axes).reshape(len(dmap.models), columns)
     cmap, norm = ListedColormap(_COLOURS), BoundaryNorm(np.arange(len(VERDICTS) + 1) - 0.5, len(VERDICTS))
-    contours = []
     for row, name in enumerate(dmap.models):
         panels = [("DF", dmap.df_verdict, dmap.df_amplitude), ("simulation", dmap.sim_verdict, dmap.sim_amplitude)]
         for ax, (kind, verdicts, amplitudes) in zip(axes[row], panels[:columns]):
@@ -286,7 +286,6 @@ def design_map_plot(dmap, axes=None, levels=6):
             if amplitude.count() > 3 and np.ptp(amplitude.compressed()) > 0:
                 drawn = ax.contour(dmap.x, dmap.y, amplitude, levels=levels, colors="k", linewidths=0.8)
                 ax.clabel(drawn, fontsize=7, fmt="%.3g")
-                contours.append(drawn)
             ax.set_xscale(_scale(dmap.x))
             ax.set_yscale(_scale(dmap.y))
             ax.set_title(f"{name}: {kind}", fontsize="medium")
@@ -295,7 +294,7 @@ def design_map_plot(dmap, axes=None, levels=6):
         ax.set_xlabel(dmap.x_name)
     handles = [Patch(color=c, label=v) for c, v in zip(_COLOURS, VERDICTS)]
     axes[0, -1].legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
-    return {"axes": axes, "figure": axes[0, 0].figure, "contours": contours}
+    return axes
 
 
 # --------------------------------------------------------------------------- cells

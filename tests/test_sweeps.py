@@ -80,10 +80,10 @@ def test_json_and_plot(serial_map):
     assert data["x"] == {"parameter": "kp", "values": KP}
     assert data["models"][0]["df"]["verdict"][1][1] == "limit cycle"
     drawn = serial_map.plot()
-    assert drawn["axes"].shape == (1, 2)
+    assert drawn.shape == (1, 2)
     import matplotlib.pyplot as plt
 
-    plt.close(drawn["figure"])
+    plt.close(drawn[0, 0].figure)
 
 
 def test_rig_with_names_the_bad_parameter():
