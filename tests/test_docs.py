@@ -257,6 +257,8 @@ def test_result_objects_plot_and_return_their_axes():
         "TableOne": TableOne((comparison,)),
         "Measurements": bd.load_measurements(ROOT / "examples" / "diagnose_rubber.csv"),
     }
+    short = repr(results["SimulationResult"])  # no arrays dumped
+    assert "\n" not in short and len(short) < 200 and "phase-plane" in short
     try:
         for name, result in results.items():
             assert _all_axes(result.plot()), name
