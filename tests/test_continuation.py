@@ -1,0 +1,96 @@
+"""Continuation: every point an orbit, the branch against simulation, folds and births where they are."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import backlash_df as bd
+from backlash_df.continuation import continue_limit_cycles
+from backlash_df.loops import drive_loop
+from backlash_df.orbits import orbit_residual
+from backlash_df.sweeps import rig_with
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+RIG = bd.load_rig(EXAMPLES / "load_feedback.toml")
+
+
+def _simulated(rig, orbit, t_end=10.0):
+    """The simulated cycle started on the orbit's amplitude (dt fine enough for 1e-4)."""
+    measured, _ = bd.simulated_limit_cycle(rig, "phase-plane", t_end=t_end, max_t_end=4 * t_end, dt=2e-5,
+                                           initial={"theta_d": orbit.bias}, kick=orbit.amplitude * orbit.omega)
+    return measured
+
+
+@pytest.fixture(scope="module")
+def short_branch():
+    return continue_limit_cycles(RIG, "kp", (25.0, 35.0), "phase-plane", df_values=3)
+
+
+def test_every_point_is_an_orbit_to_the_shooting_tolerance(short_branch):
+    assert len(short_branch.points) >= 4
+    assert short_branch.values[0] == 25.0 and short_branch.values[-1] == 35.0
+    for point in short_branch.points:
+        unknowns = np.append(point.orbit.state, point.orbit.period)
+        residual, _ = orbit_residual(rig_with(RIG, "kp", point.parameter), "phase-plane", unknowns)
+        assert point.orbit.residual < 1e-10
+        assert np.abs(residual[:-1]).max() < 1e-9 * max(np.abs(unknowns[:-1]).max(), 1.0)
+        assert abs(residual[-1]) < 1e-9 * np.abs(point.orbit.dtheta_d).max()
+        assert point.orbit.stable and abs(point.orbit.multipliers[0] - 1) < 1e-8
+    assert np.all(np.diff(short_branch.amplitude) > 0)  # the cycle grows with the gain
+    assert short_branch.special == ()
+
+
+def test_branch_agrees_with_simulation_at_one_gain(short_branch):
+    orbit = short_branch.orbit_at(30.0)
+    measured = _simulated(rig_with(RIG, "kp", 30.0), orbit)
+    assert measured.found
+    assert orbit.amplitude == pytest.approx(measured.amplitude, rel=1e-4)
+    assert orbit.omega == pytest.approx(measured.omega, rel=1e-4)
+
+
+def test_json_and_plot(short_branch):
+    data = json.loads(json.dumps(short_branch.to_dict()))
+    assert data["parameter"] == "kp" and len(data["points"]) == len(short_branch.points)
+    assert data["df"][0]["cycles"][0]["stable"] is True
+    axes = short_branch.plot()
+    assert axes[1].get_xlabel() == "kp"
+    import matplotlib.pyplot as plt
+
+    plt.close(axes[0].figure)
+
+
+def test_bad_range_and_parameter():
+    with pytest.raises(ValueError, match="two different finite values"):
+        continue_limit_cycles(RIG, "kp", (5.0, 5.0))
+    with pytest.raises(ValueError, match="parameter 'gain'"):
+        continue_limit_cycles(RIG, "gain", (5.0, 6.0))
+
+
+@pytest.mark.slow
+def test_gain_branch_against_simulation_and_the_contact_loop_limit():
+    branch = continue_limit_cycles(RIG, "kp", (5.0, 60.0), "phase-plane", df_values=5)
+    for kp in (8.0, 15.0, 25.0, 35.0, 45.0):
+        orbit = branch.orbit_at(kp)
+        measured = _simulated(rig_with(RIG, "kp", kp), orbit, t_end=20.0)
+        assert measured.found, kp
+        assert orbit.amplitude == pytest.approx(measured.amplitude, rel=1e-4), kp
+    (end,) = [s for s in branch.special if s.kind == "end"]
+    kp_limit = float(end.detail.rsplit("=", 1)[1])
+    poles = [drive_loop(rig_with(RIG, "kp", kp)).linear_poles(5895.0, 3.0).real.max() for kp in
+             (0.99 * kp_limit, 1.01 * kp_limit)]
+    assert poles[0] < 0 < poles[1]
+    assert end.parameter < kp_limit
+
+
+@pytest.mark.slow
+def test_load_fold_is_where_simulation_loses_the_cycle():
+    branch = continue_limit_cycles(RIG, "load.torque", (0.0, 300.0), "phase-plane", df_values=4)
+    kinds = [s.kind for s in branch.special]
+    assert "fold" in kinds and "birth" in kinds
+    fold = next(s for s in branch.special if s.kind == "fold")
+    stable = branch.points[int(np.argmax(branch.values))].orbit
+    for torque, cycles in ((0.98 * fold.parameter, True), (1.02 * fold.parameter, False)):
+        rig = rig_with(RIG, "load.torque", torque)
+        assert _simulated(rig, stable, t_end=20.0).found is cycles, torque
