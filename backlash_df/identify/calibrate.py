@@ -358,7 +358,8 @@ class _Model:
         return np.ascontiguousarray(torque if delay <= 0.0 else np.interp(self.t_rel - delay, self.t_rel, torque))
 
     def run(self, values, starts, stops):
-        """Simulate segments from the data's states; (states, torque) over ``starts[0]:stops[-1]``."""
+        """Simulate segments from the data's states; (states, torque) on the whole record's grid
+        (rows outside the segments are zero)."""
         p = np.array([float(values[name]) for name in MODEL_PARAMETERS] + [self.measurements.dt])
         p[5] = min(p[5], 2.0 * p[4])
         z0 = np.column_stack([values["theta_d0"] + self.twist[starts], self.speeds[starts, 0], self.speeds[starts, -1]])
@@ -372,7 +373,7 @@ class _Model:
                   self.motor_torque(values.get("actuator_delay", 0.0)), self.load_torque,
                   starts.astype(np.int64), stops.astype(np.int64), np.ascontiguousarray(z0),
                   _SUBSTEPS, states, torque)
-        return states[starts[0]:stops[-1]], torque[starts[0]:stops[-1]]
+        return states, torque
 
     def speeds_of(self, states):
         """Columns of ``states`` matching the measured speeds."""
@@ -383,8 +384,8 @@ def _horizon_samples(measurements, horizon):
     return None if horizon is None else max(int(round(horizon / measurements.dt)), 5)
 
 
-def predict(measurements, rig, values=None, window=None, horizon=DEFAULT_HORIZON):
-    """Speeds predicted by the model from the data: k-step (segments) or free run.
+def predict(measurements, rig, values=None, window=None, horizon=DEFAULT_HORIZON, block=None):
+    """Speeds predicted by the model from the data: k-step or free run.
 
     Parameters
     ----------
@@ -397,8 +398,14 @@ def predict(measurements, rig, values=None, window=None, horizon=DEFAULT_HORIZON
     window : tuple of int, optional
         Samples ``(start, stop)`` (default: all).
     horizon : float or None
-        Segment length, s (each segment starts from the data's state,
-        :func:`data_states`); None for one free run over the window.
+        Prediction horizon, s: segments of this length, each started from the
+        data's state (:func:`data_states`); None for one free run over the window.
+    block : float, optional
+        With a ``block`` shorter than ``horizon`` (s), the window is cut into
+        blocks of that length and each block is predicted by a segment started
+        ``horizon`` before the block's end (earlier than the window if need be):
+        every sample is predicted between ``horizon - block`` and ``horizon``
+        ahead, as MATLAB's ``predict`` with k steps.
 
     Returns
     -------
@@ -407,10 +414,22 @@ def predict(measurements, rig, values=None, window=None, horizon=DEFAULT_HORIZON
     values = nominal_values(rig) | dict(values or {})
     start, stop = window if window is not None else (0, measurements.n_samples)
     k = _horizon_samples(measurements, horizon)
-    starts, stops = segment_bounds(start, stop, k)
     model = _Model(measurements, rig)
-    states, torque = model.run(values, starts, stops)
-    mode = "free run" if starts.size == 1 else f"k-step (k = {k} samples, {k * measurements.dt:.3g} s)"
+    kb = k if block is None or k is None else min(_horizon_samples(measurements, block), k)
+    block_starts, block_stops = segment_bounds(start, stop, kb)
+    lead = 0 if k is None else k - kb
+    states = np.empty((stop - start, 3))
+    torque = np.empty(stop - start)
+    lanes = 1 if lead == 0 else -(-k // kb)
+    for lane in range(lanes):  # segments of one lane do not overlap
+        chosen = np.arange(lane, block_starts.size, lanes)
+        lane_states, lane_torque = model.run(values, np.maximum(block_starts[chosen] - lead, 0), block_stops[chosen])
+        for first, last in zip(block_starts[chosen], block_stops[chosen]):
+            states[first - start:last - start] = lane_states[first:last]
+            torque[first - start:last - start] = lane_torque[first:last]
+    mode = "free run" if k is None or (lead == 0 and block_starts.size == 1) else (
+        f"k-step (k = {k} samples, {k * measurements.dt:.3g} s)" if lead == 0 else
+        f"{k - kb}..{k}-step ahead ({(k - kb) * measurements.dt:.3g}..{k * measurements.dt:.3g} s)")
     return Replay(time=measurements.time[start:stop], simulated=model.speeds_of(states),
                   measured=measurements.speeds[start:stop], names=measurements.speed_names,
                   theta_d=states[:, 0], torque=torque, mode=mode)
@@ -574,7 +593,7 @@ def _theta_d0_by_grid(model, values, starts, stops, measured, weights):
 
     def cost(theta_d0):
         states, _ = model.run(values | {"theta_d0": theta_d0}, starts, stops)
-        return float(np.sum(((measured - model.speeds_of(states)) * weights) ** 2))
+        return float(np.sum(((measured - model.speeds_of(states[starts[0]:stops[-1]])) * weights) ** 2))
 
     centre, reach = theta_d0_range(model.measurements, model.rig)
     grid = centre + np.linspace(-reach, reach, _THETA_GRID_POINTS)
@@ -582,7 +601,7 @@ def _theta_d0_by_grid(model, values, starts, stops, measured, weights):
 
 
 def calibrate(measurements, rig, effects=(), window=None, start_values=None, horizon=DEFAULT_HORIZON, workers=1,
-              max_nfev=None, polish=True):
+              max_nfev=None, polish=True, fixed=()):
     """Fit plant values, the twist offset and the effects' parameters to a record.
 
     Parameters
@@ -613,6 +632,9 @@ def calibrate(measurements, rig, effects=(), window=None, start_values=None, hor
         The initial state of a short segment is only as good as the noisy data
         at its start, which biases slow effects (friction) a little; a free
         run has no such error, and shows a slow effect at full size.
+    fixed : sequence of str
+        Names of values kept at their start (for example
+        :data:`PLANT_PARAMETERS`, to screen a candidate effect quickly).
 
     Returns
     -------
@@ -633,7 +655,7 @@ def calibrate(measurements, rig, effects=(), window=None, start_values=None, hor
         measured = measurements.speeds[start:stop]
         weights = 1.0 / np.maximum(measured.std(axis=0), 1e-12)
         values0["theta_d0"] = _theta_d0_by_grid(model, values0, starts, stops, measured, weights)
-    result = _fit(model, effects, (start, stop), values0, horizon, workers, max_nfev)
+    result = _fit(model, effects, (start, stop), values0, horizon, workers, max_nfev, fixed)
     if not (polish and horizon is not None):
         return result
     free = predict(measurements, rig, result.values, window=(start, stop), horizon=None).fit_percent()
@@ -642,12 +664,12 @@ def calibrate(measurements, rig, effects=(), window=None, start_values=None, hor
     values = result.values
     for fraction in (0.5, 1.0):
         last = start + max(int(round(fraction * (stop - start))), 10)
-        result = _fit(model, effects, (start, last), values, None, workers, max_nfev)
+        result = _fit(model, effects, (start, last), values, None, workers, max_nfev, fixed)
         values = result.values
     return result
 
 
-def _fit(model, effects, window, values0, horizon, workers, max_nfev):
+def _fit(model, effects, window, values0, horizon, workers, max_nfev, fixed=()):
     """One bounded least-squares fit of the prediction error over ``window``; a :class:`Calibration`."""
     from scipy.optimize import least_squares  # lazy: keeps `import backlash_df` quick
 
@@ -657,7 +679,8 @@ def _fit(model, effects, window, values0, horizon, workers, max_nfev):
     starts, stops = segment_bounds(start, stop, k)
     measured = measurements.speeds[start:stop]
     weights = 1.0 / np.maximum(measured.std(axis=0), 1e-12)
-    rows = _free_parameters(measurements, model.rig, effects, values0, window, horizon is None)
+    rows = [row for row in _free_parameters(measurements, model.rig, effects, values0, window, horizon is None)
+            if row[0] not in fixed]
     names = [row[0] for row in rows]
     scales = np.array([row[4] for row in rows])
     lower = np.array([row[2] for row in rows]) / scales
@@ -670,7 +693,7 @@ def _fit(model, effects, window, values0, horizon, workers, max_nfev):
 
     def residual(x):
         states, _ = model.run(values_of(x), starts, stops)
-        return ((measured - model.speeds_of(states)) * weights).ravel(order="F")
+        return ((measured - model.speeds_of(states[start:stop])) * weights).ravel(order="F")
 
     solution = least_squares(residual, x0, jac=_parallel_jacobian(residual, lower, upper, workers),
                              bounds=(lower, upper), method="trf", max_nfev=max_nfev)

@@ -104,6 +104,11 @@ class Effect:
             return -0.5 * torque_scale, 0.5 * torque_scale
         return 0.0, min(0.05, 0.1 * measurements.duration)  # actuator_delay
 
+    def start(self, rig):
+        """Starting value of a fit: the null value, except rubber (half the half gap), whose
+        prediction error is flat at beta = 0 (the rubber law (40) tends to (23) to second order)."""
+        return 0.5 * rig.plant.half_gap if self.name == "rubber" else self.null
+
     def scale(self, rig, measurements):
         """Typical size of the parameter, used to scale the fit."""
         low, high = self.bounds(rig, measurements)
