@@ -127,7 +127,11 @@ def predict(rig_file, models, json_out, report_out, exact):
     total = sum(max(1, len(p.stable_cycles)) for p in predictions)
     with tqdm(total=total + len(predictions), desc="simulating", unit="run", file=sys.stderr, leave=False) as bar:
         predictions = [verify_limit_cycles(rig, p, progress=bar.update) for p in predictions]
-        predictions = [judge(rig, p, exact=exact) for p in predictions if not bar.update()]
+        judged = []
+        for prediction in predictions:  # (tqdm's update() returns True when it redraws: not a filter)
+            judged.append(judge(rig, prediction, exact=exact))
+            bar.update()
+        predictions = judged
     for header, rows in (prediction_rows(predictions), verdict_rows(predictions)) + (
             (orbit_rows(predictions),) if exact else ()):
         _echo_table(header, rows)
@@ -214,8 +218,8 @@ def diagnose(data, rig_file, json_out, report_out):
     click.echo(result.sentence)
     for model in (result.baseline, result.extended):
         label = " + ".join(model.effects) or "none (baseline)"
-        fits = ", ".join(f"{name} {model.fit_percent[name]:.1f} % k-step / {model.free_run_fit_percent[name]:.1f} % "
-                         f"free run" for name in model.fit_percent)
+        fits = ", ".join(f"{name} {model.fit_percent[name]:.1f} % k-step / {model.ahead_fit_percent[name]:.1f} % ahead "
+                         f"/ {model.free_run_fit_percent[name]:.1f} % free run" for name in model.fit_percent)
         click.echo(f"  validation fit of {label}: {fits}")
     for warning in result.warnings:
         click.echo(f"warning: {warning}")

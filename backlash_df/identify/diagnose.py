@@ -6,10 +6,11 @@ used by any fit.  Every fit is a k-step prediction-error fit
 (:func:`~.calibrate.calibrate`: segments of ``horizon`` seconds, each started
 from the data's state), which does not drift on closed-loop data.  Every score
 is a prediction error on the validation part, scaled per speed by its standard
-deviation: the part is cut into blocks of ``horizon`` seconds and each block is
-predicted from the data's state :data:`VALIDATION_HORIZON` (0.4 s) before its
-end, so that slow effects (friction) show at their size while no prediction
-runs long enough to drift.
+deviation, in two modes: the k-step prediction (segments of ``horizon``), where
+fast effects (delay, rubber) show, and the *ahead* prediction, where each block
+of ``horizon`` seconds is predicted from the data's state
+:data:`VALIDATION_HORIZON` (0.4 s) before its end, where slow effects
+(friction) show at their size while no prediction runs long enough to drift.
 
 **Forward selection** over the catalogue (:mod:`.effects`): starting from the
 nominal structure, every remaining candidate is fitted on top of the current set
@@ -21,7 +22,7 @@ member and drops a member that no longer passes the rule against the rest.
 Significance rule (stated, fixed), for adding an effect to a set:
 
 1. *gain*: the validation RSS falls by at least :data:`MIN_GAIN` (5 %) of the
-   current set's;
+   current set's, in the mode (k-step or ahead) where it falls more;
 2. *evidence with correlated residuals*: over the validation blocks (the k-step
    blocks, whose residuals are correlated inside and nearly independent
    between), the per-block log RSS ratio ``ln(RSS_current / RSS_new)`` has a t
@@ -78,12 +79,14 @@ class CandidateResult:
         k-step prediction over the validation part.
     fit_percent : dict
         Validation fit per speed, k-step prediction (MATLAB ``compare``).
+    ahead_fit_percent : dict
+        Validation fit per speed, each block predicted :data:`VALIDATION_HORIZON` ahead.
     free_run_fit_percent : dict
         Validation fit per speed, free run from the data's state at the part's start.
-    rss : float
-        Validation RSS of the k-step prediction, each speed scaled by its std.
-    block_rss : ndarray
-        The same per validation block (k-step segment).
+    rss : tuple of float
+        Validation RSS of the k-step and the ahead prediction, each speed scaled by its std.
+    block_rss : tuple of ndarray
+        The same per validation block.
     added : str or None
         The key this step added (None for the baseline).
     gain : float
@@ -98,9 +101,10 @@ class CandidateResult:
     calibration: object
     prediction: object
     fit_percent: dict
+    ahead_fit_percent: dict
     free_run_fit_percent: dict
-    rss: float
-    block_rss: np.ndarray
+    rss: tuple
+    block_rss: tuple
     added: str | None = None
     gain: float = 0.0
     t_statistic: float = 0.0
@@ -123,7 +127,7 @@ class CandidateResult:
         return {
             "effects": list(self.effects), "added": self.added,
             "fit_percent": self.mean_fit_percent, "fit_percent_per_signal": self.fit_percent,
-            "free_run_fit_percent": self.free_run_fit_percent,
+            "ahead_fit_percent": self.ahead_fit_percent, "free_run_fit_percent": self.free_run_fit_percent,
             "gain": self.gain, "t_statistic": self.t_statistic,
             "parameter": _parameter_dict(parameter) if parameter else None,
             "accepted": self.accepted, "reason": self.reason,
@@ -274,12 +278,14 @@ class Diagnosis:
                      f"autocorrelation and cross-correlation with the motor torque (99 % band grey)."))
         search = [[" + ".join(c.effects) or "none", f"{c.mean_fit_percent:.2f}",
                    " / ".join(f"{v:.2f}" for v in c.fit_percent.values()),
+                   " / ".join(f"{v:.2f}" for v in c.ahead_fit_percent.values()),
                    " / ".join(f"{v:.2f}" for v in c.free_run_fit_percent.values()),
                    f"{100 * c.gain:.1f}", f"{c.t_statistic:.1f}", _format_parameter(c.parameter),
                    "yes" if c.accepted else "no", c.reason] for c in self.candidates]
         search_table = table_html(
-            ["model", "k-step fit % (mean)", "k-step fit % per speed", "free-run fit % per speed", "gain %", "t",
-             "added parameter (95 % CI)", "accepted", "why"], search, text_columns=(0, 6, 7, 8))
+            ["model", "k-step fit % (mean)", "k-step fit % per speed", f"{VALIDATION_HORIZON:g} s ahead fit % per speed",
+             "free-run fit % per speed", "gain %", "t", "added parameter (95 % CI)", "accepted", "why"], search,
+            text_columns=(0, 7, 8, 9))
         parameter_rows = [[name, f"{p.nominal:.5g}", f"{p.value:.5g}", f"{p.stderr:.3g}",
                            f"{p.ci95[0]:.5g} .. {p.ci95[1]:.5g}", f"{p.lower:.4g} .. {p.upper:.4g}", p.unit]
                           for name, p in self.extended.calibration.parameters.items()]
@@ -303,8 +309,9 @@ class Diagnosis:
             or "none"
 
 
-RULE = (f"an effect is added (forward selection, then a backward check) if the validation k-step RSS falls by at "
-        f"least {100 * MIN_GAIN:g} %, the per-block log RSS ratio has t >= {MIN_T:g} over the validation blocks, and "
+RULE = (f"an effect is added (forward selection, then a backward check) if the validation RSS falls by at "
+        f"least {100 * MIN_GAIN:g} % and the per-block log RSS ratio has t >= {MIN_T:g} over the validation blocks "
+        f"(k-step or {VALIDATION_HORIZON:g} s ahead, whichever gains more), and "
         f"its 95 % CI (cluster-robust over segments) excludes the null value (a delay at least one sample); "
         f"no cause is named when the baseline's validation fit is below {BASELINE_MIN_FIT:g} % on a speed")
 
@@ -368,34 +375,48 @@ class _Search:
     def score(self, effects, calibration, **fields):
         n = self.measurements.n_samples
         window = (self.validation.start, n)
-        prediction = predict(self.measurements, self.rig, calibration.values, window=window,
-                             horizon=VALIDATION_HORIZON, block=self.horizon)
+        short = predict(self.measurements, self.rig, calibration.values, window=window, horizon=self.horizon)
+        ahead = predict(self.measurements, self.rig, calibration.values, window=window, horizon=VALIDATION_HORIZON,
+                        block=self.horizon)
         free = predict(self.measurements, self.rig, calibration.values, window=window, horizon=None)
-        scaled = ((prediction.residual * self.weights) ** 2).sum(axis=1)
-        starts, _ = segment_bounds(0, scaled.size, calibration.horizon or scaled.size)
-        return CandidateResult(effects=tuple(effects), calibration=calibration, prediction=prediction,
-                               fit_percent=prediction.fit_percent(), free_run_fit_percent=free.fit_percent(),
-                               rss=float(scaled.sum()), block_rss=np.add.reduceat(scaled, starts), **fields)
+        rss, blocks = [], []
+        for prediction in (short, ahead):
+            scaled = ((prediction.residual * self.weights) ** 2).sum(axis=1)
+            starts, _ = segment_bounds(0, scaled.size, calibration.horizon or scaled.size)
+            rss.append(float(scaled.sum()))
+            blocks.append(np.add.reduceat(scaled, starts))
+        return CandidateResult(effects=tuple(effects), calibration=calibration, prediction=short,
+                               fit_percent=short.fit_percent(), ahead_fit_percent=ahead.fit_percent(),
+                               free_run_fit_percent=free.fit_percent(), rss=tuple(rss), block_rss=tuple(blocks),
+                               **fields)
 
     def judge(self, candidate, current, added):
-        """Apply the significance rule to ``candidate`` = ``current`` + ``added``."""
+        """Apply the significance rule to ``candidate`` = ``current`` + ``added``.
+
+        Gain and t are taken at the horizon (k-step or ahead) where the gain is larger.
+        """
         parameter = candidate.calibration.effect_parameter(added)
-        gain = 1.0 - candidate.rss / current.rss if current.rss > 0 else 0.0
-        decrease = np.log(current.block_rss / candidate.block_rss)
-        spread = float(np.std(decrease, ddof=1)) if decrease.size > 1 else math.inf
-        t_stat = float(np.mean(decrease) / (spread / math.sqrt(decrease.size))) if spread > 0 else 0.0
+        tests = []
+        for label, new, old, new_blocks, old_blocks in zip(("k-step", "ahead"), candidate.rss, current.rss,
+                                                           candidate.block_rss, current.block_rss):
+            gain = 1.0 - new / old if old > 0 else 0.0
+            ratio = np.log(old_blocks / new_blocks)
+            spread = float(np.std(ratio, ddof=1)) if ratio.size > 1 else 0.0
+            t_stat = float(np.mean(ratio) / (spread / math.sqrt(ratio.size))) if spread > 0 else 0.0
+            tests.append((gain, t_stat, label))
+        gain, t_stat, label = max(tests)
         low, high = parameter.ci95
         effect = get_effect(added)
         failures = []
         if not gain >= MIN_GAIN:
-            failures.append(f"gain {100 * gain:.1f} % below {100 * MIN_GAIN:g} %")
+            failures.append(f"gain {100 * gain:.1f} % ({label}) below {100 * MIN_GAIN:g} %")
         if not t_stat >= MIN_T:
-            failures.append(f"t {t_stat:.1f} below {MIN_T:g}")
+            failures.append(f"t {t_stat:.1f} ({label}) below {MIN_T:g}")
         if not (low > effect.null or high < effect.null):
             failures.append("95 % CI includes 0")
         if effect.name == "actuator_delay" and parameter.value < self.measurements.dt:
             failures.append(_NULL["actuator_delay"])
-        reason = "; ".join(failures) if failures else f"gain {100 * gain:.1f} %, t {t_stat:.1f}, CI excludes 0"
+        reason = "; ".join(failures) if failures else f"gain {100 * gain:.1f} % ({label}), t {t_stat:.1f}, CI excludes 0"
         return dataclasses.replace(candidate, added=added, gain=gain, t_statistic=t_stat, accepted=not failures,
                                    reason=reason)
 
