@@ -1,6 +1,7 @@
 """``backlash-df predict``: bad input is one line naming key and file, exit code 2; verdicts in every output."""
 
 import json
+import math
 
 import pytest
 from click.testing import CliRunner
@@ -77,3 +78,21 @@ def test_unstable_loop_gets_its_verdict_everywhere(tmp_path):
     assert f"unstable (rightmost pole {pole[0]:.4g} +- {abs(pole[1]):.4g}j 1/s)" in verdict_lines[0]
     page = report_path.read_text()
     assert "Verdict and linear stability" in page and "verdict: unstable" in page
+
+
+def test_exact_adds_the_orbits_next_to_the_df(tmp_path):
+    # examples/load_feedback.toml: one stable cycle; the exact orbit must sit on the simulated one
+    json_path = tmp_path / "out.json"
+    path, result = run(tmp_path, GOOD.replace("ti = 0.5", "ti = 0.5\nspeed_filter = 0.002"), "--exact",
+                       "--json", str(json_path))
+    assert result.exit_code == 0, result.output
+    entry = json.loads(json_path.read_text())["models"][0]
+    assert entry["verdict"] == "limit cycle" and entry["df_agrees"] is True
+    (orbit,) = entry["exact_orbits"]
+    simulated = entry["simulated_cycle"]
+    assert orbit["stable"] and abs(orbit["multipliers"][0][0] - 1.0) < 1e-6  # the trivial multiplier
+    assert abs(orbit["amplitude"] / simulated["amplitude"] - 1.0) < 1e-3
+    assert abs(orbit["omega"] / simulated["omega"] - 1.0) < 1e-3
+    assert abs(orbit["period"] * orbit["omega"] - 2.0 * math.pi) < 1e-9
+    header = [line for line in result.output.splitlines() if line.startswith("model") and "A exact (rad)" in line]
+    assert len(header) == 1
