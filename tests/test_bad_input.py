@@ -395,10 +395,13 @@ def test_an_existing_file_keeps_its_mode(work):
 
 def test_accepted_predict_run_writes_both_outputs_and_the_report_reads_as_text(work):
     """Exit 0, JSON and HTML written; the report shows no Python repr such as ``MeasuredCycle(amplitude=...)``."""
-    result = CliRunner().invoke(main, ["predict", "rig.toml", "--json", "out.json", "--report", "out.html"])
+    result = CliRunner().invoke(main, ["predict", "rig.toml", "--model", "phase-plane", "--model", "damped-dead-zone",
+                                       "--json", "out.json", "--report", "out.html"])
     assert result.exit_code == 0, result.output
-    assert json.loads((work / "out.json").read_text())["limit_cycles"][0]["model"] == "phase-plane"
+    payload = json.loads((work / "out.json").read_text())
+    assert [entry["model"] for entry in payload["models"]] == ["phase-plane", "damped-dead-zone"]  # none dropped
     report = (work / "out.html").read_text()
+    assert "<b>damped-dead-zone</b>" in report
     assert "limit cycle: A = " in report
     assert not re.search(r"\b[A-Z][A-Za-z]+\([a-z_]+=", report), re.search(r"\b[A-Z][A-Za-z]+\([a-z_]+=.{0,40}", report)
 
