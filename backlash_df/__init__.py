@@ -16,6 +16,8 @@ from .limit_cycles import LimitCyclePrediction, limit_cycle_plot, predict_limit_
 # (DESIGN.md); the module keeps its name: ``from backlash_df.simulate import ...``.
 from .simulate import MeasuredCycle, measure_limit_cycle, simulated_limit_cycle
 from .simulate import simulate_rig as simulate
+from .sweeps import DesignMap, design_map
+from .continuation import Branch, continue_limit_cycles
 from .reproduce import TableOne, TorqueComparison, compare_torques, integrated_torque, table1
 from .identify import Diagnosis, Measurements, diagnose, load_measurements
 
@@ -48,6 +50,10 @@ __all__ = [
     "simulated_limit_cycle",
     "measure_limit_cycle",
     "MeasuredCycle",
+    "design_map",
+    "DesignMap",
+    "continue_limit_cycles",
+    "Branch",
     "compare_torques",
     "integrated_torque",
     "table1",
