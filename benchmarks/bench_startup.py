@@ -1,0 +1,98 @@
+"""Start-up: import time, first and warm ``predict``, BLAS threads (issues 12, 13).
+
+Each figure is a wall time of a fresh interpreter (a subprocess), best of N:
+
+1. ``import backlash_df``, against ``import numpy`` (the floor every user pays) and
+   with ``python -X importtime``'s own total; target < 1 s.
+2. ``backlash-df predict examples/load_feedback.toml`` with a cold numba cache
+   (``NUMBA_CACHE_DIR`` pointed at a fresh temporary directory: every kernel compiled,
+   as on a fresh install; one run) and warm (same directory again); targets < 15 s and
+   < 3 s.
+3. OpenBLAS threads: the same warm ``predict``, and 20 s of the loop's simulation
+   timed inside the subprocess, with ``OPENBLAS_NUM_THREADS`` 1 against 2.
+
+Run: python benchmarks/bench_startup.py  (about two minutes, most of it the cold compile)
+"""
+
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+RIG = "examples/load_feedback.toml"
+CLI = str(Path(sys.executable).parent / "backlash-df")
+SIMULATE = f"""
+import time
+import backlash_df as bd
+rig = bd.load_rig({RIG!r})
+bd.simulate(rig, t_end=0.1, kick=15.0)
+best = float("inf")
+for _ in range(5):
+    start = time.perf_counter()
+    bd.simulate(rig, t_end=20.0, kick=15.0)
+    best = min(best, time.perf_counter() - start)
+print(best)
+"""
+
+
+def wall(command, env=None, repeat=1):
+    """Best wall time (s) of ``command`` in a subprocess run from the repository root, and its stdout."""
+    best, out = float("inf"), ""
+    for _ in range(repeat):
+        start = time.perf_counter()
+        done = subprocess.run(command, cwd=ROOT, env={**os.environ, **(env or {})}, capture_output=True, text=True)
+        best = min(best, time.perf_counter() - start)
+        if done.returncode != 0:
+            raise SystemExit(f"{' '.join(command)} failed (exit {done.returncode}): {done.stderr.strip()[-300:]}")
+        out = done.stdout
+    return best, out
+
+
+def importtime_total():
+    """Cumulative import time of backlash_df (s) as ``python -X importtime`` reports it, best of 5."""
+    best = float("inf")
+    for _ in range(5):
+        done = subprocess.run([sys.executable, "-X", "importtime", "-c", "import backlash_df"], cwd=ROOT,
+                              capture_output=True, text=True, check=True)
+        last = [line for line in done.stderr.splitlines() if line.rstrip().endswith("| backlash_df")][-1]
+        best = min(best, int(last.split("|")[1]) * 1e-6)
+    return best
+
+
+def verdict(seconds, target):
+    return f"target < {target:g} s: {'met' if seconds < target else 'MISSED'}"
+
+
+def main():
+    python = [sys.executable, "-c"]
+    floor, _ = wall(python + ["import numpy"], repeat=5)
+    ours, _ = wall(python + ["import backlash_df"], repeat=5)
+    print("1. import (fresh interpreter, best of 5)")
+    print(f"   python -c 'import numpy'         {floor:6.2f} s")
+    print(f"   python -c 'import backlash_df'   {ours:6.2f} s   {verdict(ours, 1.0)}")
+    print(f"   -X importtime total of backlash_df {importtime_total():6.2f} s")
+    predict = [CLI, "predict", RIG]
+    with tempfile.TemporaryDirectory(prefix="numba-cache-") as cache:
+        env = {"NUMBA_CACHE_DIR": cache}
+        cold, _ = wall(predict, env)
+        warm, _ = wall(predict, env, repeat=3)
+        print(f"2. backlash-df predict {RIG}")
+        print(f"   first run, cold numba cache (1 run)  {cold:6.1f} s   {verdict(cold, 15.0)}")
+        print(f"   warm (best of 3)                     {warm:6.1f} s   {verdict(warm, 3.0)}")
+        print("3. OpenBLAS threads (warm cache; 2 cores)")
+        print(f"   {'':34s}{'1 thread':>10s}{'2 threads':>11s}{'2 / 1':>8s}")
+        rows = {}
+        for threads in ("1", "2"):
+            env_t = {**env, "OPENBLAS_NUM_THREADS": threads}
+            rows.setdefault("predict, wall (best of 3)", []).append(wall(predict, env_t, repeat=3)[0])
+            rows.setdefault("simulate 20 s of the loop (best of 5)", []).append(
+                float(wall(python + [SIMULATE], env_t)[1].split()[-1]))
+        for label, (one, two) in rows.items():
+            print(f"   {label:34s}{one:9.3f}s{two:10.3f}s{two / one:8.2f}")
+
+
+if __name__ == "__main__":
+    main()
