@@ -60,7 +60,6 @@ import dataclasses
 import functools
 import math
 
-import control as ct
 import numpy as np
 from scipy import linalg, optimize
 
@@ -179,6 +178,8 @@ def _with_pade(part, order):
     """
     if order < 1:
         raise ValueError(f"pade_order must be an integer >= 1, got {order!r}")
+    import control as ct  # lazy: python-control takes a second to import
+
     pade = ct.ss(ct.tf(*ct.pade(1.0, order)))
     ap, bp, cp, dp = (np.asarray(m, dtype=float) for m in (pade.A, pade.B, pade.C, pade.D))
     ap, (scale, _) = linalg.matrix_balance(ap, permute=False, separate=True)
