@@ -57,6 +57,7 @@ __all__ = [
     "predict",
     "replay",
     "calibrate",
+    "refine",
     "fit_percent",
     "information_criterion",
     "smoothed_speeds",
@@ -656,15 +657,26 @@ def calibrate(measurements, rig, effects=(), window=None, start_values=None, hor
         weights = 1.0 / np.maximum(measured.std(axis=0), 1e-12)
         values0["theta_d0"] = _theta_d0_by_grid(model, values0, starts, stops, measured, weights)
     result = _fit(model, effects, (start, stop), values0, horizon, workers, max_nfev, fixed)
-    if not (polish and horizon is not None):
-        return result
-    free = predict(measurements, rig, result.values, window=(start, stop), horizon=None).fit_percent()
+    return refine(measurements, rig, result, workers, max_nfev, fixed) if polish and horizon is not None else result
+
+
+def refine(measurements, rig, calibration, workers=1, max_nfev=None, fixed=()):
+    """Refine a k-step calibration by a free run over its window, where the free run does not drift.
+
+    The free run starts from the data's speeds at the window's start, fitted
+    too; it is fitted over half the window, then over all of it, each from the
+    previous solution.  Returned unchanged when the free run of ``calibration``
+    fits less than :data:`FREE_RUN_MIN` % on a speed (closed-loop data drifts).
+    """
+    start, stop = calibration.window
+    free = predict(measurements, rig, calibration.values, window=(start, stop), horizon=None).fit_percent()
     if not min(free.values()) >= FREE_RUN_MIN:
-        return result
-    values = result.values
+        return calibration
+    model = _Model(measurements, rig)
+    result, values = calibration, calibration.values
     for fraction in (0.5, 1.0):
         last = start + max(int(round(fraction * (stop - start))), 10)
-        result = _fit(model, effects, (start, last), values, None, workers, max_nfev, fixed)
+        result = _fit(model, calibration.effects, (start, last), values, None, workers, max_nfev, fixed)
         values = result.values
     return result
 

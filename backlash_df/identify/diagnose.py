@@ -22,7 +22,7 @@ member and drops a member that no longer passes the rule against the rest.
 Significance rule (stated, fixed), for adding an effect to a set:
 
 1. *gain*: the validation RSS falls by at least :data:`MIN_GAIN` (5 %) of the
-   current set's, in the mode (k-step or ahead) where it falls more;
+   current set's, in the mode (k-step or ahead) that also passes rule 2;
 2. *evidence with correlated residuals*: over the validation blocks (the k-step
    blocks, whose residuals are correlated inside and nearly independent
    between), the per-block log RSS ratio ``ln(RSS_current / RSS_new)`` has a t
@@ -43,7 +43,7 @@ import math
 
 import numpy as np
 
-from .calibrate import (DEFAULT_HORIZON, PLANT_PARAMETERS, calibrate, data_states, predict, segment_bounds,
+from .calibrate import (DEFAULT_HORIZON, PLANT_PARAMETERS, calibrate, data_states, predict, refine, segment_bounds,
                         smoothed_speeds)
 from .effects import EFFECT_NAMES, get_effect
 from .residuals import residual_analysis
@@ -311,7 +311,7 @@ class Diagnosis:
 
 RULE = (f"an effect is added (forward selection, then a backward check) if the validation RSS falls by at "
         f"least {100 * MIN_GAIN:g} % and the per-block log RSS ratio has t >= {MIN_T:g} over the validation blocks "
-        f"(k-step or {VALIDATION_HORIZON:g} s ahead, whichever gains more), and "
+        f"(k-step or {VALIDATION_HORIZON:g} s ahead), and "
         f"its 95 % CI (cluster-robust over segments) excludes the null value (a delay at least one sample); "
         f"no cause is named when the baseline's validation fit is below {BASELINE_MIN_FIT:g} % on a speed")
 
@@ -393,7 +393,7 @@ class _Search:
     def judge(self, candidate, current, added):
         """Apply the significance rule to ``candidate`` = ``current`` + ``added``.
 
-        Gain and t are taken at the horizon (k-step or ahead) where the gain is larger.
+        Gain and t are taken in the mode (k-step or ahead) that passes, the larger gain if both do.
         """
         parameter = candidate.calibration.effect_parameter(added)
         tests = []
@@ -404,7 +404,8 @@ class _Search:
             spread = float(np.std(ratio, ddof=1)) if ratio.size > 1 else 0.0
             t_stat = float(np.mean(ratio) / (spread / math.sqrt(ratio.size))) if spread > 0 else 0.0
             tests.append((gain, t_stat, label))
-        gain, t_stat, label = max(tests)
+        passing = [test for test in tests if test[0] >= MIN_GAIN and test[1] >= MIN_T]
+        gain, t_stat, label = max(passing or tests)
         low, high = parameter.ci95
         effect = get_effect(added)
         failures = []
@@ -450,28 +451,32 @@ def _forward(search, baseline, keys, tried):
 
 
 def _backward(search, steps, tried):
-    """Drop members of the selected set that no longer pass the rule against the rest."""
-    if len(steps) < 2:
-        return steps
+    """Drop members of the selected set that no longer pass the rule against the rest.
+
+    Returns the final model (None without effects) and its ``(key, gain)`` in selection order.
+    """
+    if not steps:
+        return None, []
     final = steps[-1]
     kept = list(final.effects)
-    for key in final.effects:
-        rest = tuple(k for k in kept if k != key)
-        without = search.fit(rest, final.calibration.values | {get_effect(key).value_key: 0.0})
-        check = search.judge(final, without, key)
-        tried.append(dataclasses.replace(check, reason="backward check: " + check.reason))
-        if not check.accepted:
-            kept.remove(key)
-    if kept == list(final.effects):
-        return steps
-    refit = search.fit(tuple(kept), final.calibration.values)
-    return [dataclasses.replace(refit, added=kept[-1], accepted=True, reason="refit after the backward check")]
+    if len(steps) > 1:
+        for key in final.effects:
+            rest = tuple(k for k in kept if k != key)
+            without = search.fit(rest, final.calibration.values | {get_effect(key).value_key: 0.0})
+            check = search.judge(final, without, key)
+            tried.append(dataclasses.replace(check, reason="backward check: " + check.reason))
+            if not check.accepted:
+                kept.remove(key)
+    order = [(step.added, step.gain) for step in steps if step.added in kept]
+    if kept != list(final.effects):
+        final = search.fit(tuple(kept), final.calibration.values)
+    return final, order
 
 
 def _causes(extended, order):
     """The ``causes`` list: each effect of the set with its parameter, in the given order."""
     causes = []
-    for key, gain in order:
+    for key, gain in sorted(order, key=lambda item: -item[1]):
         effect = get_effect(key)
         parameter = extended.calibration.effect_parameter(key)
         low, high = parameter.ci95
@@ -479,6 +484,20 @@ def _causes(extended, order):
                        "parameters": {effect.parameter: {"value": parameter.value, "ci95": [low, high],
                                                          "unit": parameter.unit}}})
     return causes
+
+
+def _side_notes(keys, tried):
+    """A note for each named friction whose other side explained the data as well on its own (within 1 %)."""
+    alone = {trial.effects[0]: trial.gain for trial in tried if len(trial.effects) == 1 and trial.added}
+    notes = []
+    for key in keys:
+        effect = get_effect(key)
+        other = f"{effect.name}@{'motor' if effect.side == 'load' else 'load'}" if effect.side else None
+        if other in alone and key in alone and abs(alone[other] - alone[key]) < 0.01:
+            notes.append(f"the side of {effect.name} is not determined by the data: on its own it explains the "
+                         f"validation data as well on the {other.split('@')[1]} side (gain {100 * alone[other]:.1f} % "
+                         f"against {100 * alone[key]:.1f} %); the shaft is too stiff here to tell the sides apart")
+    return notes
 
 
 def _warnings(measurements, baseline, extended, keys):
@@ -574,23 +593,16 @@ def diagnose(measurements, rig, candidates=None, estimation_fraction=0.6, transi
     baseline = search.fit(())
     tried = [dataclasses.replace(baseline, reason="the nominal structure (reference)")]
     weak = not min(baseline.fit_percent.values()) >= BASELINE_MIN_FIT
-    steps = [] if weak else _backward(search, _forward(search, baseline, keys, tried), tried)
-    order = [(step.added, step.gain) for step in steps]
-    if steps and len(steps[-1].effects) > len(order):  # refit after the backward check
-        order = [(key, steps[-1].gain) for key in steps[-1].effects]
-    base_final = search.score((), calibrate(measurements, rig, (), window=(estimation.start, estimation.stop),
-                                            start_values=baseline.calibration.values, horizon=horizon,
-                                            workers=workers))
+    chosen, order = (None, []) if weak else _backward(search, _forward(search, baseline, keys, tried), tried)
+    base_final = search.score((), refine(measurements, rig, baseline.calibration, workers))
     search.progress("refine none")
     extended = base_final
-    if steps:
-        chosen = steps[-1]
-        extended = search.score(chosen.effects, calibrate(
-            measurements, rig, chosen.effects, window=(estimation.start, estimation.stop),
-            start_values=chosen.calibration.values, horizon=horizon, workers=workers))
+    if chosen is not None:
+        extended = search.score(chosen.effects, refine(measurements, rig, chosen.calibration, workers))
         search.progress("refine " + " + ".join(chosen.effects))
     causes = _causes(extended, order)
-    warnings = _warnings(measurements, base_final, extended, [key for key, _ in order])
+    warnings = _warnings(measurements, base_final, extended, [key for key, _ in order]) + _side_notes(
+        [key for key, _ in order], tried)
 
     def analysis(candidate):
         p = candidate.prediction
