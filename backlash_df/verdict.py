@@ -358,7 +358,8 @@ def _decide(prediction, contact, probes, orbits=()):
         p = by["unsettled"][0]
         return "undetermined", (f"the motion from a kick of {p.disturbance:.3g} rad did not settle "
                                 f"({p.measured.verdict})"), {}
-    if not contact.stable and not cycles:
+    runaway_in_contact = contact.status == "unstable"  # a marginal pole (a free integrator) is no runaway
+    if runaway_in_contact and not cycles:
         fields = {}
         if rests:
             amplitude, source = _separating(prediction, orbits, rests, diverged)
@@ -367,9 +368,9 @@ def _decide(prediction, contact, probes, orbits=()):
         return "unstable", (f"the loop in contact is {contact.describe()} and no stable cycle caps the growth"
                             + (f": kicks from {min(p.disturbance for p in diverged):.3g} rad diverged"
                                if diverged else "")), fields
-    if diverged and contact.stable:
-        return "undetermined", (f"the loop in contact is stable, yet the run from {diverged[0].disturbance:.3g} "
-                                "rad diverged"), {}
+    if diverged and not runaway_in_contact:
+        return "undetermined", (f"the loop in contact is {contact.status}, yet the run from "
+                                f"{diverged[0].disturbance:.3g} rad diverged"), {}
     if not cycles:
         if prediction.stable_cycles:
             return "undetermined", (f"{_df_words(prediction)}, but every simulated kick up to {largest:.3g} rad "
