@@ -633,6 +633,26 @@ def _as_model(model):
     raise ValueError(f"model must be a model from make_model(), got {model!r}")
 
 
+#: Largest |bias| / A: beyond it A sin(w t) drowns in the round-off of bias + A sin(w t)
+#: (relative error ~1e-16 |bias| / A in N).
+_MAX_BIAS_RATIO = 1e8
+
+
+def _check_scales(model, a, w, b):
+    """Refuse arguments whose harmonic balance floating point cannot carry (one-line ``ValueError``)."""
+    ratio = np.abs(b) / a
+    if np.any(ratio > _MAX_BIAS_RATIO):
+        i = np.unravel_index(np.argmax(ratio), ratio.shape)
+        raise ValueError(f"bias = {b[i]:g} rad is more than {_MAX_BIAS_RATIO:g} times the amplitude {a[i]:g} rad: "
+                         f"A sin(w t) is lost in the round-off of bias + A sin(w t)")
+    with np.errstate(over="ignore"):
+        scale = (model.stiffness + model.damping * w) * (a + np.abs(b))
+    if not np.all(np.isfinite(scale)):
+        i = np.unravel_index(np.argmax(~np.isfinite(scale)), scale.shape)
+        raise ValueError(f"amplitude = {a[i]:g} rad at omega = {w[i]:g} rad/s: the torque (k + c w)(A + |bias|) "
+                         f"overflows floating point")
+
+
 def _evaluate(model, amplitude, omega, bias, method, samples=_SAMPLES, gauss_order=None, scan_step=_SCAN_STEP):
     """N and mean torque; ``samples``, ``gauss_order`` and ``scan_step`` set the
     resolution of the harmonic balance (tests refine them).  ``gauss_order=None``
@@ -645,6 +665,7 @@ def _evaluate(model, amplitude, omega, bias, method, samples=_SAMPLES, gauss_ord
     if method not in ("auto", "closed-form", "harmonic-balance"):
         raise ValueError(f"method must be 'auto', 'closed-form' or 'harmonic-balance', got {method!r}")
     a, w, b = np.broadcast_arrays(amplitude, omega, bias)
+    _check_scales(model, a, w, b)
     closed = _closed_form(model, a, w) if method != "harmonic-balance" and not np.any(b) else None
     if method == "closed-form" and closed is None:
         raise ValueError(f"no closed-form describing function for {model.name!r} (or with a bias)")
