@@ -186,6 +186,8 @@ class FitParameter:
         Bounds of the fit.
     quantile : float
         Multiplier of ``stderr`` giving the 95 % interval (Student t, G - 1 dof).
+    interval : tuple of float, optional
+        The 95 % interval when it is not ``value -+ quantile stderr`` (see :func:`refine`).
     """
 
     name: str
@@ -196,10 +198,13 @@ class FitParameter:
     upper: float
     unit: str = ""
     quantile: float = 1.959963984540054
+    interval: tuple | None = None
 
     @property
     def ci95(self):
-        """95 % confidence interval ``value -+ t stderr``."""
+        """95 % confidence interval, ``value -+ t stderr`` unless given as ``interval``."""
+        if self.interval is not None:
+            return self.interval
         return (self.value - self.quantile * self.stderr, self.value + self.quantile * self.stderr)
 
     @property
@@ -667,6 +672,11 @@ def refine(measurements, rig, calibration, workers=1, max_nfev=None, fixed=()):
     too; it is fitted over half the window, then over all of it, each from the
     previous solution.  Returned unchanged when the free run of ``calibration``
     fits less than :data:`FREE_RUN_MIN` % on a speed (closed-loop data drifts).
+
+    The refined values' 95 % intervals are the union of the free run's and the
+    k-step fit's: a free-run residual stays correlated over longer than any
+    block the data allow, and the two modes' disagreement is model error the
+    residual statistics of either do not see.
     """
     start, stop = calibration.window
     free = predict(measurements, rig, calibration.values, window=(start, stop), horizon=None).fit_percent()
@@ -678,7 +688,12 @@ def refine(measurements, rig, calibration, workers=1, max_nfev=None, fixed=()):
         last = start + max(int(round(fraction * (stop - start))), 10)
         result = _fit(model, calibration.effects, (start, last), values, None, workers, max_nfev, fixed)
         values = result.values
-    return result
+    parameters = dict(result.parameters)
+    for name, parameter in calibration.parameters.items():  # intervals: the union of both modes'
+        low, high = parameters[name].ci95
+        parameters[name] = dataclasses.replace(parameters[name], interval=(min(low, parameter.ci95[0]),
+                                                                           max(high, parameter.ci95[1])))
+    return dataclasses.replace(result, parameters=parameters)
 
 
 def _fit(model, effects, window, values0, horizon, workers, max_nfev, fixed=()):
