@@ -97,3 +97,15 @@ def test_unknown_candidate(rig):
     record = synthesize(rig, "none", seed=1, duration=0.5)
     with pytest.raises(ValueError, match="unknown effect 'backlash_wear'"):
         diagnose(record.measurements, rig, candidates=["backlash_wear"])
+
+
+def test_record_still_in_its_validation_part_is_refused(rig):
+    """Motion only in the first half: the validation fit would be 0/0; refused in one line."""
+    record = synthesize(rig, "none", seed=1, duration=0.5)
+    m = record.measurements
+    half = m.n_samples // 2
+    hold = [np.where(np.arange(m.n_samples) < half, values, values[half]) for values in
+            (m.motor_torque, m.motor_speed, m.load_speed)]
+    still = type(m)(time=m.time, motor_torque=hold[0], motor_speed=hold[1], load_speed=hold[2], source="half.csv")
+    with pytest.raises(ValueError, match="constant .* in the validation part"):
+        diagnose(still, rig)

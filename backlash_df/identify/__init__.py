@@ -11,9 +11,9 @@ the catalogue of candidate causes and :func:`diagnose` selects a set of them
 fitted model.
 """
 
-from .calibrate import Calibration, FitParameter, Replay, calibrate, fit_percent, predict, replay
-from .diagnose import (BASELINE_MIN_FIT, MIN_GAIN, MIN_T, CandidateResult, Diagnosis, check_excitation,
-                       check_speed_units, diagnose)
+from .calibrate import Calibration, FitParameter, Replay, calibrate, fit_percent, predict, refine, replay
+from .diagnose import (BASELINE_MIN_FIT, MIN_GAIN, MIN_T, VALIDATION_HORIZON, CandidateResult, Diagnosis,
+                       check_excitation, check_speed_units, diagnose)
 from .effects import EFFECT_NAMES, EFFECTS, Effect, get_effect
 from .measurements import Measurements, load_measurements, measurements_from_arrays, write_measurements
 from .residuals import ResidualAnalysis, correlation, residual_analysis
@@ -22,9 +22,9 @@ from .synthetic import Experiment, SyntheticRecord, synthesize
 __all__ = [
     "Measurements", "load_measurements", "measurements_from_arrays", "write_measurements",
     "Effect", "EFFECTS", "EFFECT_NAMES", "get_effect",
-    "Calibration", "FitParameter", "Replay", "calibrate", "predict", "replay", "fit_percent",
+    "Calibration", "FitParameter", "Replay", "calibrate", "refine", "predict", "replay", "fit_percent",
     "ResidualAnalysis", "residual_analysis", "correlation",
     "CandidateResult", "Diagnosis", "diagnose", "check_speed_units", "check_excitation", "MIN_GAIN", "MIN_T",
-    "BASELINE_MIN_FIT",
+    "BASELINE_MIN_FIT", "VALIDATION_HORIZON",
     "Experiment", "SyntheticRecord", "synthesize",
 ]

@@ -346,12 +346,12 @@ def check_speed_units(measurements, rig):
         )
 
 
-def check_excitation(measurements):
-    """Refuse a record whose torque or speeds do not move: there is nothing to fit."""
+def check_excitation(measurements, part=slice(None), label="the record"):
+    """Refuse a record (or a ``part`` of it) whose torque or speeds do not move: nothing to fit or score."""
     for name in ("motor_torque",) + measurements.speed_names:
-        values = getattr(measurements, name)
+        values = getattr(measurements, name)[part]
         if not np.ptp(values) > 1e-9 * max(float(np.max(np.abs(values))), 1.0):
-            raise ValueError(f"{measurements.source}: {name} is constant ({values[0]:.6g}): the record has no "
+            raise ValueError(f"{measurements.source}: {name} is constant ({values[0]:.6g}) in {label}: there is no "
                              f"excitation to diagnose; record the drive while it moves")
 
 
@@ -589,6 +589,7 @@ def diagnose(measurements, rig, candidates=None, estimation_fraction=0.6, transi
     n = measurements.n_samples
     estimation = slice(int(round(transient_fraction * n)), int(round(estimation_fraction * n)))
     validation = slice(estimation.stop, n)
+    check_excitation(measurements, validation, f"the validation part (the last {100 * (1 - estimation_fraction):g} %)")
     search = _Search(measurements, rig, estimation, validation, horizon, workers, progress or (lambda label: None))
     baseline = search.fit(())
     tried = [dataclasses.replace(baseline, reason="the nominal structure (reference)")]
