@@ -32,10 +32,11 @@ import math
 
 import numpy as np
 
+from .verdict import VERDICTS
+
 __all__ = ["VERDICTS", "rig_with", "DesignMap", "design_map", "design_map_plot", "prediction_verdict",
            "simulation_verdict"]
 
-VERDICTS = ("no oscillation", "limit cycle", "bistable", "unstable", "undetermined")
 _COLOURS = ("#d9f0d3", "#d6604d", "#f4a582", "#762a83", "#bababa")
 
 
