@@ -200,6 +200,7 @@ class Probe:
         return "diverged" if verdict == "diverged" else "unsettled"
 
     def to_dict(self):
+        """JSON entry: disturbance (rad), kick (rad/s), outcome, simulated cycle or null, measured verdict."""
         return {"disturbance": self.disturbance, "kick": self.kick, "outcome": self.outcome,
                 "simulated": self.measured.to_dict(), "measured": self.measured.verdict}
 
