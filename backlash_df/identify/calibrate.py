@@ -651,6 +651,19 @@ def calibrate(measurements, rig, effects=(), window=None, start_values=None, hor
     The residual is ``(y_j - y_hat_j) / std(y_j)`` per measured speed ``j``
     stacked, so that each speed weighs as in its fit percentage.
     """
+    with single_threaded_blas():
+        return _calibrate(measurements, rig, effects, window, start_values, horizon, workers, max_nfev, polish, fixed)
+
+
+def single_threaded_blas():
+    """A context holding BLAS to one thread: the fits' matrices are small, and BLAS threads
+    spinning on a busy machine cost several times the work itself (threadpoolctl)."""
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1, user_api="blas")
+
+
+def _calibrate(measurements, rig, effects, window, start_values, horizon, workers, max_nfev, polish, fixed):
     effects = (effects,) if isinstance(effects, str) else tuple(effects)
     start, stop = window if window is not None else (0, measurements.n_samples)
     model = _Model(measurements, rig)

@@ -44,7 +44,7 @@ import math
 import numpy as np
 
 from .calibrate import (DEFAULT_HORIZON, PLANT_PARAMETERS, calibrate, data_states, predict, refine, segment_bounds,
-                        smoothed_speeds)
+                        single_threaded_blas, smoothed_speeds)
 from .effects import EFFECT_NAMES, get_effect
 from .residuals import residual_analysis
 
@@ -580,6 +580,12 @@ def diagnose(measurements, rig, candidates=None, estimation_fraction=0.6, transi
         Unknown candidate, a record without excitation, speeds that are not
         rad/s, fractions out of range.
     """
+    with single_threaded_blas():
+        return _diagnose(measurements, rig, candidates, estimation_fraction, transient_fraction, horizon, workers,
+                         progress)
+
+
+def _diagnose(measurements, rig, candidates, estimation_fraction, transient_fraction, horizon, workers, progress):
     keys = [get_effect(key).key for key in (candidates if candidates is not None else EFFECT_NAMES) if key != "none"]
     if not 0.0 <= transient_fraction < estimation_fraction < 1.0:
         raise ValueError("need 0 <= transient_fraction < estimation_fraction < 1")
