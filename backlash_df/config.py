@@ -34,8 +34,12 @@ gap, gains and time constants positive or zero, a load torque of either sign).
 Beyond that, each value must lie in a range (:data:`RANGES`) wide enough for
 every real drive, from a miniature servo (rotor inertia ~1e-7 kg m^2) to a wind
 turbine or rolling mill (load inertia ~1e8 kg m^2, shaft stiffness ~1e10 N m/rad),
-and narrow enough that the analysis stays in floating point: a shaft mode of
-w = sqrt(k / J) <= 1e11 rad/s, a total play below one turn, a dead time below 10 s.
+and narrow enough that the analysis stays in floating point: a total play below
+one turn, a dead time below 10 s.  The stiffness and the inertias are also checked
+together: the shaft mode sqrt(k (1/J_m + 1/J_l)) must not exceed
+:data:`MAX_SHAFT_MODE` = 1e5 rad/s (16 kHz; the bundled rigs have 112-126 rad/s, a
+miniature servo about 2e3 rad/s), beyond which the time simulation would need
+billions of steps.
 A value outside its range is refused with the key, the value and the range (a
 value of 1e300 is a typing error, not a drive).
 
@@ -64,7 +68,7 @@ from pathlib import Path
 
 from .models import MODEL_NAMES, make_model
 
-__all__ = ["Plant", "Controller", "Load", "Rig", "RigError", "RANGES", "load_rig", "rig_from_dict"]
+__all__ = ["Plant", "Controller", "Load", "Rig", "RigError", "RANGES", "MAX_SHAFT_MODE", "load_rig", "rig_from_dict"]
 
 
 class RigError(ValueError):
@@ -211,6 +215,19 @@ def _table(source, data, name, cls):
     return cls(**values)
 
 
+#: Highest shaft mode sqrt(k (1/J_m + 1/J_l)) accepted, rad/s (about 16 kHz).
+MAX_SHAFT_MODE = 1e5
+
+
+def _check_shaft_mode(source, plant):
+    """Refuse a stiffness and inertias whose shaft mode no drive has (a units slip, most likely)."""
+    mode = math.sqrt(plant.stiffness * (1.0 / plant.motor_inertia + 1.0 / plant.load_inertia))
+    if mode > MAX_SHAFT_MODE:
+        raise RigError(f"{source}: [plant] stiffness / motor_inertia, load_inertia: shaft mode sqrt(k (1/J_m + 1/J_l)) "
+                       f"= {mode:.3g} rad/s is above {MAX_SHAFT_MODE:g} rad/s ({MAX_SHAFT_MODE / (2 * math.pi):.0f} Hz); "
+                       f"check the units (kg m^2, N m/rad)")
+
+
 def _model(source, plant, name):
     """The torque law ``name`` on ``plant``'s shaft, or a :class:`RigError` naming ``source``."""
     if name == "rubber" and plant.rubber_thickness == 0.0:
@@ -249,6 +266,7 @@ def rig_from_dict(data, source="<dict>"):
         model = section.get("backlash", model)
         if model not in MODEL_NAMES:
             raise RigError(f"{source}: [model] backlash: unknown model {model!r}; choose one of: {', '.join(MODEL_NAMES)}")
+    _check_shaft_mode(source, plant)
     _model(source, plant, model)
     return Rig(plant=plant, controller=controller, load=load, model=model, source=source)
 

@@ -656,6 +656,11 @@ def _simulate_exactly(system, model, w, z0, theta_b0, dt, n_steps, states, torqu
     return events
 
 
+#: Most steps of one simulation: every sample is stored (about 80 bytes a step), and the
+#: bundled rigs need at most 2e6 (160 s at the default step of 1e-4 s).
+MAX_STEPS = 20_000_000
+
+
 def simulate_linear(system, model, t_end, dt, inputs=None, z0=None, theta_b0=0.0):
     """Simulate a linear part closed through a backlash torque law.
 
@@ -679,6 +684,12 @@ def simulate_linear(system, model, t_end, dt, inputs=None, z0=None, theta_b0=0.0
     Returns
     -------
     SimulationResult
+
+    Raises
+    ------
+    ValueError
+        A step or duration that is not finite and positive, a step longer than
+        the delay, or more than :data:`MAX_STEPS` steps.
     """
     if not (dt > 0.0 and math.isfinite(dt)):
         raise ValueError(f"dt must be finite and > 0, got {dt!r}")
@@ -689,6 +700,9 @@ def simulate_linear(system, model, t_end, dt, inputs=None, z0=None, theta_b0=0.0
     n_steps = int(round(t_end / dt))
     if n_steps < 1:
         raise ValueError(f"t_end = {t_end!r} s must be at least one step dt = {dt!r} s")
+    if n_steps > MAX_STEPS:
+        raise ValueError(f"t_end = {t_end:g} s at dt = {dt:.3g} s is {n_steps:.3g} steps, more than {MAX_STEPS:.0e}: "
+                         f"the loop's fastest dynamics need that step; check the rig's units (stiffness, inertias, kp)")
     time = np.arange(n_steps + 1) * dt
     n, m = system.E.shape
     if inputs is None:

@@ -135,3 +135,24 @@ def test_rig_file_not_utf8_names_the_file(tmp_path):
     with pytest.raises(RigError, match=r"rig\.toml: not a UTF-8 text file \(byte 0xe4 at offset 4\)") as info:
         load_rig(path)
     assert str(info.value).startswith(str(path))
+
+
+@pytest.mark.parametrize("changes, mode", [
+    (dict(stiffness=1e12), "1.64e+06 rad/s"),                # within its range, not with these inertias
+    (dict(motor_inertia=1e-10), "7.68e+06 rad/s"),           # g cm^2 typed as kg m^2, say
+])
+def test_a_shaft_mode_no_drive_has_is_refused(changes, mode):
+    """sqrt(k (1/J_m + 1/J_l)) above 1e5 rad/s: the simulation would need billions of steps."""
+    with pytest.raises(RigError, match=r"rig\.toml: \[plant\] stiffness / motor_inertia, load_inertia: shaft mode") as info:
+        rig_from_dict({"plant": dict(PLANT, **changes)}, source="rig.toml")
+    assert mode in str(info.value) and "above 100000 rad/s" in str(info.value)
+
+
+def test_simulation_longer_than_the_step_budget_is_refused_before_allocating():
+    from backlash_df import simulate
+    from backlash_df.simulate import MAX_STEPS
+
+    rig = rig_from_dict({"plant": PLANT, "controller": {"kp": 30.0, "ti": 0.5}})
+    with pytest.raises(ValueError, match=r"t_end = 10000 s at dt = 0\.0001 s is 1e\+08 steps, more than 2e\+07"):
+        simulate(rig, "phase-plane", t_end=1e4, dt=1e-4)
+    assert MAX_STEPS * 1e-4 > 160.0  # the longest run limit-cycle verification asks for fits
