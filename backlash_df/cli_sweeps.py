@@ -169,14 +169,13 @@ def continue_command(rig_file, parameter, start, stop, model_name, df_values, wo
     Example: backlash-df continue RIG --parameter kp --from 5 --to 60
     """
     import html
-    import io
     import json
     from pathlib import Path
 
     from .config import load_rig
     from .continuation import continue_limit_cycles
     from .models import MODEL_NAMES
-    from .report import Outputs
+    from .report import Outputs, figure_png
 
     outputs = Outputs({"--json": json_out, "--report": report_out, "--plot": plot_out})
     if model_name is not None and model_name not in MODEL_NAMES:
@@ -204,7 +203,5 @@ def continue_command(rig_file, parameter, start, stop, model_name, df_values, wo
         rig_text = html.escape(Path(rig_file).read_text(encoding="utf-8"))
         texts["--report"] = branch.report_html(title=f"Continuation in {parameter}: {rig_file}", rig_text=rig_text)
     if "--plot" in outputs:
-        buffer = io.BytesIO()
-        branch.plot()[0].figure.savefig(buffer, format="png", dpi=110, bbox_inches="tight")
-        texts["--plot"] = buffer.getvalue()
+        texts["--plot"] = figure_png(branch.plot()[0].figure, dpi=110)
     outputs.write(texts)

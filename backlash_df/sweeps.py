@@ -32,10 +32,10 @@ import math
 
 import numpy as np
 
-from .verdict import VERDICTS
+from .verdict import VERDICTS, linear_stability
 
 __all__ = ["VERDICTS", "rig_with", "DesignMap", "design_map", "design_map_plot", "prediction_verdict",
-           "simulation_verdict"]
+           "simulation_verdict", "run_cells"]
 
 _COLOURS = ("#d9f0d3", "#d6604d", "#f4a582", "#762a83", "#bababa")
 
@@ -125,10 +125,7 @@ def prediction_verdict(rig, prediction):
         below = any(not cycle.stable and cycle.amplitude < lowest for cycle in prediction.cycles)
         return "bistable" if below else "limit cycle"
     model = rig.make_model(prediction.model)
-    loop = drive_loop(rig)
-    contact_unstable = rig.controller.delay == 0.0 and bool(
-        np.any(loop.linear_poles(model.stiffness, model.damping).real > 0.0))
-    if contact_unstable:
+    if linear_stability(drive_loop(rig).linear_part(), model.stiffness, model.damping).status == "unstable":
         return "unstable"
     return "undetermined" if prediction.cycles else "no oscillation"
 
