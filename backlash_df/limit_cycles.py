@@ -181,6 +181,7 @@ class LimitCyclePrediction:
                 "model": self.model,
                 "amplitude": float(cycle.amplitude),
                 "omega": float(cycle.omega),
+                "bias": float(cycle.bias),
                 "stable": bool(cycle.stable),
                 "simulated": None if cycle.simulated is None else cycle.simulated.to_dict(),
             }
