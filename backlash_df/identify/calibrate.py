@@ -512,8 +512,10 @@ class Calibration:
         """A printable report of parameters, standard errors and statistics, lmfit style."""
         lines = [
             f"[[Calibration: {' + '.join(self.effects) or 'none'}]]",
-            f"    samples {self.window[0]}:{self.window[1]}, k-step segments of {self.horizon} samples "
-            f"({self.n_clusters}), residuals {self.n_residuals}, parameters {self.n_free}, evaluations {self.nfev}",
+            f"    samples {self.window[0]}:{self.window[1]}, "
+            + (f"k-step segments of {self.horizon} samples" if self.horizon else "free run")
+            + f" ({self.n_clusters} blocks), residuals {self.n_residuals}, parameters {self.n_free}, "
+            f"evaluations {self.nfev}",
             f"    RSS {self.rss:.6g}, AIC {self.aic:.6g}, BIC {self.bic:.6g}, success {self.success}",
             "[[Variables]] (95 % CI cluster-robust over the segments; start = rig file)",
         ]
