@@ -26,7 +26,6 @@ that only lifts off one flank can be smaller than alpha.
 """
 
 import dataclasses
-import math
 
 import numpy as np
 
