@@ -276,12 +276,12 @@ class Outputs:
                 raise ValueError(f"{option} {path}: cannot write ({error.strerror}); no output written") from None
         placed = []
         for option, path in files.items():
-            target = _target(path)[0]
+            target, tmp, backup = _target(path)[0], staged.pop(option), None
             try:
                 backup = _backup(target)
-                os.replace(staged.pop(option), target)
+                os.replace(tmp, target)
             except OSError as error:
-                self._discard(staged.values())
+                self._discard([tmp, *staged.values(), *([backup] if backup is not None else [])])
                 _roll_back(placed)
                 raise ValueError(f"{option} {path}: cannot write ({error.strerror}); no output written") from None
             placed.append((target, backup))
