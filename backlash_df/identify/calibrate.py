@@ -669,7 +669,8 @@ def _calibrate(measurements, rig, effects, window, start_values, horizon, worker
     effects = (effects,) if isinstance(effects, str) else tuple(effects)
     start, stop = window if window is not None else (0, measurements.n_samples)
     model = _Model(measurements, rig)
-    values0 = nominal_values(rig) | dict(start_values or {})
+    values0 = nominal_values(rig) | {get_effect(key).value_key: get_effect(key).start(rig) for key in effects} \
+        | dict(start_values or {})
     if "theta_d0" not in (start_values or {}):
         k = _horizon_samples(measurements, horizon)
         starts, stops = segment_bounds(start, stop, k)
