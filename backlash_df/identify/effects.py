@@ -5,7 +5,8 @@ with backlash, paper eq. 42 with the rig's torque law) by one physical effect
 with one parameter, named like the effect.  Friction acts on either side of the
 shaft, and the side is part of the answer: ``coulomb_friction`` on the ``load``
 side and on the ``motor`` side are two candidates.  The fit starts the parameter
-at its ``null`` value (the nominal structure) and keeps it in :meth:`Effect.bounds`.
+at :meth:`Effect.start` (the ``null`` value of the nominal structure, rubber inside its
+range) and keeps it in :meth:`Effect.bounds`.
 
 =======================  ==========  ==================  ======================================
 effect                   side        unit                extension of the nominal model
@@ -63,6 +64,8 @@ class Effect:
     signed : bool
         Whether negative values are physical (a torque offset); friction, delay
         and rubber are never negative.
+    null : float
+        The parameter's value in the nominal structure (0).
     """
 
     name: str
