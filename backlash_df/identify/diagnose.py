@@ -501,8 +501,8 @@ def _side_notes(keys, tried):
 
 
 def _warnings(measurements, baseline, extended, keys):
-    """Values on a bound, unphysical intervals, initial states against the data, a weak baseline."""
-    notes = []
+    """Loading notes (decimation), a weak baseline, values on a bound, unphysical intervals, initial states."""
+    notes = list(measurements.notes)
     worst = min(baseline.fit_percent.values())
     if not worst >= BASELINE_MIN_FIT:
         notes.append(f"the baseline explains too little of the validation data (k-step fit {worst:.1f} % on a speed, "
