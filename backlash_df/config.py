@@ -36,10 +36,10 @@ every real drive, from a miniature servo (rotor inertia ~1e-7 kg m^2) to a wind
 turbine or rolling mill (load inertia ~1e8 kg m^2, shaft stiffness ~1e10 N m/rad),
 and narrow enough that the analysis stays in floating point: a total play below
 one turn, a dead time below 10 s.  The stiffness and the inertias are also checked
-together: the shaft mode sqrt(k (1/J_m + 1/J_l)) must not exceed
-:data:`MAX_SHAFT_MODE` = 1e5 rad/s (16 kHz; the bundled rigs have 112-126 rad/s, a
-miniature servo about 2e3 rad/s), beyond which the time simulation would need
-billions of steps.
+together: the shaft mode sqrt(k (1/J_m + 1/J_l)) and the damper's rate
+c (1/J_m + 1/J_l) must not exceed :data:`MAX_SHAFT_MODE` = 1e5 1/s (16 kHz; the
+bundled rigs have modes of 112-126 rad/s, a miniature servo about 2e3 rad/s),
+beyond which the time simulation would need billions of steps.
 A value outside its range is refused with the key, the value and the range (a
 value of 1e300 is a typing error, not a drive).
 
@@ -215,17 +215,23 @@ def _table(source, data, name, cls):
     return cls(**values)
 
 
-#: Highest shaft mode sqrt(k (1/J_m + 1/J_l)) accepted, rad/s (about 16 kHz).
+#: Fastest shaft dynamics accepted, 1/s: the mode sqrt(k (1/J_m + 1/J_l)) (rad/s, 1e5 is
+#: about 16 kHz) and the damper's rate c (1/J_m + 1/J_l).
 MAX_SHAFT_MODE = 1e5
 
 
 def _check_shaft_mode(source, plant):
-    """Refuse a stiffness and inertias whose shaft mode no drive has (a units slip, most likely)."""
-    mode = math.sqrt(plant.stiffness * (1.0 / plant.motor_inertia + 1.0 / plant.load_inertia))
+    """Refuse a shaft whose mode or damping rate no drive has (a units slip, most likely)."""
+    inverse = 1.0 / plant.motor_inertia + 1.0 / plant.load_inertia
+    mode, rate = math.sqrt(plant.stiffness * inverse), plant.damping * inverse
+    where = f"{source}: [plant] motor_inertia, load_inertia"
     if mode > MAX_SHAFT_MODE:
-        raise RigError(f"{source}: [plant] stiffness / motor_inertia, load_inertia: shaft mode sqrt(k (1/J_m + 1/J_l)) "
-                       f"= {mode:.3g} rad/s is above {MAX_SHAFT_MODE:g} rad/s ({MAX_SHAFT_MODE / (2 * math.pi):.0f} Hz); "
-                       f"check the units (kg m^2, N m/rad)")
+        raise RigError(f"{where}, stiffness: shaft mode sqrt(k (1/J_m + 1/J_l)) = {mode:.3g} rad/s is above "
+                       f"{MAX_SHAFT_MODE:g} rad/s ({MAX_SHAFT_MODE / (2 * math.pi):.0f} Hz); check the units "
+                       f"(kg m^2, N m/rad)")
+    if rate > MAX_SHAFT_MODE:
+        raise RigError(f"{where}, damping: damper rate c (1/J_m + 1/J_l) = {rate:.3g} 1/s is above "
+                       f"{MAX_SHAFT_MODE:g} 1/s; check the units (kg m^2, N m s/rad)")
 
 
 def _model(source, plant, name):

@@ -702,7 +702,7 @@ def simulate_linear(system, model, t_end, dt, inputs=None, z0=None, theta_b0=0.0
         raise ValueError(f"t_end = {t_end!r} s must be at least one step dt = {dt!r} s")
     if n_steps > MAX_STEPS:
         raise ValueError(f"t_end = {t_end:g} s at dt = {dt:.3g} s is {n_steps:.3g} steps, more than {MAX_STEPS:.0e}: "
-                         f"the loop's fastest dynamics need that step; check the rig's units (stiffness, inertias, kp)")
+                         f"the loop's fastest dynamics need that step; check the rig's units (stiffness, damping, inertias, kp)")
     time = np.arange(n_steps + 1) * dt
     n, m = system.E.shape
     if inputs is None:
