@@ -23,7 +23,8 @@ def _keys(result):
 
 
 # two effects at once, friction on either side, none (records of 2 s at 1 kHz, random sizes)
-CASES = [((), 10), (("coulomb_friction@load", "viscous_friction@load"), 11), (("coulomb_friction@motor",), 12),
+CASES = [((), 10), (("coulomb_friction@load", "viscous_friction@load"), 11), (("rubber", "coulomb_friction@load"), 13),
+         (("actuator_delay", "viscous_friction@load"), 14), (("coulomb_friction@motor",), 12),
          (("viscous_friction@motor",), 16), (("torque_offset",), 15)]
 
 
