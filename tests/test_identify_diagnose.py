@@ -110,3 +110,20 @@ def test_record_still_in_its_validation_part_is_refused(rig):
     still = type(m)(time=m.time, motor_torque=hold[0], motor_speed=hold[1], load_speed=hold[2], source="half.csv")
     with pytest.raises(ValueError, match="constant .* in the validation part"):
         diagnose(still, rig)
+
+
+def test_baseline_that_explains_too_little_names_no_cause(rig):
+    """Inertias 5 times too small (beyond the +-30 % the fit may move them): the nominal
+    model predicts worse than the mean, so the friction hidden in the record is not named
+    and the diagnosis says why."""
+    import dataclasses
+
+    record = synthesize(rig, "coulomb_friction", seed=3, duration=1.0)
+    plant = dataclasses.replace(rig.plant, motor_inertia=0.2 * rig.plant.motor_inertia,
+                                load_inertia=0.2 * rig.plant.load_inertia)
+    result = diagnose(record.measurements, dataclasses.replace(rig, plant=plant))
+    assert result.cause == "none" and result.causes == []
+    assert min(result.baseline.fit_percent.values()) < 30.0
+    assert result.warnings[0].startswith("the baseline explains too little")
+    assert result.sentence.startswith("No cause named")
+    assert json.loads(result.to_json())["cause"] == "none"
