@@ -39,7 +39,8 @@ one turn, a dead time below 10 s.  The stiffness and the inertias are also check
 together: the shaft mode sqrt(k (1/J_m + 1/J_l)) and the damper's rate
 c (1/J_m + 1/J_l) must not exceed :data:`MAX_SHAFT_MODE` = 1e5 1/s (16 kHz; the
 bundled rigs have modes of 112-126 rad/s, a miniature servo about 2e3 rad/s),
-beyond which the time simulation would need billions of steps.
+beyond which the time simulation would need billions of steps; and the load torque
+must not twist the shaft by more than a turn (|T| / k + alpha <= 2 pi rad).
 A value outside its range is refused with the key, the value and the range (a
 value of 1e300 is a typing error, not a drive).
 
@@ -234,6 +235,15 @@ def _check_shaft_mode(source, plant):
                        f"{MAX_SHAFT_MODE:g} 1/s; check the units (kg m^2, N m s/rad)")
 
 
+def _check_twist(source, plant, load):
+    """Refuse a load torque that would twist the shaft by more than a turn (|T| / k + alpha > 2 pi)."""
+    twist = abs(load.torque) / plant.stiffness + plant.half_gap
+    if twist > 2.0 * math.pi:
+        raise RigError(f"{source}: [load] torque = {load.torque:g} N m twists the shaft by |T| / k + alpha = "
+                       f"{twist:.3g} rad, more than a turn ([plant] stiffness = {plant.stiffness:g} N m/rad); "
+                       f"check the units")
+
+
 def _model(source, plant, name):
     """The torque law ``name`` on ``plant``'s shaft, or a :class:`RigError` naming ``source``."""
     if name == "rubber" and plant.rubber_thickness == 0.0:
@@ -273,6 +283,7 @@ def rig_from_dict(data, source="<dict>"):
         if model not in MODEL_NAMES:
             raise RigError(f"{source}: [model] backlash: unknown model {model!r}; choose one of: {', '.join(MODEL_NAMES)}")
     _check_shaft_mode(source, plant)
+    _check_twist(source, plant, load)
     _model(source, plant, model)
     return Rig(plant=plant, controller=controller, load=load, model=model, source=source)
 

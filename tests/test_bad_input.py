@@ -126,6 +126,7 @@ RIG_CASES = {
     "speed filter 1e9": (rig_with("speed_filter = 0.002", "speed_filter = 1e9"), ["[controller] speed_filter"]),
     "gear ratio 1e9": (rig_with("half_gap = 0.05", "half_gap = 0.05\ngear_ratio = 1e9"), ["[plant] gear_ratio = 1e+09"]),
     "load torque 1e300": (RIG + "\n[load]\ntorque = -1e300\n", ["[load] torque = -1e+300"]),
+    "load torque twisting a turn": (RIG + "\n[load]\ntorque = 1e6\n", ["[load] torque = 1e+06 N m", "more than a turn"]),
     "rubber wider than the gap": (rig_with("half_gap = 0.05", "half_gap = 0.05\nrubber_thickness = 0.5"),
                                   ["[plant] rubber_thickness must be <="]),
     "bad feedback": (rig_with('feedback = "load"', 'feedback = "both"'), ["[controller] feedback"]),

@@ -157,3 +157,12 @@ def test_simulation_longer_than_the_step_budget_is_refused_before_allocating():
     with pytest.raises(ValueError, match=r"t_end = 10000 s at dt = 0\.0001 s is 1e\+08 steps, more than 2e\+07"):
         simulate(rig, "phase-plane", t_end=1e4, dt=1e-4)
     assert MAX_STEPS * 1e-4 > 160.0  # the longest run limit-cycle verification asks for fits
+
+
+def test_a_load_torque_twisting_the_shaft_by_more_than_a_turn_is_refused():
+    data = {"plant": dict(PLANT), "load": {"torque": -1e9}}  # within its range, not on this shaft
+    with pytest.raises(RigError, match=r"rig\.toml: \[load\] torque = -1e\+09 N m twists the shaft by "
+                                       r"\|T\| / k \+ alpha = 1\.7e\+05 rad, more than a turn"):
+        rig_from_dict(data, source="rig.toml")
+    data["load"]["torque"] = -0.9 * 2 * 3.14159 * PLANT["stiffness"]  # just under a turn: accepted
+    assert rig_from_dict(data).load.torque < 0
