@@ -213,7 +213,8 @@ def diagnose(data, rig_file, json_out, report_out):
     for cause in result.causes:
         for name, parameter in cause["parameters"].items():
             low, high = parameter["ci95"]
-            click.echo(f"  {cause['effect']} ({cause['side'] or '-'} side): {name} = {parameter['value']:.4g} "
+            side = f" ({cause['side']} side)" if cause["side"] else ""
+            click.echo(f"  {cause['effect']}{side}: {name} = {parameter['value']:.4g} "
                        f"{parameter['unit']} (95 % CI {low:.4g} .. {high:.4g}), gain {100 * cause['gain']:.1f} %")
     click.echo(result.sentence)
     for model in (result.baseline, result.extended):
