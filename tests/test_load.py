@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import backlash_df as bd
+from backlash_df.describing import _evaluate
 from backlash_df.loaded import dc_bias, load_limit, predict_loaded
 from backlash_df.simulate import _upward_crossings
 
@@ -31,7 +32,7 @@ def test_bias_solves_the_dc_balance_and_flips_with_the_load():
     model = RIG.make_model("phase-plane")
     amplitude, omega = np.geomspace(0.01, 1.0, 7)[:, None], np.array([[20.0, 98.0, 300.0]])
     bias = dc_bias(model, amplitude, omega, LOAD)
-    n, mean = bd.describing.__dict__["_evaluate"](model, amplitude, omega, bias, "auto")
+    _, mean = _evaluate(model, amplitude, omega, bias, "auto")
     np.testing.assert_allclose(mean, -LOAD, rtol=1e-9)
     # the laws are odd: the opposite load mirrors the bias
     np.testing.assert_allclose(dc_bias(model, amplitude, omega, -LOAD), -bias, rtol=1e-9, atol=1e-13)
