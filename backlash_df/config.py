@@ -40,7 +40,7 @@ together: the shaft mode sqrt(k (1/J_m + 1/J_l)) and the damper's rate
 c (1/J_m + 1/J_l) must not exceed :data:`MAX_SHAFT_MODE` = 1e5 1/s (16 kHz; the
 bundled rigs have modes of 112-126 rad/s, a miniature servo about 2e3 rad/s),
 beyond which the time simulation would need billions of steps; and the load torque
-must not twist the shaft by more than a turn (|T| / k + alpha <= 2 pi rad).
+must not twist the shaft by more than a turn (``|T| / k + alpha <= 2 pi`` rad).
 A value outside its range is refused with the key, the value and the range (a
 value of 1e300 is a typing error, not a drive).
 
