@@ -10,7 +10,7 @@ import contextlib
 
 import click
 
-from .cli import main
+from .cli import _FINITE, main
 from .models import MODEL_NAMES
 
 __all__ = ["executor_for", "executor_options", "parse_values", "map_command", "continue_command"]
@@ -148,11 +148,11 @@ def map_command(rig_file, x_spec, y_spec, models, no_simulate, workers, dask, sc
 @click.argument("rig_file", type=click.Path(dir_okay=False))
 @click.option("--parameter", required=True, metavar="NAME",
               help="Rig value to continue in: kp, ti, stiffness, load.torque, ... (any numeric key).")
-@click.option("--from", "start", type=float, required=True, help="First value of the parameter.")
-@click.option("--to", "stop", type=float, required=True, help="Last value of the parameter.")
-@click.option("--model", "model_name", default=None, metavar="NAME",
+@click.option("--from", "start", type=_FINITE, required=True, help="First value of the parameter.")
+@click.option("--to", "stop", type=_FINITE, required=True, help="Last value of the parameter.")
+@click.option("--model", "model_name", default=None, type=click.Choice(MODEL_NAMES),
               help="Torque law (default: the rig's [model] backlash); piecewise-affine laws only.")
-@click.option("--df-values", type=int, default=25, show_default=True,
+@click.option("--df-values", type=click.IntRange(min=2), default=25, show_default=True,
               help="Parameter values at which the describing function is evaluated beside the branch.")
 @executor_options
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), help="Write the branch as JSON.")
@@ -174,14 +174,9 @@ def continue_command(rig_file, parameter, start, stop, model_name, df_values, wo
 
     from .config import load_rig
     from .continuation import continue_limit_cycles
-    from .models import MODEL_NAMES
     from .report import Outputs, figure_png
 
     outputs = Outputs({"--json": json_out, "--report": report_out, "--plot": plot_out})
-    if model_name is not None and model_name not in MODEL_NAMES:
-        raise ValueError(f"--model: unknown model {model_name!r}; choose one of: {', '.join(MODEL_NAMES)}")
-    if df_values < 2:
-        raise ValueError(f"--df-values must be >= 2, got {df_values}")
     rig = load_rig(rig_file)
     rig.require_controller()
     with executor_for(workers, dask, scheduler) as executor:

@@ -21,6 +21,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
+import backlash_df.continuation
 import backlash_df.identify
 import backlash_df.limit_cycles
 import backlash_df.reproduce
@@ -70,6 +71,7 @@ def no_computation(monkeypatch):
     monkeypatch.setattr(backlash_df.reproduce, "compare_torques", _never)
     monkeypatch.setattr(backlash_df.reproduce, "figure2_maps", _never)
     monkeypatch.setattr(backlash_df.sweeps, "design_map", _never)
+    monkeypatch.setattr(backlash_df.continuation, "continue_limit_cycles", _never)
 
 
 def rig_with(old, new):
@@ -340,6 +342,20 @@ MAP_CASES = {
 @pytest.mark.parametrize("args, words", list(MAP_CASES.values()), ids=list(MAP_CASES))
 def test_map_refuses_bad_input_before_computing(work, no_computation, args, words):
     assert_refused(CliRunner().invoke(main, ["map", "rig.toml", *args]), words, work)
+
+
+CONTINUE_CASES = {
+    "json in missing dir": (["--from", "1", "--to", "5", "--json", "nodir/c.json"], ["--json nodir/c.json"]),
+    "nan start": (["--from", "nan", "--to", "5"], ["'--from'", "must be finite"]),
+    "unknown model": (["--from", "1", "--to", "5", "--model", "foo"], ["'--model'", "'foo' is not one of"]),
+    "too few DF values": (["--from", "1", "--to", "5", "--df-values", "1"], ["'--df-values'", "x>=2"]),
+    "no end": (["--from", "1"], ["Missing option '--to'"]),
+}
+
+
+@pytest.mark.parametrize("args, words", list(CONTINUE_CASES.values()), ids=list(CONTINUE_CASES))
+def test_continue_refuses_bad_input_before_computing(work, no_computation, args, words):
+    assert_refused(CliRunner().invoke(main, ["continue", "rig.toml", "--parameter", "kp", *args]), words, work)
 
 
 def test_diagnose_without_rig(work, no_computation):
