@@ -93,3 +93,21 @@ html_theme_options = {
     "secondary_sidebar_items": ["page-toc"],
 }
 html_sidebars = {"**": ["sidebar-nav-bs"]}
+
+
+# --------------------------------------------------------------- math
+def _tagged_math_unsplit(app, doctree, docname):
+    r"""Display math holding both ``\\`` and the paper's ``\tag{14}``: Sphinx wraps a block with
+    ``\\`` in ``split``, where MathJax refuses ``\tag`` (the equation showed as an error); such
+    blocks are emitted as ``\[ ... \]`` themselves.  tests/test_docs.py renders the theory page."""
+    from docutils import nodes
+
+    for node in doctree.findall(nodes.math_block):
+        text = node.astext()
+        if r"\tag" in text and r"\\" in text and not node.get("nowrap"):
+            node["nowrap"] = True
+            node[:] = [nodes.Text(rf"\[{text}\]")]
+
+
+def setup(app):
+    app.connect("doctree-resolved", _tagged_math_unsplit)

@@ -220,6 +220,25 @@ def test_math_is_rendered_by_the_bundled_mathjax(built_docs):
     assert list((mathjax / "output" / "chtml" / "fonts" / "woff-v2").glob("*.woff"))
 
 
+def test_theory_math_renders_offline_in_a_browser(built_docs, tmp_path):
+    """Headless chromium with every network request sent to a dead proxy: MathJax typesets the
+    theory page's equations, the paper's tagged ones included, and none is an error."""
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        message = "chromium is not installed (Debian: apt-get install chromium)"
+        if os.environ.get("CI", "").lower() in {"1", "true", "yes"}:
+            pytest.fail(message)
+        pytest.skip(message)
+    flags = ["--headless", "--no-sandbox", "--disable-gpu", "--proxy-server=127.0.0.1:9", "--virtual-time-budget=15000",
+             f"--user-data-dir={tmp_path}", "--dump-dom"]
+    result = subprocess.run([chromium, *flags, (built_docs / "theory.html").as_uri()], capture_output=True, text=True,
+                            timeout=180, stdin=subprocess.DEVNULL)
+    dom = result.stdout
+    assert dom.count("<mjx-container") >= 20, result.stderr[-2000:]
+    assert "<mjx-merror" not in dom
+    assert 'data-mjx-error' not in dom
+
+
 # --------------------------------------------------------------------------- the README's promise: .plot()
 
 
