@@ -60,6 +60,8 @@ BASELINE_MIN_FIT = 30.0
 #: Prediction horizon (s) of the validation scores: each block of the validation part is predicted
 #: from the data's state this long before its end (slow effects such as friction show over it).
 VALIDATION_HORIZON = 0.4
+#: Candidates of a forward step refitted in full after the screening.
+MAX_REFITS = 3
 #: Optimiser iterations of a candidate fitted on top of the current set.
 NESTED_NFEV = 40
 _NULL = {"actuator_delay": "delay shorter than one sample"}
@@ -427,8 +429,10 @@ def _forward(search, baseline, keys, tried):
 
     Every remaining candidate is *screened* by a fit of the effects' parameters
     and the twist offset only (plant values held at the current set's); the
-    passing ones are refitted in full, best screening gain first, and the first
-    that still passes is added.
+    :data:`MAX_REFITS` with the largest screening gains (at least
+    :data:`MIN_GAIN`) are refitted in full, and the one with the largest gain
+    that passes the rule is added (so that, for example, the side of a
+    friction is chosen by full fits).
     """
     current, steps = baseline, []
     while True:
@@ -439,15 +443,17 @@ def _forward(search, baseline, keys, tried):
             trial = search.judge(search.fit(current.effects + (key,), start, screen=True), current, key)
             tried.append(dataclasses.replace(trial, reason="screening: " + trial.reason))
             screened.append(trial)
-        for trial in sorted((t for t in screened if t.accepted), key=lambda t: -t.gain):
+        promising = sorted((t for t in screened if t.gain >= MIN_GAIN), key=lambda t: -t.gain)[:MAX_REFITS]
+        refits = []
+        for trial in promising:
             full = search.judge(search.fit(trial.effects, trial.calibration.values), current, trial.added)
             tried.append(full)
-            if full.accepted:
-                current = full
-                steps.append(full)
-                break
-        else:
+            refits.append(full)
+        passing = [full for full in refits if full.accepted]
+        if not passing:
             return steps
+        current = max(passing, key=lambda full: full.gain)
+        steps.append(current)
 
 
 def _backward(search, steps, tried):
