@@ -8,7 +8,6 @@ is computed, and a command writes all its files or none.
 
 import base64
 import contextlib
-import fcntl
 import html
 import io
 import os
@@ -96,10 +95,10 @@ def check_output_path(path, option="output"):
     where = f"{option} {path}"
     if _descriptor(path) is not None:
         try:
-            mode = fcntl.fcntl(_descriptor(path), fcntl.F_GETFL) & os.O_ACCMODE
+            os.fstat(_descriptor(path))
         except OSError:
             raise ValueError(f"{where}: no such open file descriptor") from None
-        if mode == os.O_RDONLY:
+        if _read_only(_descriptor(path)):
             raise ValueError(f"{where}: open for reading only")
         return
     target, stream = _target(path)
@@ -123,6 +122,15 @@ def check_output_path(path, option="output"):
 
 _STANDARD_STREAMS = {"/dev/stdin": 0, "/dev/stdout": 1, "/dev/stderr": 2}
 _FD_PATH = re.compile(r"/(?:dev/fd|proc/self/fd)/(\d+)")
+
+
+def _read_only(fd):
+    """True if descriptor ``fd`` was opened for reading only (unknown without ``fcntl``: False)."""
+    try:
+        import fcntl
+    except ImportError:  # not on POSIX
+        return False
+    return fcntl.fcntl(fd, fcntl.F_GETFL) & os.O_ACCMODE == os.O_RDONLY
 
 
 def _descriptor(path):
