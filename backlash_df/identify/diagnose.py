@@ -28,7 +28,9 @@ Significance rule (stated, fixed), for adding an effect to a set:
    between), the per-block log RSS ratio ``ln(RSS_current / RSS_new)`` has a t
    statistic of at least :data:`MIN_T` (2);
 3. *size*: the parameter's 95 % interval (cluster-robust, Student t) excludes
-   the null value, and a delay is at least one sample.
+   the null value, a delay is at least one sample, and a torque effect
+   (friction at the RMS speed, offset) is at least :data:`MIN_TORQUE_SHARE`
+   (1 %) of the record's RMS motor torque.
 
 The answer is a set of causes ordered by the gain of their step.  Before naming
 any, the baseline must explain the data: with a validation fit below
@@ -49,12 +51,15 @@ from .effects import EFFECT_NAMES, get_effect
 from .residuals import residual_analysis
 
 __all__ = ["CandidateResult", "Diagnosis", "diagnose", "check_speed_units", "check_excitation", "MIN_GAIN",
-           "MIN_T", "BASELINE_MIN_FIT", "VALIDATION_HORIZON"]
+           "MIN_T", "BASELINE_MIN_FIT", "VALIDATION_HORIZON", "MIN_TORQUE_SHARE"]
 
 #: Smallest relative decrease of the validation RSS of an accepted effect.
 MIN_GAIN = 0.05
 #: Smallest t statistic of the per-block validation RSS decrease.
 MIN_T = 2.0
+#: Smallest torque of a named torque effect (friction at the RMS speed, offset) as a share of the
+#: record's RMS motor torque: smaller effects are model mismatch, not a cause to act on.
+MIN_TORQUE_SHARE = 0.01
 #: Smallest validation fit (%, k-step, every speed) of the baseline for naming a cause.
 BASELINE_MIN_FIT = 30.0
 #: Prediction horizon (s) of the validation scores: each block of the validation part is predicted
@@ -314,7 +319,8 @@ class Diagnosis:
 RULE = (f"an effect is added (forward selection, then a backward check) if the validation RSS falls by at "
         f"least {100 * MIN_GAIN:g} % and the per-block log RSS ratio has t >= {MIN_T:g} over the validation blocks "
         f"(k-step or {VALIDATION_HORIZON:g} s ahead), and "
-        f"its 95 % CI (cluster-robust over segments) excludes the null value (a delay at least one sample); "
+        f"its 95 % CI (cluster-robust over segments) excludes the null value (a delay at least one sample, a torque "
+        f"effect at least {100 * MIN_TORQUE_SHARE:g} % of the RMS motor torque); "
         f"no cause is named when the baseline's validation fit is below {BASELINE_MIN_FIT:g} % on a speed")
 
 
@@ -365,6 +371,16 @@ class _Search:
         self.estimation, self.validation = estimation, validation
         self.horizon, self.workers, self.progress = horizon, workers, progress
         self.weights = 1.0 / np.maximum(measurements.speeds[validation].std(axis=0), 1e-12)
+        self.torque_rms = float(np.sqrt(np.mean(measurements.motor_torque**2)))
+
+    def effect_torque(self, effect, value):
+        """Typical torque (N m) of a torque effect of size ``value`` (None for rubber and delay)."""
+        if effect.name in ("coulomb_friction", "breakaway_friction", "torque_offset"):
+            return abs(value)
+        if effect.name == "viscous_friction":
+            speed = self.measurements.motor_speed if effect.side == "motor" else self.measurements.speeds[:, -1]
+            return value * float(np.sqrt(np.mean(speed**2)))
+        return None
 
     def fit(self, effects, start_values=None, polish=False, screen=False):
         calibration = calibrate(self.measurements, self.rig, effects, window=(self.estimation.start,
@@ -419,6 +435,10 @@ class _Search:
             failures.append("95 % CI includes 0")
         if effect.name == "actuator_delay" and parameter.value < self.measurements.dt:
             failures.append(_NULL["actuator_delay"])
+        torque = self.effect_torque(effect, parameter.value)
+        if torque is not None and not torque >= MIN_TORQUE_SHARE * self.torque_rms:
+            failures.append(f"its torque {torque:.3g} N m is below {100 * MIN_TORQUE_SHARE:g} % of the record's RMS "
+                            f"torque {self.torque_rms:.3g} N m")
         reason = "; ".join(failures) if failures else f"gain {100 * gain:.1f} % ({label}), t {t_stat:.1f}, CI excludes 0"
         return dataclasses.replace(candidate, added=added, gain=gain, t_statistic=t_stat, accepted=not failures,
                                    reason=reason)
