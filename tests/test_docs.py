@@ -176,19 +176,35 @@ def test_api_page_lists_exactly_the_exports():
         assert getattr(backlash_df, name) is not None
 
 
-@pytest.fixture(scope="module")
-def built_docs(tmp_path_factory):
-    """The HTML documentation: CI's build if it is newer than the sources of this check, else a
-    quick build (notebooks not executed; their outputs reference nothing remote either way)."""
-    html = DOCS / "_build" / "html"
-    sources = [DOCS / "conf.py", DOCS / "api.md", DOCS / "theory.md"]
-    if (html / "index.html").exists() and all((html / "index.html").stat().st_mtime > p.stat().st_mtime for p in sources):
-        return html
-    out = tmp_path_factory.mktemp("html")
+def _build_docs(out):
+    """A quick HTML build into ``out`` (notebooks not executed; their outputs reference nothing remote)."""
     env = {**os.environ, "BACKLASH_DF_DOCS_EXECUTE": "off", "MPLBACKEND": "Agg"}
     result = subprocess.run([sys.executable, "-m", "sphinx", "-q", "-b", "html", str(DOCS), str(out)],
                             cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stderr[-3000:]
+
+
+@pytest.fixture(scope="module")
+def built_docs(tmp_path_factory):
+    """The HTML documentation: CI's build if it is newer than the sources of this check, else one
+    quick build per test run, shared by pytest-xdist's workers under a lock (a build copies the
+    notebooks into docs/, so two at once would race)."""
+    html = DOCS / "_build" / "html"
+    sources = [DOCS / "conf.py", DOCS / "api.md", DOCS / "theory.md"]
+    if (html / "index.html").exists() and all((html / "index.html").stat().st_mtime > p.stat().st_mtime for p in sources):
+        return html
+    run = os.environ.get("PYTEST_XDIST_TESTRUNUID")
+    if run is None:
+        out = tmp_path_factory.mktemp("html")
+        _build_docs(out)
+        return out
+    import fcntl
+
+    out = tmp_path_factory.getbasetemp().parent / f"docs-html-{run}"
+    with open(f"{out}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not (out / "index.html").exists():
+            _build_docs(out)
     return out
 
 
