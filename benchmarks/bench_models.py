@@ -8,10 +8,12 @@
 2. Simulated seconds per wall-clock second of the Figure 3 drive (crossing setup
    of Table I: T_preload = 0.5 N m, 19 N m at 20 Hz, c = 0.01 k) with the exact and
    the phase plane model, compiled kernel at the step the convergence tests use,
-   beside scipy.integrate.solve_ivp (RK45, the same right-hand side through the
-   compiled scalar torque law) at the loosest tolerance that is at least as
-   accurate.  Accuracy of both: largest error of the motor speed over the last
-   cycle against a reference run (kernel at dt / 16), relative to its range.
+   beside scipy.integrate.solve_ivp RK45 with and without event location (the same
+   law through the compiled scalar functions) at the loosest tolerance that is at
+   least as accurate (with events: 1e-6 ... 1e-13; without: 1e-8, 1e-10).  Accuracy
+   of all: largest error of the motor speed over the last cycle, relative to its
+   range, against an independent reference: solve_ivp DOP853 at rtol 1e-13, every
+   switch of the law located as an event.  Times are the best of three on both sides.
 """
 
 import time
@@ -21,9 +23,10 @@ from scipy.integrate import solve_ivp
 from scipy.special import lambertw
 
 from backlash_df import make_model
-from backlash_df.models import EXACT, static_torque
+from backlash_df.models import EXACT, mode_torque, static_torque
 from backlash_df.reproduce import PAPER_PLANT, SETUPS
 from backlash_df.simulate import simulate_two_mass
+from switched import phase_plane_guards, solve_switched
 
 N_POINTS = 1_000_000
 DT = 5e-5  # step of tests/test_simulate.py's halving test (1e-4 -> 5e-5)
@@ -91,30 +94,67 @@ def kernel_run(name, dt, setup):
     return simulate_two_mass(PAPER_PLANT, name, T_END, dt, motor_torque=motor, load_torque=load)
 
 
-def scipy_run(name, rtol, setup):
-    """The same drive as a solve_ivp right-hand side; the exact model's theta_b as a 4th state (14)."""
-    model = make_model(name, **PAPER_PLANT.shaft)
-    law, (k, c, alpha, beta) = model.law, model.params
-    jm, jl = PAPER_PLANT.motor_inertia, PAPER_PLANT.load_inertia
-    motor, load = drive_inputs(setup)
+class Drive:
+    """The Figure 3 drive for solve_ivp: z = (theta_d, w_m, w_l), plus theta_b for the exact model (14)."""
 
-    def rhs(t, z):
-        x, wm, wl = z[0], z[1], z[2]
-        v = wm - wl
-        if law == EXACT:
-            theta_b = min(max(z[3], -alpha), alpha)
-            rate = v + (k / c) * (x - theta_b)  # (14): limited integrator
-            if (theta_b >= alpha and rate > 0) or (theta_b <= -alpha and rate < 0):
-                rate = 0.0
-            torque = k * (x - theta_b) + c * (v - rate)  # (1)
-        else:
-            torque = static_torque(law, x, v, k, c, alpha, beta)
-        derivative = [v, (motor(t) - torque) / jm, (load + torque) / jl]
-        return derivative + [rate] if law == EXACT else derivative
+    def __init__(self, name, setup):
+        self.model = make_model(name, **PAPER_PLANT.shaft)
+        self.exact = self.model.law == EXACT
+        self.k, self.c, self.alpha, _ = self.model.params
+        self.motor, self.load = drive_inputs(setup)
+        self.z0 = np.zeros(4 if self.exact else 3)
 
-    z0 = [0.0, 0.0, 0.0] + ([0.0] if law == EXACT else [])
-    t_eval = np.arange(int(round(T_END / DT)) + 1) * DT
-    return solve_ivp(rhs, (0.0, T_END), z0, method="RK45", t_eval=t_eval, rtol=rtol, atol=rtol * 1e-3)
+    @staticmethod
+    def xv(z):
+        return z[0], z[1] - z[2]
+
+    def derivative(self, t, z, torque, rate=None):
+        v = z[1] - z[2]
+        out = [v, (self.motor(t) - torque) / PAPER_PLANT.motor_inertia, (self.load + torque) / PAPER_PLANT.load_inertia]
+        return out + [rate] if self.exact else out
+
+    def rhs(self, mode):
+        """Smooth right-hand side with the mode held: a phase plane mode (+-2, 0) or, for the
+        exact model, contact at theta_b = +-alpha (+-1) or the free shaft (0) of (14)."""
+        k, c, alpha = self.k, self.c, self.alpha
+
+        def f(t, z):
+            x, v = self.xv(z)
+            if not self.exact:
+                return self.derivative(t, z, mode_torque(self.model.law, mode, x, v, *self.model.params))
+            if mode:
+                return self.derivative(t, z, k * (x - mode * alpha) + c * v, 0.0)
+            return self.derivative(t, z, 0.0, v + (k / c) * (x - z[3]))
+
+        return f
+
+    def guards(self, mode):
+        if not self.exact:
+            return phase_plane_guards(mode, self.xv, self.k, self.c, self.alpha)
+        if mode:  # contact ends where the torque k (x -+ alpha) + c v changes sign
+            return [(lambda t, z: mode * (self.k * (z[0] - mode * self.alpha) + self.c * (z[1] - z[2])), 0)]
+        return [(lambda t, z: self.alpha - z[3], 1), (lambda t, z: z[3] + self.alpha, -1)]
+
+    def plain(self, t, z):
+        """The law read as a memoryless T(x, v) (theta_b clipped for the exact model), for solve_ivp without events."""
+        k, c, alpha = self.k, self.c, self.alpha
+        x, v = self.xv(z)
+        if not self.exact:
+            return self.derivative(t, z, static_torque(self.model.law, x, v, *self.model.params))
+        theta_b = min(max(z[3], -alpha), alpha)
+        rate = v + (k / c) * (x - theta_b)
+        if (theta_b >= alpha and rate > 0) or (theta_b <= -alpha and rate < 0):
+            rate = 0.0
+        return self.derivative(t, z, k * (x - theta_b) + c * (v - rate), rate)
+
+
+def with_events(drive, method, rtol, t_eval):
+    return solve_switched(drive.rhs, drive.guards, drive.z0, 0, T_END, t_eval, method, rtol, row=1)
+
+
+def without_events(drive, method, rtol, t_eval):
+    return solve_ivp(drive.plain, (0.0, T_END), drive.z0, method=method, t_eval=t_eval, rtol=rtol,
+                     atol=rtol * 1e-3).y[1]
 
 
 def last_cycle_error(speed, reference, n_cycle):
@@ -122,26 +162,39 @@ def last_cycle_error(speed, reference, n_cycle):
     return np.abs(speed[tail] - reference[tail]).max() / np.ptp(reference[tail])
 
 
+def matched(run, error_of, target, rtols):
+    """The loosest of ``rtols`` at least as accurate as ``target`` (else the tightest), timed."""
+    for rtol in rtols:
+        if error_of(run(rtol)) <= target:
+            break
+    seconds, values = best_of(lambda: run(rtol))
+    return rtol, seconds, error_of(values)
+
+
 def bench_simulation():
     setup = SETUPS["crossing"]
     n_cycle = int(round(setup.period / DT))
-    print(f"\n2. two-mass drive, {setup.name} setup, {T_END:g} s simulated; kernel dt = {DT:g} s")
-    print(f"   {'model':<13}{'kernel (s/s)':>13}{'error':>10}{'solve_ivp (s/s)':>17}{'rtol':>8}{'error':>10}{'ratio':>8}")
+    print(f"\n2. two-mass drive, {setup.name} setup, {T_END:g} s simulated, best of 3; error: motor speed over "
+          "the last cycle against solve_ivp DOP853 at rtol 1e-13 with every switch located as an event, "
+          "relative to its range; competitors at the loosest rtol as accurate as the kernel")
+    print(f"   {'model':<13}{'integrator':<28}{'rtol':>7}{'s/s':>8}{'error':>10}{'vs kernel':>11}")
     for name in ("exact", "phase-plane"):
+        drive = Drive(name, setup)
         kernel_run(name, DT, setup)  # compile
-        reference = kernel_run(name, DT / 16, setup).state("motor_speed")[::16]
         wall, result = best_of(lambda: kernel_run(name, DT, setup))
-        error = last_cycle_error(result.state("motor_speed"), reference, n_cycle)
-        for rtol in 10.0 ** -np.arange(3, 13):
-            start = time.perf_counter()
-            solution = scipy_run(name, rtol, setup)
-            scipy_wall = time.perf_counter() - start
-            scipy_error = last_cycle_error(solution.y[1], reference, n_cycle)
-            if scipy_error <= error:
-                break
-        matched = "" if scipy_error <= error else "  (solve_ivp never as accurate)"
-        print(f"   {name:<13}{T_END / wall:13.1f}{error:10.1e}{T_END / scipy_wall:17.2f}{rtol:8.0e}"
-              f"{scipy_error:10.1e}{scipy_wall / wall:8.1f}{matched}")
+        t_eval = result.time
+        reference = with_events(drive, "DOP853", 1e-13, t_eval)
+
+        def error_of(speed):
+            return last_cycle_error(speed, reference, n_cycle)
+
+        target = error_of(result.state("motor_speed"))
+        print(f"   {name:<13}{f'kernel, dt = {DT:g} s':<28}{'-':>7}{T_END / wall:8.1f}{target:10.1e}{'(base)':>11}")
+        for label, run, rtols in (("solve_ivp RK45 + events", with_events, 10.0 ** -np.arange(6, 14)),
+                                  ("solve_ivp RK45, no events", without_events, (1e-8, 1e-10))):
+            rtol, seconds, theirs = matched(lambda r: run(drive, "RK45", r, t_eval), error_of, target, rtols)
+            note = "" if theirs <= target else "  (never as accurate)"
+            print(f"   {name:<13}{label:<28}{rtol:7.0e}{T_END / seconds:8.2f}{theirs:10.1e}{seconds / wall:10.1f}x{note}")
 
 
 if __name__ == "__main__":
