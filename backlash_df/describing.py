@@ -567,14 +567,18 @@ def _exact_harmonics(amp, omega, bias, p, scan_step, acc):
 
 @_jit
 def _harmonic_balance(law, p, amp, omega, bias, nodes, weights, samples, scan_step, n_out, mean_out):
+    """N and mean torque at each point.  ``scan_step`` is None for a static law (numba then
+    prunes, and never compiles, the exact model's branch); for the exact model it is a
+    float and ``law`` is the dead-zone, its limit at c w = 0 (the shaft relaxes at once)."""
     acc = np.zeros(3)
     stack = np.empty((2 * _MAX_LEVEL + 8, 3))
     for i in range(amp.shape[0]):
         a, w, b = amp[i], omega[i], bias[i]
-        if law == EXACT and p[1] > 0.0 and w > 0.0:
+        exact = False
+        if scan_step is not None:
+            exact = p[1] > 0.0 and w > 0.0
+        if exact:
             periods = _exact_harmonics(a, w, b, p, scan_step, acc)
-        elif law == EXACT:  # c w = 0: the shaft relaxes at once, the classical dead-zone
-            periods = _static_harmonics(DEAD_ZONE, a, w, b, p, nodes, weights, samples, stack, acc)
         else:
             periods = _static_harmonics(law, a, w, b, p, nodes, weights, samples, stack, acc)
         scale = 1.0 / (math.pi * periods)
@@ -676,9 +680,11 @@ def _evaluate(model, amplitude, omega, bias, method, samples=_SAMPLES, gauss_ord
     nodes, weights = np.polynomial.legendre.leggauss(gauss_order) if gauss_order else (np.empty(0), np.empty(0))
     # np.array copies: broadcast views are flagged "warn on write", and numba's typeof
     # reads that flag (a FutureWarning on every call with numpy >= 2.4)
+    exact = model.law == EXACT
     _harmonic_balance(
-        model.law, model.params, np.array(a, dtype=float).ravel(), np.array(w, dtype=float).ravel(),
-        np.array(b, dtype=float).ravel(), nodes, weights, int(samples), float(scan_step), n_out, mean_out,
+        DEAD_ZONE if exact else model.law, model.params, np.array(a, dtype=float).ravel(),
+        np.array(w, dtype=float).ravel(), np.array(b, dtype=float).ravel(), nodes, weights, int(samples),
+        float(scan_step) if exact else None, n_out, mean_out,
     )
     n_out, mean_out = n_out.reshape(a.shape), mean_out.reshape(a.shape)
     # Every law is odd, T(-x, -v) = -T(x, v): at zero bias the mean torque is zero, and
