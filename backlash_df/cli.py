@@ -49,8 +49,13 @@ class _Group(click.Group):
         sys.exit(value if isinstance(value, int) else 0)
 
     def invoke(self, ctx):
+        from threadpoolctl import threadpool_limits
+
         try:
-            return super().invoke(ctx)
+            # one BLAS thread: the kernels' small matrices run 1.3-1.4x slower on two
+            # (benchmarks/bench_startup.py)
+            with threadpool_limits(1, user_api="blas"):
+                return super().invoke(ctx)
         except ValueError as error:
             _fail(error)
 

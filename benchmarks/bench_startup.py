@@ -8,8 +8,10 @@ Each figure is a wall time of a fresh interpreter (a subprocess), best of N:
    (``NUMBA_CACHE_DIR`` pointed at a fresh temporary directory: every kernel compiled,
    as on a fresh install; one run) and warm (same directory again); targets < 15 s and
    < 3 s.
-3. OpenBLAS threads: the same warm ``predict``, and 20 s of the loop's simulation
-   timed inside the subprocess, with ``OPENBLAS_NUM_THREADS`` 1 against 2.
+3. OpenBLAS threads, library calls timed inside a subprocess with
+   ``OPENBLAS_NUM_THREADS`` 1 against 2: 20 s of the loop's simulation, and
+   ``predict_limit_cycles`` + ``verify_limit_cycles`` of the same rig (what ``predict``
+   runs).  The command line pins one BLAS thread (threadpoolctl) for this reason.
 
 Run: python benchmarks/bench_startup.py  (about two minutes, most of it the cold compile)
 """
@@ -24,18 +26,24 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 RIG = "examples/load_feedback.toml"
 CLI = str(Path(sys.executable).parent / "backlash-df")
-SIMULATE = f"""
+TIMED = """
 import time
 import backlash_df as bd
-rig = bd.load_rig({RIG!r})
-bd.simulate(rig, t_end=0.1, kick=15.0)
+rig = bd.load_rig({rig!r})
+def call():
+    {call}
+call()
 best = float("inf")
-for _ in range(5):
+for _ in range({repeat}):
     start = time.perf_counter()
-    bd.simulate(rig, t_end=20.0, kick=15.0)
+    call()
     best = min(best, time.perf_counter() - start)
 print(best)
 """
+THREAD_CASES = {
+    "simulate 20 s of the loop (best of 5)": ("bd.simulate(rig, t_end=20.0, kick=15.0)", 5),
+    "predict + verify (best of 3)": ("bd.verify_limit_cycles(rig, bd.predict_limit_cycles(rig))", 3),
+}
 
 
 def wall(command, env=None, repeat=1):
@@ -84,13 +92,10 @@ def main():
         print(f"   warm (best of 3)                     {warm:6.1f} s   {verdict(warm, 3.0)}")
         print("3. OpenBLAS threads (warm cache; 2 cores)")
         print(f"   {'':34s}{'1 thread':>10s}{'2 threads':>11s}{'2 / 1':>8s}")
-        rows = {}
-        for threads in ("1", "2"):
-            env_t = {**env, "OPENBLAS_NUM_THREADS": threads}
-            rows.setdefault("predict, wall (best of 3)", []).append(wall(predict, env_t, repeat=3)[0])
-            rows.setdefault("simulate 20 s of the loop (best of 5)", []).append(
-                float(wall(python + [SIMULATE], env_t)[1].split()[-1]))
-        for label, (one, two) in rows.items():
+        for label, (call, repeat) in THREAD_CASES.items():
+            code = TIMED.format(rig=RIG, call=call, repeat=repeat)
+            one, two = (float(wall(python + [code], {**env, "OPENBLAS_NUM_THREADS": n})[1].split()[-1])
+                        for n in ("1", "2"))
             print(f"   {label:34s}{one:9.3f}s{two:10.3f}s{two / one:8.2f}")
 
 
