@@ -25,7 +25,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 RIG = "examples/load_feedback.toml"
-CLI = str(Path(sys.executable).parent / "backlash-df")
+# the command line of the package beside this file (what the ``backlash-df`` script runs)
+CLI = [sys.executable, "-c", "from backlash_df.cli import main; main()"]
 TIMED = """
 import time
 import backlash_df as bd
@@ -82,7 +83,7 @@ def main():
     print(f"   python -c 'import numpy'         {floor:6.2f} s")
     print(f"   python -c 'import backlash_df'   {ours:6.2f} s   {verdict(ours, 1.0)}")
     print(f"   -X importtime total of backlash_df {importtime_total():6.2f} s")
-    predict = [CLI, "predict", RIG]
+    predict = CLI + ["predict", RIG]
     with tempfile.TemporaryDirectory(prefix="numba-cache-") as cache:
         env = {"NUMBA_CACHE_DIR": cache}
         cold, _ = wall(predict, env)
