@@ -31,7 +31,6 @@ import dataclasses
 import math
 
 import numpy as np
-from scipy import optimize
 
 from .loops import DriveLoop, drive_loop, frequency_response_of
 from .models import BacklashModel
@@ -249,6 +248,8 @@ class _Problem:
         finite-difference Jacobian: it follows the narrow curved valleys of
         nearly tangent loci down to the closest approach (or to a root).
         """
+        from scipy import optimize  # lazy: scipy.optimize takes a fraction of a second to import
+
         lower, upper = (box[0][0], box[1][0]), (box[0][1], box[1][1])
         start = np.clip([p, q], lower, upper)
         found = optimize.least_squares(

@@ -61,7 +61,6 @@ import functools
 import math
 
 import numpy as np
-from scipy import linalg, optimize
 
 from .loops import drive_loop
 from .models import (
@@ -179,6 +178,7 @@ def _with_pade(part, order):
     if order < 1:
         raise ValueError(f"pade_order must be an integer >= 1, got {order!r}")
     import control as ct  # lazy: python-control takes a second to import
+    from scipy import linalg
 
     pade = ct.ss(ct.tf(*ct.pade(1.0, order)))
     ap, bp, cp, dp = (np.asarray(m, dtype=float) for m in (pade.A, pade.B, pade.C, pade.D))
@@ -365,6 +365,8 @@ class _Loop:
         """Where an exit function between two negative samples peaks above zero: (fraction, transition) or None."""
         def minus(s):
             return -self.exits(mode, self.apply(self.dyadic(ladder, s), q_a))[index][1]
+
+        from scipy import optimize  # lazy: scipy.optimize takes a fraction of a second to import
 
         best = optimize.minimize_scalar(minus, bounds=(0.0, width), method="bounded", options={"xatol": 1e-12})
         return (best.x, self.dyadic(ladder, best.x)) if -best.fun > 0.0 else None

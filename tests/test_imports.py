@@ -1,8 +1,8 @@
 """Importing backlash_df loads only what every path needs (issue 13).
 
-python-control, ``scipy.signal`` and ``matplotlib.pyplot`` each take from a
-fraction of a second to two seconds to import; they are imported by the paths
-that use them.  Each check runs in a fresh interpreter and reads ``sys.modules``
+python-control, ``scipy.signal``, ``scipy.optimize`` and ``matplotlib.pyplot`` each
+take from a fraction of a second to two seconds to import; they are imported by the
+paths that use them.  Each check runs in a fresh interpreter and reads ``sys.modules``
 (no timing assertions: the times are measured by ``benchmarks/bench_startup.py``).
 """
 
@@ -10,7 +10,7 @@ import json
 import subprocess
 import sys
 
-HEAVY = ("control", "scipy.signal", "matplotlib.pyplot")
+HEAVY = ("control", "scipy.signal", "scipy.optimize", "matplotlib.pyplot")
 
 
 def loaded_after(code):
