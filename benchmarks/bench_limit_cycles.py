@@ -268,6 +268,7 @@ def speed_table(rig, name, competitors, reference_run):
     for label, run, rtols in competitors:
         rtol, seconds, error = matched(lambda r: run(r, t_eval), reference, target, rtols)
         note = "" if error <= target else "  (never as accurate)"
+        note += "  (the reference's method)" if error == 0.0 else ""
         print(f"    {label:<44s}{rtol:7.0e}{seconds * 1e3:9.1f} ms{T_END / seconds:9.1f}{error:15.1e}"
               f"{seconds / ours:10.0f}x{note}")
 
