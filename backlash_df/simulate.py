@@ -896,18 +896,6 @@ def _window_integral(time, values, t0, t1):
     return np.trapezoid(y, t)
 
 
-def _sustained(result, tail, rtol):
-    """True if the record's ``tail`` holds an undamped motion with shaft contact (not rest or round-off wobble).
-
-    Contact in the tail, a swing of theta_d above ``rtol alpha``, and the largest
-    rate over the tail's second half at least half that over its first half.
-    """
-    rate = np.abs(result.dtheta_d[tail])
-    half = rate.size // 2
-    return bool(np.any(result.mode[tail] != 0) and np.ptp(result.theta_d[tail]) > rtol * result.model.half_gap
-                and rate[half:].max() >= 0.5 * rate[:half].max())
-
-
 def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None):
     """Measure the limit cycle at the end of a closed-loop simulation.
 
@@ -919,9 +907,9 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None):
     times its largest value over the last ``window`` of the record means the
     motion decayed: no limit cycle, whether it came to rest in the gap (with a
     free load the last contacts come ever more rarely) or at a side of it, where
-    round-off can leave a periodic-looking wobble of 1e-15 rad.  A tail that keeps
-    swinging through contact, undamped, is never taken for rest, however large
-    the initial kick was.
+    round-off can leave a periodic-looking wobble of 1e-15 rad.  The test is
+    relative: after a kick 1000 times faster than a small cycle, the cycle is
+    taken for rest (``benchmarks/bench_verdicts.py`` meets three such runs).
 
     Parameters
     ----------
@@ -948,8 +936,6 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None):
     tail = time >= time[-1] * (1.0 - window)
     # decayed: the relative speed has fallen below rtol of its largest value
     resting = np.abs(result.dtheta_d[tail]).max() < rtol * np.abs(result.dtheta_d).max()
-    if resting and _sustained(result, tail, rtol):  # a small cycle after a kick 1000 times its speed
-        resting = False
     if resting:
         return MeasuredCycle(False, math.nan, math.nan, math.nan, math.nan, True, "no limit cycle")
     if np.all(result.mode[tail] == 0):
