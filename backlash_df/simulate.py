@@ -62,6 +62,17 @@ from .models import (
 __all__ = ["LinearPart", "SimulationResult", "simulate_linear", "two_mass_system", "simulate_two_mass"]
 
 _jit = numba.njit(cache=True, nogil=True)
+
+
+@_jit
+def _copy(src, dst):
+    """``dst[...] = src`` for two arrays of one shape, element by element.
+
+    An array-to-slice assignment makes numba compile its shape-mismatch message
+    (string formatting), seconds on a cold cache; this loop does not.
+    """
+    for i in range(dst.size):
+        dst.flat[i] = src.flat[i]
 _MAX_EVENTS_PER_STEP = 32
 _BISECTIONS = 52
 _LEVELS = 42  # dyadic sub-steps dt 2^-j, j < _LEVELS, of the exact-discretisation kernel
@@ -216,7 +227,7 @@ def _advance(z, theta_b, t, h, mode, sys, law, p, W, hist, dt, work, z_out):
 def _record(i, z, theta_b, mode, law, p, c_x, c_v, d_row, Z, T, THETA, MODES, hist):
     """Store sample ``i`` of a run: state, shaft torque, theta_b, mode and the delayed signal."""
     x, v = _xv(z, c_x, c_v)
-    Z[i] = z
+    _copy(z, Z[i])
     T[i] = _torque(law, mode, x, v, p)
     THETA[i] = theta_b
     MODES[i] = mode
@@ -248,7 +259,7 @@ def _run(sys, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES):
         for _ in range(_MAX_EVENTS_PER_STEP):
             theta_end, changed = _advance(z, theta_b, t, remaining, mode, sys, law, p, W, hist, dt, work, z_new)
             if not changed:
-                z[:] = z_new
+                _copy(z_new, z)
                 theta_b = theta_end
                 remaining = 0.0
                 break
@@ -270,7 +281,7 @@ def _run(sys, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES):
             new_mode = _mode_of(law, p, mode, x, v, theta_try)
             if new_mode == mode:  # grazing or round-off at a boundary: no real switch
                 break
-            z[:] = z_try
+            _copy(z_try, z)
             theta_b = theta_try
             mode = new_mode
             t += h
@@ -280,7 +291,7 @@ def _run(sys, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES):
                 break
         if remaining > 1e-14 * dt:
             theta_b, _ = _advance(z, theta_b, t, remaining, mode, sys, law, p, W, hist, dt, work, z_new)
-            z[:] = z_new
+            _copy(z_new, z)
     return events
 
 
@@ -316,18 +327,18 @@ def _ladder(m_aug, dt, levels):
         base += 1
     scaled = norm * 0.5**base
     powers = np.empty((25, size, size))
-    powers[0] = np.eye(size)
-    powers[1] = m_aug * (dt * 0.5**base)
+    _copy(np.eye(size), powers[0])
+    _copy(m_aug * (dt * 0.5**base), powers[1])
     for k in range(2, powers.shape[0]):
-        powers[k] = powers[k - 1] @ powers[1]
+        _copy(powers[k - 1] @ powers[1], powers[k])
     out = np.empty((levels, size, size))
     for j in range(base, levels):
-        out[j] = _taylor(powers, 0.5 ** (j - base), scaled)
+        _copy(_taylor(powers, 0.5 ** (j - base), scaled), out[j])
     square = _taylor(powers, 1.0, scaled)
     for j in range(base - 1, -1, -1):
         square = square @ square
         if j < levels:
-            out[j] = square
+            _copy(square, out[j])
     return out
 
 
@@ -361,12 +372,12 @@ def _set_inputs(q, base, f0, fm, f1, dt):
 @_jit
 def _advance_exactly(ladder, q, fraction, out, tmp):
     """``q`` advanced by ``fraction * dt`` with the dyadic ladder (residual < 2^-levels dt dropped)."""
-    out[:] = q
+    _copy(q, out)
     for j in range(ladder.shape[0]):
         s = 0.5**j
         if fraction >= s:
             _apply(ladder[j], out, tmp, q.shape[0])
-            out[:] = tmp
+            _copy(tmp, out)
             fraction -= s
 
 
@@ -380,7 +391,7 @@ def _locate(ladder, q, left, law, p, mode, c_x, c_v, q_lo, trial, q_hi):
     """
     n = c_x.shape[0]
     size = q.shape[0]
-    q_lo[:] = q
+    _copy(q, q_lo)
     lo = 0.0
     hi = left
     for j in range(1, ladder.shape[0]):
@@ -390,10 +401,10 @@ def _locate(ladder, q, left, law, p, mode, c_x, c_v, q_lo, trial, q_hi):
         _apply(ladder[j], q_lo, trial, size)
         x, v = _xv(trial, c_x, c_v)
         if _must_leave(law, p, mode, x, v, trial[n]):
-            q_hi[:] = trial
+            _copy(trial, q_hi)
             hi = lo + s
         else:
-            q_lo[:] = trial
+            _copy(trial, q_lo)
             lo += s
     return hi
 
@@ -427,12 +438,12 @@ def _step_exactly(ladders, law, p, mode, q, c_x, c_v, work):
             _advance_exactly(ladder, q, left, q_new, trial)
         x, v = _xv(q_new, c_x, c_v)
         if not _must_leave(law, p, mode, x, v, q_new[n]):
-            q[:] = q_new
+            _copy(q_new, q)
             return mode, events
         if left == 1.0:
             _apply(ladder[0], q, q_hi, size)
         else:
-            q_hi[:] = q_new
+            _copy(q_new, q_hi)
         h = _locate(ladder, q, left, law, p, mode, c_x, c_v, q_lo, trial, q_hi)
         if law == EXACT and mode == 0:
             q_hi[n] = p[2] if q_hi[n] > 0.0 else -p[2]
@@ -440,14 +451,14 @@ def _step_exactly(ladders, law, p, mode, q, c_x, c_v, work):
         new_mode = _mode_of(law, p, mode, x, v, q_hi[n])
         if new_mode == mode:  # grazing or round-off at a boundary: no real switch
             break
-        q[:] = q_hi
+        _copy(q_hi, q)
         mode = new_mode
         left -= h
         events += 1
         if left <= 1e-14:
             return mode, events
     _advance_exactly(ladders[_mode_index(mode)], q, left, q_new, trial)
-    q[:] = q_new
+    _copy(q_new, q)
     return mode, events
 
 
