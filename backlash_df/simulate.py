@@ -469,7 +469,7 @@ def _run_exactly(ladders, law, p, W, z0, theta_b0, delay, d_row, c_x, c_v, dt, n
     hist = np.zeros((n_steps + 1, 1))
     q = np.zeros(ladders.shape[2])
     work = np.empty((4, q.shape[0]))
-    q[:n] = z0
+    _copy(z0, q[:n])
     q[n] = theta_b0
     q[n + 1] = 1.0
     x, v = _xv(q, c_x, c_v)
