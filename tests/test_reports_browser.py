@@ -290,4 +290,6 @@ def test_diagnose_report_in_browser(examples_copy, tmp_path):
     assert diagnosis["cause"] in facts["text"]
     for result in (diagnosis["baseline"], diagnosis["extended"]):
         assert shown(result["fit_percent"], facts["text"]), f"fit {result['fit_percent']} % not on the page"
-    assert shown(diagnosis["extended"]["parameter"]["value"], facts["text"])
+    for cause in diagnosis["causes"]:
+        for parameter in cause["parameters"].values():
+            assert shown(parameter["value"], facts["text"]), f"{cause['effect']} {parameter['value']} not on the page"
