@@ -7,7 +7,8 @@ grid against an independent reference: ``solve_ivp`` DOP853 at rtol 1e-13 with e
 switch of the torque law located as an event.  (Checked once against Radau with events at
 rtol 1e-12, an implicit method of another family: they agree to 1.1e-12 rad on the phase
 plane loop, below the kernel's error; Radau takes minutes, so it is not rerun here.)
-Times are the best of three on both sides of every ratio.
+Times are CPU times of this process (steadier than wall time on a shared machine), the
+best of three on both sides of every ratio.
 
 Phase plane law (23), numerical vs numerical at matched accuracy; each competitor runs at
 the loosest rtol in 1e-9 ... 1e-13 that is at least as accurate as the kernel:
@@ -56,9 +57,9 @@ def best_of(function, repeat=REPEAT):
     """(best wall time in s, value of the last run)."""
     best = math.inf
     for _ in range(repeat):
-        start = time.perf_counter()
+        start = time.process_time()
         value = function()
-        best = min(best, time.perf_counter() - start)
+        best = min(best, time.process_time() - start)
     return best, value
 
 
@@ -262,7 +263,7 @@ def speed_table(rig, name, competitors, reference_run):
     reference = reference_run(1e-13, t_eval)
     ours_error = target = max_error(result.theta_d[::4], reference)
     print(f"  {name}: competitors must reach the kernel's {target:.1e} rad")
-    print(f"    {'integrator':<44s}{'rtol':>7s}{'best time':>12s}{'sim-s/s':>9s}{'max err (rad)':>15s}{'vs kernel':>11s}")
+    print(f"    {'integrator':<44s}{'rtol':>7s}{'best CPU':>12s}{'sim-s/s':>9s}{'max err (rad)':>15s}{'vs kernel':>11s}")
     print(f"    {f'backlash-df kernel, dt = {dt:.1e} s':<44s}{'-':>7s}{ours * 1e3:9.1f} ms{T_END / ours:9.0f}"
           f"{ours_error:15.1e}{'(base)':>11s}")
     for label, run, rtols in competitors:
@@ -291,9 +292,9 @@ def speed_tables(rig):
 def design_map_sweep(path, kp, ti):
     """Full (kp, ti) design map of one rig: DF against simulation, per model."""
     rig = load_rig(path)
-    start = time.perf_counter()
+    start = time.process_time()
     dmap = design_map(rig, kp, ti, models=("phase-plane", "damped-dead-zone"))
-    wall = time.perf_counter() - start
+    wall = time.process_time() - start
     print(f"design map of {path.name}: {kp.size} x {ti.size} tunings, 2 laws, {wall:.1f} s wall")
     for name, predicted in dmap.predicted.items():
         simulated = dmap.simulated[name]

@@ -4,8 +4,10 @@
     python benchmarks/run_all.py --runs 3        # three times, then the spread of every ratio
     python benchmarks/run_all.py bench_startup   # a selection (names without .py)
 
-Each benchmark runs in its own interpreter from the repository root; its output is
-printed as it comes and kept in ``build/benchmarks/<name>.run<i>.txt``.  With
+Each benchmark runs in its own interpreter from the repository root, with one BLAS
+thread; its output is printed as it comes and kept in ``build/benchmarks/<name>.run<i>.txt``.
+The speed benchmarks time CPU time of the process (``time.process_time``), best of N:
+on a shared machine wall time swings with the other processes' load, CPU time much less.  With
 ``--runs N > 1`` every printed ratio (a number followed by ``x``) is collected per
 line and reported with its smallest and largest value over the runs; a spread above
 1.5 is flagged.
@@ -47,7 +49,8 @@ def run(name, index):
     print(f"\n=== {name} (run {index}) ===", flush=True)
     lines = []
     options = SPEED_ONLY.get(name, [])
-    with subprocess.Popen([sys.executable, "-u", str(ROOT / "benchmarks" / f"{name}.py"), *options], cwd=ROOT,
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}  # CPU times of one thread (bench_startup sets its own)
+    with subprocess.Popen([sys.executable, "-u", str(ROOT / "benchmarks" / f"{name}.py"), *options], cwd=ROOT, env=env,
                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True) as process:
         for line in process.stdout:
             print(line, end="", flush=True)
@@ -64,7 +67,8 @@ def ratios(lines):
     for line in lines:
         values = [float(v.replace(",", "")) for v in RATIO.findall(line)]
         if values:
-            found[NUMBER.sub("#", line.strip())] = values
+            label = re.sub(r"(\s+\([^)]*\))+\s*$", "", line.strip())  # notes may change between runs
+            found[NUMBER.sub("#", label)] = values
     return found
 
 
