@@ -68,7 +68,7 @@ def ratios(lines):
         values = [float(v.replace(",", "")) for v in RATIO.findall(line)]
         if values:
             label = re.sub(r"(\s+\([^)]*\))+\s*$", "", line.strip())  # notes may change between runs
-            found[NUMBER.sub("#", label)] = values
+            found[" ".join(NUMBER.sub("#", label).split())] = values  # columns pad to the numbers' widths
     return found
 
 
