@@ -90,6 +90,28 @@ def executor_options(function):
                         help="Processes running the cells (a local process pool).")(function)
 
 
+def _write_results(outputs, rig_file, result, title, first_axes):
+    """Write the requested ``--json``, ``--report`` and ``--plot`` of a map or a branch, all or none.
+
+    ``first_axes`` picks an Axes out of what ``result.plot()`` returns (its figure is saved).
+    """
+    import html
+    import json
+    from pathlib import Path
+
+    from .report import figure_png
+
+    texts = {}
+    if "--json" in outputs:
+        texts["--json"] = json.dumps({"rig": str(rig_file), **result.to_dict()}, indent=2) + "\n"
+    if "--report" in outputs:
+        rig_text = html.escape(Path(rig_file).read_text(encoding="utf-8"))
+        texts["--report"] = result.report_html(title=title, rig_text=rig_text)
+    if "--plot" in outputs:
+        texts["--plot"] = figure_png(first_axes(result.plot()).figure, dpi=110)
+    outputs.write(texts)
+
+
 @main.command("map")
 @click.argument("rig_file", type=click.Path(dir_okay=False))
 @click.option("--x", "x_spec", nargs=2, default=("kp", "5:60:12"), show_default=True, metavar="NAME VALUES",
@@ -109,12 +131,8 @@ def map_command(rig_file, x_spec, y_spec, models, no_simulate, workers, dask, sc
 
     Example: backlash-df map RIG --x kp 5:60:40 --y ti 0.1:2:40:log --workers 2
     """
-    import html
-    import json
-    from pathlib import Path
-
     from .config import load_rig
-    from .report import Outputs, figure_png
+    from .report import Outputs
     from .sweeps import VERDICTS, design_map, rig_with
 
     outputs = Outputs({"--json": json_out, "--report": report_out, "--plot": plot_out})
@@ -133,15 +151,7 @@ def map_command(rig_file, x_spec, y_spec, models, no_simulate, workers, dask, sc
         counts = ", ".join(f"{v} {int((dmap.df_verdict[name] == v).sum())}" for v in VERDICTS)
         agree = f"; agrees with simulation on {100 * dmap.agreement(name):.1f} %" if name in dmap.sim_verdict else ""
         click.echo(f"  {name}: DF {counts}{agree}")
-    texts = {}
-    if "--json" in outputs:
-        texts["--json"] = json.dumps({"rig": str(rig_file), **dmap.to_dict()}, indent=2) + "\n"
-    if "--report" in outputs:
-        rig_text = html.escape(Path(rig_file).read_text(encoding="utf-8"))
-        texts["--report"] = dmap.report_html(title=f"Design map: {rig_file}", rig_text=rig_text)
-    if "--plot" in outputs:
-        texts["--plot"] = figure_png(dmap.plot()[0, 0].figure, dpi=110)
-    outputs.write(texts)
+    _write_results(outputs, rig_file, dmap, f"Design map: {rig_file}", lambda axes: axes[0, 0])
 
 
 @main.command("continue")
@@ -168,13 +178,9 @@ def continue_command(rig_file, parameter, start, stop, model_name, df_values, wo
 
     Example: backlash-df continue RIG --parameter kp --from 5 --to 60
     """
-    import html
-    import json
-    from pathlib import Path
-
     from .config import load_rig
     from .continuation import continue_limit_cycles
-    from .report import Outputs, figure_png
+    from .report import Outputs
 
     outputs = Outputs({"--json": json_out, "--report": report_out, "--plot": plot_out})
     rig = load_rig(rig_file)
@@ -191,12 +197,4 @@ def continue_command(rig_file, parameter, start, stop, model_name, df_values, wo
     for special in branch.special:
         click.echo(f"{special.kind} at {parameter} = {special.parameter:.6g} (A = {special.amplitude:.4g} rad): "
                    f"{special.detail}")
-    texts = {}
-    if "--json" in outputs:
-        texts["--json"] = json.dumps({"rig": str(rig_file), **branch.to_dict()}, indent=2) + "\n"
-    if "--report" in outputs:
-        rig_text = html.escape(Path(rig_file).read_text(encoding="utf-8"))
-        texts["--report"] = branch.report_html(title=f"Continuation in {parameter}: {rig_file}", rig_text=rig_text)
-    if "--plot" in outputs:
-        texts["--plot"] = figure_png(branch.plot()[0].figure, dpi=110)
-    outputs.write(texts)
+    _write_results(outputs, rig_file, branch, f"Continuation in {parameter}: {rig_file}", lambda axes: axes[0])

@@ -58,7 +58,6 @@ cannot handle (rubber with beta > 0, elasto-backlash) raise its ``ValueError``.
 
 import dataclasses
 import functools
-import math
 
 import numpy as np
 

@@ -27,7 +27,6 @@ Run: python benchmarks/bench_describing.py  (about three minutes on one core)
 """
 
 import math
-import time
 import tracemalloc
 
 import control
@@ -38,21 +37,13 @@ import numpy as np
 from backlash_df import describing_function, make_model
 from backlash_df.describing import _evaluate
 from backlash_df.models import held_mode, mode_torque
+from timing import best_of
 
 K, C, ALPHA, BETA = 5895.0, 3.0, 0.05, 0.05
 REPEAT = 5
 TARGET = 1e-7  # accuracy the dead-zone competitor must reach
 GRID_TARGET = 1e-4  # and the grid one (sampling a jump converges like 1 / samples)
 
-
-def best_of(function, repeat=REPEAT):
-    """(best wall time in s, value of the last run)."""
-    best = math.inf
-    for _ in range(repeat):
-        start = time.process_time()
-        value = function()
-        best = min(best, time.process_time() - start)
-    return best, value
 
 
 def max_rel_error(values, reference):
@@ -123,15 +114,15 @@ def dead_zone_benchmark():
           "reference: Tustin's closed form in mpmath, 40 digits")
     header()
     print("   a. closed form vs closed form")
-    ours, n = best_of(lambda: describing_function(law, amplitude, 1.0))
+    ours, n = best_of(lambda: describing_function(law, amplitude, 1.0), REPEAT)
     row("backlash-df describing_function (closed form)", ours, max_rel_error(n, reference))
-    seconds, n = best_of(lambda: tustin_numpy(amplitude))
+    seconds, n = best_of(lambda: tustin_numpy(amplitude), REPEAT)
     row("Tustin's formula, vectorised numpy", seconds, max_rel_error(n, reference), ours)
-    seconds, n = best_of(lambda: control.describing_function(nonlinearity, amplitude))
+    seconds, n = best_of(lambda: control.describing_function(nonlinearity, amplitude), REPEAT)
     row("control.describing_function(DescribingFunctionNonlinearity)", seconds, max_rel_error(n, reference), ours)
     print(f"   b. numerical vs numerical (competitor at the fewest samples reaching {TARGET:.0e})")
     amplitude, reference = amplitude[::10], reference[::10]
-    ours, n = best_of(lambda: describing_function(law, amplitude, 1.0, method="harmonic-balance"))
+    ours, n = best_of(lambda: describing_function(law, amplitude, 1.0, method="harmonic-balance"), REPEAT)
     row("backlash-df harmonic balance, 100 amplitudes", ours, max_rel_error(n, reference))
     points = samples_for(TARGET, lambda m: control.describing_function(dead_zone_math, amplitude, num_points=m),
                          reference)
@@ -177,7 +168,7 @@ def grid_benchmark(name):
     describing_function(law, amplitude[:2], omega[:, :2])  # compile
     sampled_df(law, amplitude[:1], omega[:, :1], 8)
     reference = _evaluate(law, amplitude, omega, 0.0, "harmonic-balance", samples=256, gauss_order=32)[0].ravel()
-    ours, n = best_of(lambda: describing_function(law, amplitude, omega))
+    ours, n = best_of(lambda: describing_function(law, amplitude, omega), REPEAT)
     row(f"backlash-df, {name}", ours, max_rel_error(n.ravel(), reference))
     points = samples_for(GRID_TARGET, lambda m: sampled_df(law, amplitude, omega, m), reference, limit=2**20)
     seconds, n = best_of(lambda: sampled_df(law, amplitude, omega, points), 3)

@@ -45,6 +45,7 @@ from backlash_df.loops import drive_loop
 from backlash_df.models import exact_torque, held_mode, mode_torque, static_torque
 from backlash_df.simulate import _initial_state, default_step
 from switched import phase_plane_guards, solve_switched
+from timing import best_of
 
 ROOT = Path(__file__).resolve().parents[1]
 RIG = ROOT / "examples" / "load_feedback.toml"
@@ -52,15 +53,6 @@ T_END, KICK = 2.0, 15.0
 REPEAT = 3
 RTOLS = 10.0 ** -np.arange(9, 14)
 
-
-def best_of(function, repeat=REPEAT):
-    """(best wall time in s, value of the last run)."""
-    best = math.inf
-    for _ in range(repeat):
-        start = time.process_time()
-        value = function()
-        best = min(best, time.process_time() - start)
-    return best, value
 
 
 class Loop:
@@ -249,7 +241,7 @@ def matched(run, reference, target, rtols=RTOLS):
     for rtol in rtols:
         if max_error(run(rtol), reference) <= target:
             break
-    seconds, values = best_of(lambda: run(rtol))
+    seconds, values = best_of(lambda: run(rtol), REPEAT)
     return rtol, seconds, max_error(values, reference)
 
 
@@ -258,7 +250,7 @@ def speed_table(rig, name, competitors, reference_run):
     dt = default_step(drive_loop(rig).linear_part(), rig.make_model(name))
     dt = T_END / (4 * round(T_END / (4 * dt)))
     simulate(rig, name, t_end=T_END, dt=dt, kick=KICK)  # compile
-    ours, result = best_of(lambda: simulate(rig, name, t_end=T_END, dt=dt, kick=KICK))
+    ours, result = best_of(lambda: simulate(rig, name, t_end=T_END, dt=dt, kick=KICK), REPEAT)
     t_eval = result.time[::4]
     reference = reference_run(1e-13, t_eval)
     ours_error = target = max_error(result.theta_d[::4], reference)

@@ -17,7 +17,6 @@
    best of three on both sides.
 """
 
-import time
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -28,19 +27,12 @@ from backlash_df.models import EXACT, mode_torque, static_torque
 from backlash_df.reproduce import PAPER_PLANT, SETUPS
 from backlash_df.simulate import simulate_two_mass
 from switched import phase_plane_guards, solve_switched
+from timing import best_of
 
 N_POINTS = 1_000_000
 DT = 5e-5  # step of tests/test_simulate.py's halving test (1e-4 -> 5e-5)
 T_END = 2.0
 
-
-def best_of(function, repeat=3):
-    times = []
-    for _ in range(repeat):
-        start = time.process_time()
-        value = function()
-        times.append(time.process_time() - start)
-    return min(times), value
 
 
 def numpy_law(name, x, v, k, c, alpha):

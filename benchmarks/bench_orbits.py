@@ -23,6 +23,7 @@ Run: ``python benchmarks/bench_orbits.py``.
 
 import dataclasses
 import math
+import functools
 import time
 from pathlib import Path
 
@@ -30,19 +31,14 @@ import backlash_df as bd
 from backlash_df.orbits import OrbitNotFound, exact_orbits, periodic_orbit
 from backlash_df.simulate import measure_limit_cycle, simulated_limit_cycle
 
+import timing
+
+best_of = functools.partial(timing.best_of, clock=time.perf_counter)  # wall time, as before
+
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 MODELS = ("phase-plane", "exact", "damped-dead-zone")
 
-
-def best_of(function, repeat):
-    """(best wall time in s, value of the last run)."""
-    best = math.inf
-    for _ in range(repeat):
-        start = time.perf_counter()
-        value = function()
-        best = min(best, time.perf_counter() - start)
-    return best, value
 
 
 def rigs():

@@ -25,7 +25,6 @@ Printed: both confusion matrices (rows: truth, columns: verdict), the agreement 
 the rigs where the verdict and the truth differ, and the time per rig of verdict and truth.
 """
 
-import dataclasses
 import math
 import sys
 import time

@@ -273,7 +273,6 @@ def test_result_objects_plot_and_return_their_axes():
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import numpy as np
 
     import backlash_df as bd
     from backlash_df.reproduce import PAPER_PLANT, TableOne, compare_torques
