@@ -16,6 +16,8 @@ from .limit_cycles import LimitCyclePrediction, limit_cycle_plot, predict_limit_
 # (DESIGN.md); the module keeps its name: ``from backlash_df.simulate import ...``.
 from .simulate import MeasuredCycle, measure_limit_cycle, simulated_limit_cycle
 from .simulate import simulate_rig as simulate
+from .orbits import OrbitNotFound, PeriodicOrbit, exact_orbits, periodic_orbit
+from .verdict import VERDICTS, LoopVerdict, judge_loop
 from .sweeps import DesignMap, design_map
 from .continuation import Branch, continue_limit_cycles
 from .reproduce import TableOne, TorqueComparison, compare_torques, integrated_torque, table1
@@ -50,6 +52,13 @@ __all__ = [
     "simulated_limit_cycle",
     "measure_limit_cycle",
     "MeasuredCycle",
+    "periodic_orbit",
+    "exact_orbits",
+    "PeriodicOrbit",
+    "OrbitNotFound",
+    "VERDICTS",
+    "judge_loop",
+    "LoopVerdict",
     "design_map",
     "DesignMap",
     "continue_limit_cycles",
