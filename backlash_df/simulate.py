@@ -237,6 +237,29 @@ def _record(i, z, theta_b, mode, law, p, c_x, c_v, d_row, Z, T, THETA, MODES, hi
     hist[i, 0] = u
 
 
+_BLOW_UP = 1e150  # |state| beyond it: the run has diverged (measure_limit_cycle names it)
+
+
+@_jit
+def _diverged(i, z, Z, T, THETA, MODES):
+    """True when state ``z`` of sample ``i`` has blown up; the later samples are then NaN.
+
+    Stepping on would overflow to inf and NaN, and a division by them inside a
+    kernel raises; a diverged run ends here instead, and is named by
+    :func:`measure_limit_cycle`.
+    """
+    for value in z:
+        if not abs(value) <= _BLOW_UP:  # NaN fails the test too
+            for j in range(i + 1, Z.shape[0]):
+                for col in range(Z.shape[1]):
+                    Z[j, col] = np.nan
+                T[j] = np.nan
+                THETA[j] = np.nan
+                MODES[j] = MODES[i]
+            return True
+    return False
+
+
 @_jit
 def _run(sys, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES):
     n = z0.shape[0]
@@ -252,7 +275,7 @@ def _run(sys, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES):
     events = 0
     for i in range(n_steps + 1):
         _record(i, z, theta_b, mode, law, p, sys[3], sys[4], d_row, Z, T, THETA, MODES, hist)
-        if i == n_steps:
+        if i == n_steps or _diverged(i, z, Z, T, THETA, MODES):
             break
         t = i * dt
         remaining = dt
@@ -477,7 +500,7 @@ def _run_exactly(ladders, law, p, W, z0, theta_b0, delay, d_row, c_x, c_v, dt, n
     events = 0
     for i in range(n_steps + 1):
         _record(i, q[:n], q[n], mode, law, p, c_x, c_v, d_row, Z, T, THETA, MODES, hist)
-        if i == n_steps:
+        if i == n_steps or _diverged(i, q[:n], Z, T, THETA, MODES):
             break
         _set_step_inputs(q, i, W, hist, delay, dt, n)
         mode, found = _step_exactly(ladders, law, p, mode, q, c_x, c_v, work)
