@@ -3,8 +3,10 @@
 1. Sweep: effect sets (none, single effects on either side, two effects at once:
    Coulomb + viscous, rubber + Coulomb, delay + viscous) x ``--seeds`` records
    of the synthetic rig (exact model (14) or rubber law (40), PI speed loop,
-   finer step, noise, data-sheet errors, random sizes), 2 s at 1 kHz, diagnosed
-   with the whole catalogue.  Prints the confusion matrix over effect sets
+   finer step, noise, data-sheet errors, random sizes), 4 s at 1 kHz (two
+   periods of the speed reference) with encoder angles of 2^20 counts per
+   revolution (``--encoder-counts 0``: speeds only, the twist integrated),
+   diagnosed with the whole catalogue.  Prints the confusion matrix over effect sets
    (target >= 95 % exactly right, no invented effect on clean records), the
    share of estimates within 10 % of the truth, the coverage of the 95 %
    intervals (target >= 85 %) and the time per record.
@@ -16,7 +18,8 @@
    rigid-body least-squares fit ``J dw/dt = T_m - F_c sign(w) - d w - T_0`` of the
    same record (numerical derivative of the smoothed load speed).
 
-Run: ``python benchmarks/bench_diagnose.py [--seeds 6] [--processes 2] [--repeat 2]``.
+Run: ``python benchmarks/bench_diagnose.py [--seeds 6] [--processes 2] [--repeat 2] [--duration 4]
+[--encoder-counts 1048576] [--only kuka|timing|sweep]``.
 """
 
 import argparse
@@ -43,9 +46,10 @@ def _found(result):
 
 
 def one_case(args):
-    effects, seed = args
+    effects, seed, duration, counts = args
     rig = load_rig(RIG)
-    record = synthesize(rig, dict.fromkeys(effects), seed=seed, duration=2.0, sample_rate=1000.0)
+    record = synthesize(rig, dict.fromkeys(effects), seed=seed, duration=duration, sample_rate=1000.0,
+                        encoder_counts=counts)
     start, cpu = time.perf_counter(), time.process_time()
     result = diagnose(record.measurements, rig)
     seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
@@ -58,8 +62,8 @@ def one_case(args):
     return tuple(sorted(effects)), seed, _found(result), estimates, (seconds, cpu)
 
 
-def sweep(seeds, processes):
-    cases = [(effects, 2000 + seed) for effects in SETS for seed in range(seeds)]
+def sweep(seeds, processes, duration, counts):
+    cases = [(effects, 2000 + seed, duration, counts) for effects in SETS for seed in range(seeds)]
     with ProcessPoolExecutor(processes) as pool:
         results = list(pool.map(one_case, cases))
     labels = sorted({"+".join(r[0]) or "none" for r in results} | {"+".join(r[2]) or "none" for r in results})
@@ -92,7 +96,7 @@ def sweep(seeds, processes):
     print(f"estimates within 10 % of the truth: {within}/{n_estimates}")
     print(f"coverage of the 95 % intervals: {covered}/{n_estimates} = {100.0 * covered / max(n_estimates, 1):.1f} % "
           f"(target >= 85 %)")
-    print(f"mean time per record (2 s at 1 kHz, whole catalogue): wall {np.mean([r[-1][0] for r in results]):.1f} s, "
+    print(f"mean time per record ({duration:g} s at 1 kHz, whole catalogue): wall {np.mean([r[-1][0] for r in results]):.1f} s, "
           f"cpu {np.mean([r[-1][1] for r in results]):.1f} s")
 
 
@@ -155,13 +159,21 @@ def main():
     parser.add_argument("--seeds", type=int, default=6, help="records per effect set (default 6: 66 cases)")
     parser.add_argument("--processes", type=int, default=2)
     parser.add_argument("--repeat", type=int, default=2)
+    parser.add_argument("--duration", type=float, default=4.0, help="length of the sweep's records, s (default 4)")
+    parser.add_argument("--encoder-counts", type=int, default=2**20,
+                        help="encoder counts per revolution of the sweep's angle columns (0: no angle columns)")
+    parser.add_argument("--only", choices=("kuka", "timing", "sweep"), help="run one section")
     args = parser.parse_args()
-    print("== KUKA record ==")
-    kuka()
-    print("\n== timing ==")
-    timing(args.repeat)
-    print(f"\n== sweep: {args.seeds} seeds x {len(SETS)} effect sets ==")
-    sweep(args.seeds, args.processes)
+    if args.only in (None, "kuka"):
+        print("== KUKA record ==")
+        kuka()
+    if args.only in (None, "timing"):
+        print("\n== timing ==")
+        timing(args.repeat)
+    if args.only in (None, "sweep"):
+        angles = f"encoder angles {args.encoder_counts} counts/rev" if args.encoder_counts else "no angle columns"
+        print(f"\n== sweep: {args.seeds} seeds x {len(SETS)} effect sets, {args.duration:g} s records, {angles} ==")
+        sweep(args.seeds, args.processes, args.duration, args.encoder_counts or None)
 
 
 if __name__ == "__main__":

@@ -16,8 +16,13 @@ of ``horizon`` seconds is predicted from the data's state
 nominal structure, every remaining candidate is fitted on top of the current set
 (from the current values, its parameter at the null value); the candidate with
 the largest validation gain is added if it passes the significance rule, and
-the search repeats.  A **backward check** then refits the set without each
-member and drops a member that no longer passes the rule against the rest.
+the search repeats.  Candidates that passed the rule in a step but lost to a
+larger gain (*runners-up*) are kept aside.  **Backward elimination** then fits
+the set with the runners-up, refits it without each member and drops a member
+that fails the rule against the rest (first one whose interval in the joint
+fit includes its null value), until every member passes: two nearly collinear
+effects (Coulomb and viscous friction under a sine speed) are told apart by the
+joint fit, not by which happened to win a forward step.
 
 Significance rule (stated, fixed), for adding an effect to a set:
 
@@ -30,13 +35,18 @@ Significance rule (stated, fixed), for adding an effect to a set:
 3. *size*: the parameter's 95 % interval (cluster-robust, Student t) excludes
    the null value, a delay is at least one sample, and a torque effect
    (friction at the RMS speed, offset) is at least :data:`MIN_TORQUE_SHARE`
-   (1 %) of the record's RMS motor torque.
+   (1 %) of the record's RMS motor torque; rubber is at least
+   :data:`MIN_RUBBER_SHARE` (10 %) of the half gap (a thinner layer is within
+   the mismatch between the exact model (14) and the static law (23) the fit
+   uses) and wider than the twist's uncertainty (:meth:`_Search.twist_uncertainty`).
 
-The answer is a set of causes ordered by the gain of their step.  Before naming
-any, the baseline must explain the data: with a validation fit below
+The answer is a set of causes ordered by their gain against the rest.  Before
+naming any, the baseline must explain the data: with a validation fit below
 :data:`BASELINE_MIN_FIT` % on a speed the diagnosis says so and names none.
 The final set's values are refined by a free run where it does not drift
-(:func:`~.calibrate.calibrate`, ``polish``), and their intervals reported.
+(:func:`~.calibrate.refine`), kept where they predict the validation part at
+least as well, and their intervals reported; a member whose refined interval
+includes its null value is dropped.
 """
 
 import dataclasses
@@ -51,7 +61,7 @@ from .effects import EFFECT_NAMES, get_effect
 from .residuals import residual_analysis
 
 __all__ = ["CandidateResult", "Diagnosis", "diagnose", "check_speed_units", "check_excitation", "MIN_GAIN",
-           "MIN_T", "BASELINE_MIN_FIT", "VALIDATION_HORIZON", "MIN_TORQUE_SHARE"]
+           "MIN_T", "BASELINE_MIN_FIT", "VALIDATION_HORIZON", "MIN_TORQUE_SHARE", "MIN_RUBBER_SHARE"]
 
 #: Smallest relative decrease of the validation RSS of an accepted effect.
 MIN_GAIN = 0.05
@@ -60,6 +70,8 @@ MIN_T = 2.0
 #: Smallest torque of a named torque effect (friction at the RMS speed, offset) as a share of the
 #: record's RMS motor torque: smaller effects are model mismatch, not a cause to act on.
 MIN_TORQUE_SHARE = 0.01
+#: Smallest rubber thickness beta named, as a share of the half gap alpha.
+MIN_RUBBER_SHARE = 0.1
 #: Smallest validation fit (%, k-step, every speed) of the baseline for naming a cause.
 BASELINE_MIN_FIT = 30.0
 #: Prediction horizon (s) of the validation scores: each block of the validation part is predicted
@@ -316,11 +328,12 @@ class Diagnosis:
             or "none"
 
 
-RULE = (f"an effect is added (forward selection, then a backward check) if the validation RSS falls by at "
+RULE = (f"an effect is added (forward selection, then backward elimination) if the validation RSS falls by at "
         f"least {100 * MIN_GAIN:g} % and the per-block log RSS ratio has t >= {MIN_T:g} over the validation blocks "
         f"(k-step or {VALIDATION_HORIZON:g} s ahead), and "
         f"its 95 % CI (cluster-robust over segments) excludes the null value (a delay at least one sample, a torque "
-        f"effect at least {100 * MIN_TORQUE_SHARE:g} % of the RMS motor torque); "
+        f"effect at least {100 * MIN_TORQUE_SHARE:g} % of the RMS motor torque, rubber at least "
+        f"{100 * MIN_RUBBER_SHARE:g} % of the half gap and wider than the twist's uncertainty); "
         f"no cause is named when the baseline's validation fit is below {BASELINE_MIN_FIT:g} % on a speed")
 
 
@@ -372,6 +385,46 @@ class _Search:
         self.horizon, self.workers, self.progress = horizon, workers, progress
         self.weights = 1.0 / np.maximum(measurements.speeds[validation].std(axis=0), 1e-12)
         self.torque_rms = float(np.sqrt(np.mean(measurements.motor_torque**2)))
+        self.baseline = None  # the nominal structure's CandidateResult, once fitted
+
+    def polish(self, candidate):
+        """``candidate`` refined by a free run (:func:`~.calibrate.refine`), scored; the refinement is kept only
+        where it predicts the validation part at least as well (k-step plus ahead RSS): a free run sees slow
+        effects at full size, a k-step fit sees fast ones (delay, rubber) better."""
+        refined = self.score(candidate.effects, refine(self.measurements, self.rig, candidate.calibration,
+                                                       self.workers))
+        self.progress("refine " + (" + ".join(candidate.effects) or "none"))
+        return refined if sum(refined.rss) <= sum(candidate.rss) else candidate
+
+    def twist_uncertainty(self):
+        """Uncertainty (rad) of the twist the segments start from.
+
+        With angle columns, the encoders' step (the smallest nonzero change of
+        the measured twist); without, the drift of the twist integrated from the
+        noisy speeds over the record, three standard deviations of the random
+        walk ``sigma sqrt(2 N) dt`` (sigma: the speeds' noise, measured minus
+        smoothed).
+        """
+        twist = getattr(self.measurements, "twist", None)
+        if twist is not None:
+            steps = np.abs(np.diff(twist))
+            return float(np.min(steps[steps > 0])) if np.any(steps > 0) else 0.0
+        noise = float(np.mean(np.std(self.measurements.speeds - smoothed_speeds(self.measurements), axis=0)))
+        return 3.0 * noise * math.sqrt(2.0 * self.measurements.n_samples) * self.measurements.dt
+
+    def rubber_failures(self, thickness):
+        """Why a rubber layer of ``thickness`` (rad) is too thin to name (empty: it is not)."""
+        failures = []
+        half_gap = self.rig.plant.half_gap
+        if not thickness >= MIN_RUBBER_SHARE * half_gap:
+            failures.append(f"beta {thickness:.3g} rad is below {100 * MIN_RUBBER_SHARE:g} % of the half gap "
+                            f"{half_gap:.3g} rad")
+        uncertainty = self.twist_uncertainty()
+        if not thickness > uncertainty:
+            failures.append(f"beta {thickness:.3g} rad is within the twist's uncertainty {uncertainty:.3g} rad"
+                            + ("" if getattr(self.measurements, "twist", None) is not None else
+                               " (integrated from the speeds: record motor_angle and load_angle)"))
+        return failures
 
     def effect_torque(self, effect, value):
         """Typical torque (N m) of a torque effect of size ``value`` (None for rubber and delay)."""
@@ -439,22 +492,28 @@ class _Search:
         if torque is not None and not torque >= MIN_TORQUE_SHARE * self.torque_rms:
             failures.append(f"its torque {torque:.3g} N m is below {100 * MIN_TORQUE_SHARE:g} % of the record's RMS "
                             f"torque {self.torque_rms:.3g} N m")
+        if effect.name == "rubber":
+            failures += self.rubber_failures(parameter.value)
         reason = "; ".join(failures) if failures else f"gain {100 * gain:.1f} % ({label}), t {t_stat:.1f}, CI excludes 0"
         return dataclasses.replace(candidate, added=added, gain=gain, t_statistic=t_stat, accepted=not failures,
                                    reason=reason)
 
 
 def _forward(search, baseline, keys, tried):
-    """Forward selection from ``baseline``; returns the accepted steps in order.
+    """Forward selection from ``baseline``; returns the accepted steps in order and the runners-up.
 
     Every remaining candidate is *screened* by a fit of the effects' parameters
     and the twist offset only (plant values held at the current set's); the
     :data:`MAX_REFITS` with the largest screening gains (at least
     :data:`MIN_GAIN`) are refitted in full, and the one with the largest gain
     that passes the rule is added (so that, for example, the side of a
-    friction is chosen by full fits).
+    friction is chosen by full fits).  The *runners-up* are the keys whose full
+    fit passed the rule in some step but were not added: two nearly collinear
+    effects (Coulomb and viscous friction on a record whose speed is mostly a
+    sine) pass in the same step with close gains, and the data may say which
+    one it is only when both are fitted together (:func:`_backward`).
     """
-    current, steps = baseline, []
+    current, steps, runners = baseline, [], []
     while True:
         screened = []
         for key in (key for key in keys if key not in current.effects):
@@ -471,32 +530,94 @@ def _forward(search, baseline, keys, tried):
             refits.append(full)
         passing = [full for full in refits if full.accepted]
         if not passing:
-            return steps
+            return steps, [key for key in dict.fromkeys(runners) if key not in current.effects]
         current = max(passing, key=lambda full: full.gain)
         steps.append(current)
+        runners += [full.added for full in passing if full is not current]
 
 
-def _backward(search, steps, tried):
-    """Drop members of the selected set that no longer pass the rule against the rest.
+def _backward(search, steps, runners, tried):
+    """Backward elimination over the selected set and the runners-up.
 
-    Returns the final model (None without effects) and its ``(key, gain)`` in selection order.
+    Starts from the last forward step, with the runners-up fitted along; while
+    a member fails the rule against the rest (refit without it, then judged as
+    adding it back), a failing member is dropped: first one whose interval in
+    the joint fit includes its null value, else the one with the smallest gain
+    (the estimation part may tell two collinear effects apart where the short
+    validation part cannot).  Returns the
+    final model (None without effects) and each member's ``(key, gain)``
+    against the rest (its forward gain when it is the only one).
     """
     if not steps:
         return None, []
     final = steps[-1]
-    kept = list(final.effects)
-    if len(steps) > 1:
+    if runners:
+        start = final.calibration.values | {get_effect(key).value_key: get_effect(key).start(search.rig)
+                                            for key in runners}
+        final = search.fit(final.effects + tuple(runners), start)
+    alone = steps[0].added if len(steps) == 1 and not runners else None
+    while len(final.effects) > 1:
+        checks = []
         for key in final.effects:
-            rest = tuple(k for k in kept if k != key)
+            rest = tuple(k for k in final.effects if k != key)
             without = search.fit(rest, final.calibration.values | {get_effect(key).value_key: 0.0})
             check = search.judge(final, without, key)
             tried.append(dataclasses.replace(check, reason="backward check: " + check.reason))
-            if not check.accepted:
-                kept.remove(key)
-    order = [(step.added, step.gain) for step in steps if step.added in kept]
-    if kept != list(final.effects):
-        final = search.fit(tuple(kept), final.calibration.values)
-    return final, order
+            checks.append((check, without))
+        failing = [(not _includes_null(final.calibration.effect_parameter(check.added), check.added), check.gain,
+                    without) for check, without in checks if not check.accepted]
+        if not failing:
+            return final, [(check.added, check.gain) for check, _ in checks]
+        final = min(failing, key=lambda item: item[:2])[2]
+    if final.effects[0] == alone:
+        return final, [(alone, steps[0].gain)]
+    return _judged_alone(search, final, tried)
+
+
+def _judged_alone(search, model, tried):
+    """A one-effect ``model`` judged against the nominal structure: ``(model, [(key, gain)])`` or ``(None, [])``."""
+    check = search.judge(model, search.baseline, model.effects[0])
+    tried.append(dataclasses.replace(check, reason="backward check: " + check.reason))
+    return (model, [(check.added, check.gain)]) if check.accepted else (None, [])
+
+
+def _polished(search, chosen, order, tried):
+    """The selected set refined (:meth:`_Search.polish`), every member's refined interval excluding its null value.
+
+    A member whose refined 95 % interval includes the null value, or whose
+    refined size fails rule 3, is dropped (its evidence came from the k-step
+    fit alone) and the rest is refitted,
+    judged and refined again.  Returns the refined model (None when no effect
+    is left) and the ``(key, gain)`` of its members.
+    """
+    while True:
+        refined = search.polish(chosen)
+        weak = {}
+        for key in chosen.effects:
+            parameter = refined.calibration.effect_parameter(key)
+            failures = (["its 95 % CI includes the null value"] if _includes_null(parameter, key) else []) + (
+                search.rubber_failures(parameter.value) if get_effect(key).name == "rubber" else [])
+            if failures:
+                weak[key] = "; ".join(failures)
+        if not weak:
+            return refined, order
+        for key, why in weak.items():
+            tried.append(dataclasses.replace(refined, added=key, accepted=False, reason=(
+                f"after the free-run refinement {why}: dropped")))
+        rest = tuple(key for key in chosen.effects if key not in weak)
+        if not rest:
+            return None, []
+        chosen = search.fit(rest, chosen.calibration.values | {get_effect(key).value_key: 0.0 for key in weak})
+        order = [(key, gain) for key, gain in order if key in rest]
+        if len(rest) == 1:
+            chosen, order = _judged_alone(search, chosen, tried)
+            if chosen is None:
+                return None, []
+
+
+def _includes_null(parameter, key):
+    low, high = parameter.ci95
+    return not (low > get_effect(key).null or high < get_effect(key).null)
 
 
 def _causes(extended, order):
@@ -626,13 +747,13 @@ def _diagnose(measurements, rig, candidates, estimation_fraction, transient_frac
     baseline = search.fit(())
     tried = [dataclasses.replace(baseline, reason="the nominal structure (reference)")]
     weak = not min(baseline.fit_percent.values()) >= BASELINE_MIN_FIT
-    chosen, order = (None, []) if weak else _backward(search, _forward(search, baseline, keys, tried), tried)
-    base_final = search.score((), refine(measurements, rig, baseline.calibration, workers))
-    search.progress("refine none")
+    search.baseline = baseline
+    chosen, order = (None, []) if weak else _backward(search, *_forward(search, baseline, keys, tried), tried)
+    base_final = search.polish(baseline)
     extended = base_final
     if chosen is not None:
-        extended = search.score(chosen.effects, refine(measurements, rig, chosen.calibration, workers))
-        search.progress("refine " + " + ".join(chosen.effects))
+        extended, order = _polished(search, chosen, order, tried)
+        extended = extended or base_final
     causes = _causes(extended, order)
     warnings = _warnings(measurements, base_final, extended, [key for key, _ in order]) + _side_notes(
         [key for key, _ in order], tried)

@@ -212,8 +212,19 @@ def _hidden_effects(cause, size, rig, rng, experiment):
     return effects
 
 
+def _encoder_angles(states, dt, counts, rng):
+    """``motor_angle`` and ``load_angle`` (rad) read by encoders of ``counts`` per revolution (none: {})."""
+    if counts is None:
+        return {}
+    load = np.concatenate([[0.0], np.cumsum(0.5 * (states[1:, 2] + states[:-1, 2]))]) * dt
+    step = 2.0 * np.pi / counts
+    zeros = rng.uniform(0.0, 2.0 * np.pi, 2)
+    return {"motor_angle": np.floor((zeros[0] + load + states[:, 0]) / step) * step,
+            "load_angle": np.floor((zeros[1] + load) / step) * step}
+
+
 def synthesize(rig, cause="none", size=None, seed=0, duration=2.0, sample_rate=1000.0, oversample=5,
-               experiment=Experiment(), datasheet_error=0.04):
+               experiment=Experiment(), datasheet_error=0.04, encoder_counts=None):
     """Simulate a measurement record of ``rig`` with hidden effects.
 
     Parameters
@@ -237,6 +248,10 @@ def synthesize(rig, cause="none", size=None, seed=0, duration=2.0, sample_rate=1
         Excitation and noise.
     datasheet_error : float
         Relative range of the data-sheet errors (0.04: each value within +-4 %).
+    encoder_counts : int, optional
+        With a count per revolution, the record carries encoder angles
+        ``motor_angle`` and ``load_angle`` (rad): the true angles rounded down to
+        the encoder's step ``2 pi / encoder_counts``, each from its own random zero.
 
     Returns
     -------
@@ -288,6 +303,7 @@ def synthesize(rig, cause="none", size=None, seed=0, duration=2.0, sample_rate=1
         load_speed=states[:, 2] + noise[n_warm:, 1],
         load_torque=load_torque[record],
         source=f"synthetic({label}, seed={seed})",
+        **_encoder_angles(result.states[record], dt_fine * oversample, encoder_counts, rng),
     )
     first = n_warm * oversample
     initial_state = {"theta_d0": float(result.states[first, 0]), "motor_speed0": float(result.states[first, 1]),
