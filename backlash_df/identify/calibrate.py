@@ -304,10 +304,12 @@ def smoothed_speeds(measurements, window=11):
 
 def integrated_displacement(measurements):
     """``int_0^t (w_m - w_l) dt`` from the measured speeds (rad): theta_d up to its offset."""
+    from scipy.integrate import cumulative_trapezoid  # lazy: keeps `import backlash_df` quick
+
     if measurements.load_speed is None:
         return np.zeros(measurements.n_samples)
     relative = measurements.motor_speed - measurements.load_speed
-    return np.concatenate([[0.0], np.cumsum(0.5 * (relative[1:] + relative[:-1]))]) * measurements.dt
+    return cumulative_trapezoid(relative, dx=measurements.dt, initial=0.0)
 
 
 def measured_twist(measurements):

@@ -38,7 +38,7 @@ Significance rule (stated, fixed), for adding an effect to a set:
    (1 %) of the record's RMS motor torque; rubber is at least
    :data:`MIN_RUBBER_SHARE` (10 %) of the half gap (a thinner layer is within
    the mismatch between the exact model (14) and the static law (23) the fit
-   uses) and wider than the twist's uncertainty (:meth:`_Search.twist_uncertainty`).
+   uses) and wider than the twist's uncertainty (:attr:`_Search.twist_uncertainty`).
 
 The answer is a set of causes ordered by their gain against the rest.  Before
 naming any, the baseline must explain the data: with a validation fit below
@@ -50,6 +50,7 @@ includes its null value is dropped.
 """
 
 import dataclasses
+import functools
 import json
 import math
 
@@ -352,11 +353,13 @@ def check_speed_units(measurements, rig):
     friction); a slope far from 1 (above 4, as rpm gives 30/pi = 9.55) means
     the speeds are not in rad/s.
     """
+    from scipy.integrate import cumulative_trapezoid  # lazy: keeps `import backlash_df` quick
+
     plant = rig.plant
     load_speed = measurements.load_speed if measurements.load_speed is not None else measurements.motor_speed
     momentum = plant.motor_inertia * measurements.motor_speed + plant.load_inertia * load_speed
     torque = measurements.motor_torque + measurements.load_torque_or_zero
-    impulse = np.concatenate([[0.0], np.cumsum(0.5 * (torque[1:] + torque[:-1]))]) * measurements.dt
+    impulse = cumulative_trapezoid(torque, dx=measurements.dt, initial=0.0)
     t = measurements.time - measurements.time[0]
     design = np.column_stack([impulse, t, np.ones_like(t)])
     slope = float(np.linalg.lstsq(design, momentum - momentum[0], rcond=None)[0][0])
@@ -396,6 +399,7 @@ class _Search:
         self.progress("refine " + (" + ".join(candidate.effects) or "none"))
         return refined if sum(refined.rss) <= sum(candidate.rss) else candidate
 
+    @functools.cached_property
     def twist_uncertainty(self):
         """Uncertainty (rad) of the twist the segments start from.
 
@@ -405,25 +409,33 @@ class _Search:
         walk ``sigma sqrt(2 N) dt`` (sigma: the speeds' noise, measured minus
         smoothed).
         """
-        twist = getattr(self.measurements, "twist", None)
+        twist = self.measurements.twist
         if twist is not None:
             steps = np.abs(np.diff(twist))
             return float(np.min(steps[steps > 0])) if np.any(steps > 0) else 0.0
-        noise = float(np.mean(np.std(self.measurements.speeds - smoothed_speeds(self.measurements), axis=0)))
+        noise = float(np.mean(_speed_noise(self.measurements)))
         return 3.0 * noise * math.sqrt(2.0 * self.measurements.n_samples) * self.measurements.dt
 
-    def rubber_failures(self, thickness):
-        """Why a rubber layer of ``thickness`` (rad) is too thin to name (empty: it is not)."""
-        failures = []
-        half_gap = self.rig.plant.half_gap
-        if not thickness >= MIN_RUBBER_SHARE * half_gap:
-            failures.append(f"beta {thickness:.3g} rad is below {100 * MIN_RUBBER_SHARE:g} % of the half gap "
-                            f"{half_gap:.3g} rad")
-        uncertainty = self.twist_uncertainty()
-        if not thickness > uncertainty:
-            failures.append(f"beta {thickness:.3g} rad is within the twist's uncertainty {uncertainty:.3g} rad"
-                            + ("" if getattr(self.measurements, "twist", None) is not None else
-                               " (integrated from the speeds: record motor_angle and load_angle)"))
+    def size_failures(self, key, parameter):
+        """Why the fitted ``parameter`` of effect ``key`` fails rule 3, the size rule (empty: it passes)."""
+        effect = get_effect(key)
+        value = parameter.value
+        failures = ["95 % CI includes 0"] if _includes_null(parameter, key) else []
+        if effect.name == "actuator_delay" and value < self.measurements.dt:
+            failures.append(_NULL["actuator_delay"])
+        torque = self.effect_torque(effect, value)
+        if torque is not None and not torque >= MIN_TORQUE_SHARE * self.torque_rms:
+            failures.append(f"its torque {torque:.3g} N m is below {100 * MIN_TORQUE_SHARE:g} % of the record's RMS "
+                            f"torque {self.torque_rms:.3g} N m")
+        if effect.name == "rubber":
+            half_gap = self.rig.plant.half_gap
+            if not value >= MIN_RUBBER_SHARE * half_gap:
+                failures.append(f"beta {value:.3g} rad is below {100 * MIN_RUBBER_SHARE:g} % of the half gap "
+                                f"{half_gap:.3g} rad")
+            if not value > self.twist_uncertainty:
+                failures.append(f"beta {value:.3g} rad is within the twist's uncertainty {self.twist_uncertainty:.3g} "
+                                "rad" + ("" if self.measurements.twist is not None else
+                                         " (integrated from the speeds: record motor_angle and load_angle)"))
         return failures
 
     def effect_torque(self, effect, value):
@@ -477,23 +489,12 @@ class _Search:
             tests.append((gain, t_stat, label))
         passing = [test for test in tests if test[0] >= MIN_GAIN and test[1] >= MIN_T]
         gain, t_stat, label = max(passing or tests)
-        low, high = parameter.ci95
-        effect = get_effect(added)
         failures = []
         if not gain >= MIN_GAIN:
             failures.append(f"gain {100 * gain:.1f} % ({label}) below {100 * MIN_GAIN:g} %")
         if not t_stat >= MIN_T:
             failures.append(f"t {t_stat:.1f} ({label}) below {MIN_T:g}")
-        if not (low > effect.null or high < effect.null):
-            failures.append("95 % CI includes 0")
-        if effect.name == "actuator_delay" and parameter.value < self.measurements.dt:
-            failures.append(_NULL["actuator_delay"])
-        torque = self.effect_torque(effect, parameter.value)
-        if torque is not None and not torque >= MIN_TORQUE_SHARE * self.torque_rms:
-            failures.append(f"its torque {torque:.3g} N m is below {100 * MIN_TORQUE_SHARE:g} % of the record's RMS "
-                            f"torque {self.torque_rms:.3g} N m")
-        if effect.name == "rubber":
-            failures += self.rubber_failures(parameter.value)
+        failures += self.size_failures(added, parameter)
         reason = "; ".join(failures) if failures else f"gain {100 * gain:.1f} % ({label}), t {t_stat:.1f}, CI excludes 0"
         return dataclasses.replace(candidate, added=added, gain=gain, t_statistic=t_stat, accepted=not failures,
                                    reason=reason)
@@ -584,26 +585,21 @@ def _judged_alone(search, model, tried):
 def _polished(search, chosen, order, tried):
     """The selected set refined (:meth:`_Search.polish`), every member's refined interval excluding its null value.
 
-    A member whose refined 95 % interval includes the null value, or whose
-    refined size fails rule 3, is dropped (its evidence came from the k-step
-    fit alone) and the rest is refitted,
+    A member whose refined value fails rule 3 (:meth:`_Search.size_failures`:
+    its 95 % interval includes the null value, or it is too small) is dropped
+    (its evidence came from the k-step fit alone) and the rest is refitted,
     judged and refined again.  Returns the refined model (None when no effect
     is left) and the ``(key, gain)`` of its members.
     """
     while True:
         refined = search.polish(chosen)
-        weak = {}
-        for key in chosen.effects:
-            parameter = refined.calibration.effect_parameter(key)
-            failures = (["its 95 % CI includes the null value"] if _includes_null(parameter, key) else []) + (
-                search.rubber_failures(parameter.value) if get_effect(key).name == "rubber" else [])
-            if failures:
-                weak[key] = "; ".join(failures)
+        weak = {key: "; ".join(failures) for key in chosen.effects
+                if (failures := search.size_failures(key, refined.calibration.effect_parameter(key)))}
         if not weak:
             return refined, order
         for key, why in weak.items():
             tried.append(dataclasses.replace(refined, added=key, accepted=False, reason=(
-                f"after the free-run refinement {why}: dropped")))
+                f"after the free-run refinement: {why}; dropped")))
         rest = tuple(key for key in chosen.effects if key not in weak)
         if not rest:
             return None, []
@@ -613,6 +609,11 @@ def _polished(search, chosen, order, tried):
             chosen, order = _judged_alone(search, chosen, tried)
             if chosen is None:
                 return None, []
+
+
+def _speed_noise(measurements):
+    """Standard deviation of each speed's noise (rad/s): measured minus smoothed."""
+    return np.std(measurements.speeds - smoothed_speeds(measurements), axis=0)
 
 
 def _includes_null(parameter, key):
@@ -667,7 +668,7 @@ def _warnings(measurements, baseline, extended, keys):
                          f"({low:.4g} .. {parameter.ci95[1]:.4g} {parameter.unit})")
     start = extended.calibration.window[0]
     measured = data_states(measurements, 0.0, [start])[0]
-    noise = np.std(measurements.speeds - smoothed_speeds(measurements), axis=0)
+    noise = _speed_noise(measurements)
     for column, name in ((1, "motor_speed0"), (2, "load_speed0")):
         if name in parameters:
             gap = parameters[name].value - measured[column]

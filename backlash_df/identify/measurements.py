@@ -296,7 +296,9 @@ def _check_speed_units(name, values, source):
 
 def _check_angle(name, angle, speed, dt, source):
     """The angle's increments must match the trapezoidal integral of its speed (same side)."""
-    integral = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1])) * dt])
+    from scipy.integrate import cumulative_trapezoid  # lazy: keeps `import backlash_df` quick
+
+    integral = cumulative_trapezoid(speed, dx=dt, initial=0.0)
     mismatch = np.abs(angle - angle[0] - integral)
     worst = int(np.argmax(mismatch))
     scale = max(np.ptp(angle), np.ptp(integral))

@@ -216,7 +216,9 @@ def _encoder_angles(states, dt, counts, rng):
     """``motor_angle`` and ``load_angle`` (rad) read by encoders of ``counts`` per revolution (none: {})."""
     if counts is None:
         return {}
-    load = np.concatenate([[0.0], np.cumsum(0.5 * (states[1:, 2] + states[:-1, 2]))]) * dt
+    from scipy.integrate import cumulative_trapezoid  # lazy: keeps `import backlash_df` quick
+
+    load = cumulative_trapezoid(states[:, 2], dx=dt, initial=0.0)
     step = 2.0 * np.pi / counts
     zeros = rng.uniform(0.0, 2.0 * np.pi, 2)
     return {"motor_angle": np.floor((zeros[0] + load + states[:, 0]) / step) * step,
