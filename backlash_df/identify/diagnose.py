@@ -62,7 +62,8 @@ from .effects import EFFECT_NAMES, get_effect
 from .residuals import residual_analysis
 
 __all__ = ["CandidateResult", "Diagnosis", "diagnose", "check_speed_units", "check_excitation", "MIN_GAIN",
-           "MIN_T", "BASELINE_MIN_FIT", "VALIDATION_HORIZON", "MIN_TORQUE_SHARE", "MIN_RUBBER_SHARE"]
+           "MIN_T", "BASELINE_MIN_FIT", "VALIDATION_HORIZON", "MIN_TORQUE_SHARE", "MIN_RUBBER_SHARE",
+           "EXTENDED_MIN_AHEAD_FIT"]
 
 #: Smallest relative decrease of the validation RSS of an accepted effect.
 MIN_GAIN = 0.05
@@ -75,6 +76,12 @@ MIN_TORQUE_SHARE = 0.01
 MIN_RUBBER_SHARE = 0.1
 #: Smallest validation fit (%, k-step, every speed) of the baseline for naming a cause.
 BASELINE_MIN_FIT = 30.0
+#: Smallest validation fit (%, :data:`VALIDATION_HORIZON` ahead, every speed) of the extended model below
+#: which the diagnosis warns that the named causes leave much of the data unexplained.  Where the
+#: catalogue holds the truth (66 synthetic records, benchmarks/bench_diagnose.py) and on KUKA axis 1
+#: the extended model reaches at least 81.9 %; on KUKA axes 2 and 3, whose pose-dependent gravity
+#: torque no catalogue effect expresses, 38 % to 69 %.
+EXTENDED_MIN_AHEAD_FIT = 75.0
 #: Prediction horizon (s) of the validation scores: each block of the validation part is predicted
 #: from the data's state this long before its end (slow effects such as friction show over it).
 VALIDATION_HORIZON = 0.4
@@ -648,14 +655,24 @@ def _side_notes(keys, tried):
     return notes
 
 
+_UNEXPLAINED = "the named causes leave much of the data unexplained"
+
+
 def _warnings(measurements, baseline, extended, keys):
-    """Loading notes (decimation), a weak baseline, values on a bound, unphysical intervals, initial states."""
+    """Loading notes (decimation), a weak baseline or extended model, values on a bound, unphysical intervals,
+    initial states."""
     notes = list(measurements.notes)
     worst = min(baseline.fit_percent.values())
     if not worst >= BASELINE_MIN_FIT:
         notes.append(f"the baseline explains too little of the validation data (k-step fit {worst:.1f} % on a speed, "
                      f"below {BASELINE_MIN_FIT:g} %): no cause is named; check the rig file (inertias, stiffness, "
                      f"gear ratio, units) and the record")
+    elif keys and not min(extended.ahead_fit_percent.values()) >= EXTENDED_MIN_AHEAD_FIT:
+        name, fit = min(extended.ahead_fit_percent.items(), key=lambda item: item[1])
+        notes.append(f"{_UNEXPLAINED}: with the named causes the model still predicts {name} {VALIDATION_HORIZON:g} s "
+                     f"ahead only to {fit:.1f} % (below {EXTENDED_MIN_AHEAD_FIT:g} %); something outside the "
+                     f"catalogue remains (a pose-dependent gravity torque or inertia, a feed-forward, a torque the "
+                     f"record does not hold), and the named values absorb part of it")
     parameters = extended.calibration.parameters
     for name, parameter in parameters.items():
         low, _ = parameter.ci95
@@ -691,6 +708,9 @@ def _sentence(causes, extended, baseline, warnings):
         key = cause["effect"] + (f"@{cause['side']}" if cause["side"] else "")
         parameter = cause["parameters"][cause["effect"]]
         sentences.append(get_effect(key).describe(parameter["value"], *parameter["ci95"]))
+    if any(warning.startswith(_UNEXPLAINED) for warning in warnings):
+        sentences.append("These causes are the catalogue's best approximation, not the whole explanation: "
+                         "the extended model still misses much of the data (see the warnings).")
     return " ".join(sentences) + gain
 
 
