@@ -78,9 +78,10 @@ MIN_RUBBER_SHARE = 0.1
 BASELINE_MIN_FIT = 30.0
 #: Smallest validation fit (%, :data:`VALIDATION_HORIZON` ahead, every speed) of the extended model below
 #: which the diagnosis warns that the named causes leave much of the data unexplained.  Where the
-#: catalogue holds the truth (66 synthetic records, benchmarks/bench_diagnose.py) and on KUKA axis 1
-#: the extended model reaches at least 81.9 %; on KUKA axes 2 and 3, whose pose-dependent gravity
-#: torque no catalogue effect expresses, 38 % to 69 %.
+#: catalogue holds the truth (66 synthetic 4 s records of benchmarks/bench_diagnose.py: seeds 2000-2002
+#: of its 11 effect sets, with and without angle columns) and on KUKA axis 1 the extended model
+#: reaches at least 81.9 %; on KUKA axes 2 and 3, whose pose-dependent gravity torque no catalogue
+#: effect expresses, 38 % to 69 %.
 EXTENDED_MIN_AHEAD_FIT = 75.0
 #: Prediction horizon (s) of the validation scores: each block of the validation part is predicted
 #: from the data's state this long before its end (slow effects such as friction show over it).
