@@ -181,3 +181,14 @@ def test_rubber_thinner_than_the_model_resolves_is_not_named(rig):
     assert result.causes == []
     reasons = [c.reason for c in result.candidates if c.added == "rubber"]
     assert any("% of the half gap" in reason for reason in reasons), reasons
+    assert not any("segments" in w for w in result.warnings)  # 4 s: 22 segments, no short-record warning
+
+
+def test_short_record_is_warned_and_no_cause_is_not_called_proof_of_absence(rig):
+    """A 1 s record holds 6 segments in its estimation part (0.05 s to 0.6 s, 0.1 s each, the last
+    0.05 s): its intervals rest on few clusters, and the diagnosis says so; naming nothing, it
+    does not claim the effect is absent."""
+    record = synthesize(rig, "none", seed=4, duration=1.0)
+    result = diagnose(record.measurements, rig, candidates=["coulomb_friction"])
+    assert any(w.startswith("the estimation part holds only 6 segments") for w in result.warnings), result.warnings
+    assert result.causes == [] and "may still be present" in result.sentence
