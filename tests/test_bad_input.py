@@ -28,15 +28,9 @@ import backlash_df.reproduce
 import backlash_df.sweeps
 from backlash_df.cli import main
 from backlash_df.report import Outputs
+from rig_texts import PLANT_TOML
 
-RIG = """
-[plant]
-motor_inertia = 0.4
-load_inertia = 5.6
-stiffness = 5895.0
-damping = 3.0
-half_gap = 0.05
-
+RIG = PLANT_TOML + """
 [controller]
 feedback = "load"
 kp = 30.0

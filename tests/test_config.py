@@ -3,17 +3,11 @@
 import pytest
 
 from backlash_df import RigError, load_rig, rig_from_dict
+from rig_texts import PLANT_TOML
 
 PLANT = dict(motor_inertia=0.4, load_inertia=5.6, stiffness=5895.0, damping=3.0, half_gap=0.05)
 
-GOOD = """
-[plant]
-motor_inertia = 0.4
-load_inertia = 5.6
-stiffness = 5895.0
-damping = 3.0
-half_gap = 0.05
-
+GOOD = PLANT_TOML + """
 [controller]
 kp = 30.0
 ti = 0.5

@@ -7,15 +7,9 @@ import pytest
 from click.testing import CliRunner
 
 from backlash_df.cli import main
+from rig_texts import PLANT_TOML
 
-GOOD = """
-[plant]
-motor_inertia = 0.4
-load_inertia = 5.6
-stiffness = 5895.0
-damping = 3.0
-half_gap = 0.05
-
+GOOD = PLANT_TOML + """
 [controller]
 feedback = "load"
 kp = 30.0
