@@ -10,7 +10,8 @@
    (target >= 95 % exactly right, no invented effect on clean records), the
    share of estimates within 10 % of the truth, the coverage of the 95 %
    intervals (target >= 85 %) and the time per record.
-2. Timing: one diagnosis of a 4 s record at 2 kHz (8000 samples), whole catalogue
+2. Timing: one diagnosis of a 4 s record at 2 kHz (8000 samples, encoder angles: the
+   multiple-shooting fit, the slower path), whole catalogue
    (target < 20 s), against the named alternative "the same diagnosis on one
    thread" in the same run, best of ``--repeat``.
 3. KUKA record (``examples/kuka``): causes and intervals, baseline against
@@ -103,7 +104,7 @@ def sweep(seeds, processes, duration, counts):
 def timing(repeat):
     rig = load_rig(RIG)
     record = synthesize(rig, {"coulomb_friction@load": None, "viscous_friction@load": None}, seed=7, duration=4.0,
-                        sample_rate=2000.0)
+                        sample_rate=2000.0, encoder_counts=2**20)
     best = {}
     for workers in (2, 1):
         times = []

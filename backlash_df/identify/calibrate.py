@@ -26,7 +26,11 @@ is one segment over the whole window.
 **Calibration** fits the plant values of the rig file (data-sheet values, a few
 per cent off), the offset ``theta_d0`` and the effect parameters by bounded
 nonlinear least squares (:func:`scipy.optimize.least_squares`, trust region
-reflective) of the k-step prediction error on an estimation window.  Intervals
+reflective) of the k-step prediction error on an estimation window.  It is a
+multiple-shooting fit (:class:`_Shooting`) where the twist is measured: each
+segment's initial speeds are corrected too, with the data's state as a
+measurement of them, so that the noise of that state does not bias the values
+(errors in the variables).  Intervals
 come from a cluster-robust ("sandwich") covariance over the segments,
 ``(J^T J)^-1 (sum_g J_g^T r_g r_g^T J_g) (J^T J)^-1 G / (G - 1)`` with a
 Student t quantile of ``G - 1`` degrees of freedom: residuals correlated within
@@ -61,6 +65,7 @@ __all__ = [
     "fit_percent",
     "information_criterion",
     "smoothed_speeds",
+    "speed_noise",
     "integrated_displacement",
 ]
 
@@ -76,6 +81,9 @@ _UNITS = {"motor_inertia": "kg m^2", "load_inertia": "kg m^2", "stiffness": "N m
 _RELATIVE_RANGE = 0.3  # data-sheet values are trusted to +-30 %
 _SUBSTEPS = 2  # RK4 steps per sample
 _THETA_GRID_POINTS = 33  # starting theta_d0 searched on a grid over its range
+#: Noise of a smoothed speed (:func:`smoothed_speeds`, Savitzky-Golay 11 points, order 2) as a share of
+#: the raw speed's: ``sqrt(h_0)`` with ``h_0 = 89 / 429`` the filter's centre weight.
+SMOOTHED_NOISE_SHARE = math.sqrt(89.0 / 429.0)
 DEFAULT_HORIZON = 0.1  # s, length of the k-step segments
 #: Smallest free-run fit (%) of the k-step solution on every speed for the free-run refinement.
 FREE_RUN_MIN = 50.0
@@ -302,6 +310,11 @@ def smoothed_speeds(measurements, window=11):
     return savgol_filter(measurements.speeds, window, 2, axis=0)
 
 
+def speed_noise(measurements):
+    """Standard deviation of each measured speed's noise (rad/s): measured minus smoothed."""
+    return np.std(measurements.speeds - smoothed_speeds(measurements), axis=0)
+
+
 def integrated_displacement(measurements):
     """``int_0^t (w_m - w_l) dt`` from the measured speeds (rad): theta_d up to its offset."""
     from scipy.integrate import cumulative_trapezoid  # lazy: keeps `import backlash_df` quick
@@ -365,12 +378,15 @@ class _Model:
         torque = self.measurements.motor_torque
         return np.ascontiguousarray(torque if delay <= 0.0 else np.interp(self.t_rel - delay, self.t_rel, torque))
 
-    def run(self, values, starts, stops):
-        """Simulate segments from the data's states; (states, torque) on the whole record's grid
-        (rows outside the segments are zero)."""
+    def run(self, values, starts, stops, corrections=None):
+        """Simulate segments from the data's states (plus ``corrections``, shape (segments, 3), the
+        multiple-shooting corrections of :class:`_Shooting`); (states, torque) on the whole record's
+        grid (rows outside the segments are zero)."""
         p = np.array([float(values[name]) for name in MODEL_PARAMETERS] + [self.measurements.dt])
         p[5] = min(p[5], 2.0 * p[4])
         z0 = np.column_stack([values["theta_d0"] + self.twist[starts], self.speeds[starts, 0], self.speeds[starts, -1]])
+        if corrections is not None:
+            z0 += corrections
         for column, name in ((1, "motor_speed0"), (2, "load_speed0")):
             if name in values:  # fitted initial speeds of a free run
                 z0[0, column] = values[name]
@@ -714,8 +730,64 @@ def refine(measurements, rig, calibration, workers=1, max_nfev=None, fixed=()):
     return dataclasses.replace(result, parameters=parameters)
 
 
+class _Shooting:
+    """Multiple shooting: corrections of the k-step segments' initial speeds, fitted with the model.
+
+    The data's state at a segment's start (:func:`data_states`) is noisy, and a
+    fit that starts every segment from it is biased (errors in the variables: a
+    torque offset came out 2 % large on speeds with 0.02 rad/s of noise).  So
+    each measured speed's initial value is corrected per segment, penalised as a
+    measurement of it: ``c / (SMOOTHED_NOISE_SHARE sigma)`` with ``sigma`` the
+    speed's noise (:func:`speed_noise`).  The penalty rows are scaled by
+    ``residual_rms``, the RMS of the data's (scaled) residual of the fit without
+    corrections: where model error, not sensor noise, makes the residual (a real
+    drive), the corrections may not absorb it.  A correction moves one segment
+    only, so the Jacobian columns of one speed across all segments cost one
+    evaluation.
+
+    Used with angle columns only: with the twist integrated from the speeds,
+    whose drift is the larger error, the corrected speeds bent the fit further
+    (benchmarks/README.md, "Diagnosis").
+    """
+
+    def __init__(self, measurements, starts, stops, residual_rms):
+        noise = np.maximum(speed_noise(measurements), 1e-9 * (float(np.ptp(measurements.speeds)) + 1.0))
+        self.n_segments = starts.size
+        self.states = [1 + j for j in range(measurements.speeds.shape[1])]  # measured speeds: w_m (, w_l)
+        self.scales = list(SMOOTHED_NOISE_SHARE * noise)
+        self.size = len(self.states) * self.n_segments
+        self.weight = residual_rms
+        self.segment_of_row = np.tile(np.repeat(np.arange(starts.size), stops - starts), len(self.states))
+
+    @property
+    def scale(self):
+        """Scale of each correction in the fit's vector (rad/s)."""
+        return np.repeat(self.scales, self.n_segments)
+
+    def corrections(self, x):
+        """The (segments, 3) state corrections of the scaled vector ``x``."""
+        z = np.zeros((self.n_segments, 3))
+        for b, state in enumerate(self.states):
+            z[:, state] = x[b * self.n_segments:(b + 1) * self.n_segments] * self.scales[b]
+        return z
+
+    def penalty(self, x):
+        """The prior's rows: each correction against the smoothed speed's noise."""
+        return self.weight * x
+
+    def blocks(self):
+        """Index ranges (in the corrections' vector) of each speed's corrections."""
+        return [np.arange(b * self.n_segments, (b + 1) * self.n_segments) for b in range(len(self.states))]
+
+
 def _fit(model, effects, window, values0, horizon, workers, max_nfev, fixed=()):
-    """One bounded least-squares fit of the prediction error over ``window``; a :class:`Calibration`."""
+    """One bounded least-squares fit of the prediction error over ``window``; a :class:`Calibration`.
+
+    A k-step fit with angle columns corrects every segment's initial speeds
+    (:class:`_Shooting`), from the solution without corrections; the corrections
+    are nuisance parameters, not reported, but their uncertainty is in every
+    reported interval (the sandwich is over all fitted values).
+    """
     from scipy.optimize import least_squares  # lazy: keeps `import backlash_df` quick
 
     measurements = model.measurements
@@ -727,38 +799,57 @@ def _fit(model, effects, window, values0, horizon, workers, max_nfev, fixed=()):
     rows = [row for row in _free_parameters(measurements, model.rig, effects, values0, window, horizon is None)
             if row[0] not in fixed]
     names = [row[0] for row in rows]
+    g = len(names)
     scales = np.array([row[4] for row in rows])
     lower = np.array([row[2] for row in rows]) / scales
     upper = np.array([row[3] for row in rows]) / scales
-    x0 = np.array([row[1] for row in rows]) / scales
     base = {key: value for key, value in values0.items() if key not in ("motor_speed0", "load_speed0")}
+    shooting = None
 
     def values_of(x):
-        return base | dict(zip(names, x * scales))
+        return base | dict(zip(names, x[:g] * scales[:g]))
 
     def residual(x):
-        states, _ = model.run(values_of(x), starts, stops)
-        return ((measured - model.speeds_of(states[start:stop])) * weights).ravel(order="F")
+        corrections = shooting.corrections(x[g:]) if shooting else None
+        states, _ = model.run(values_of(x), starts, stops, corrections)
+        data = ((measured - model.speeds_of(states[start:stop])) * weights).ravel(order="F")
+        return np.concatenate([data, shooting.penalty(x[g:])]) if shooting else data
 
-    solution = least_squares(residual, x0, jac=_parallel_jacobian(residual, lower, upper, workers),
-                             bounds=(lower, upper), method="trf", max_nfev=max_nfev)
+    # from the data's states first; from that solution the corrections converge in a few steps
+    solution = least_squares(residual, np.array([row[1] for row in rows]) / scales, bounds=(lower, upper),
+                             jac=_parallel_jacobian(residual, g, None, upper, workers), method="trf", max_nfev=max_nfev)
+    nfev = int(solution.nfev) + int(solution.njev or 0) * g
+    if k is not None and getattr(measurements, "twist", None) is not None:
+        shooting = _Shooting(measurements, starts, stops, math.sqrt(float(np.mean(solution.fun**2))))
+    extra = 0 if shooting is None else shooting.size
+    scales = np.concatenate([scales, shooting.scale if extra else []])
+    lower = np.concatenate([lower, np.full(extra, -np.inf)])
+    upper = np.concatenate([upper, np.full(extra, np.inf)])
+    x0 = np.concatenate([solution.x, np.zeros(extra)])
+    if extra:
+        solution = least_squares(residual, x0, jac=_parallel_jacobian(residual, g, shooting, upper, workers),
+                                 bounds=(lower, upper), method="trf", x_scale="jac", max_nfev=max_nfev,
+                                 tr_solver="lsmr")
+        nfev += int(solution.nfev) + int(solution.njev or 0) * (g + len(shooting.states))
+    jacobian = solution.jac.toarray() if extra else solution.jac
     blocks = segment_bounds(start, stop, k or _horizon_samples(measurements, DEFAULT_HORIZON))
     clusters = np.tile(np.repeat(np.arange(blocks[0].size), blocks[1] - blocks[0]), measured.shape[1])
-    stderr, quantile = _robust_stderr(solution.jac, solution.fun, clusters, scales)
+    if extra:
+        clusters = np.concatenate([clusters, np.tile(np.arange(starts.size), len(shooting.states))])
+    stderr, quantile = _robust_stderr(jacobian, solution.fun, clusters, scales)
     parameters = {
         name: FitParameter(name, float(value), float(err), float(row[5]), float(row[2]), float(row[3]), row[6],
                            quantile)
-        for name, value, err, row in zip(names, solution.x * scales, stderr, rows)
+        for name, value, err, row in zip(names, solution.x[:g] * scales[:g], stderr, rows)
     }
-    n = solution.fun.size
-    rss = float(solution.fun @ solution.fun)
+    n = measured.size
+    rss = float(solution.fun[:n] @ solution.fun[:n])
     values = {key: value for key, value in values_of(solution.x).items() if key not in ("motor_speed0", "load_speed0")}
     return Calibration(
         effects=tuple(effects), parameters=parameters, values=values, window=(start, stop), horizon=k,
         n_residuals=n, n_clusters=int(blocks[0].size), rss=rss,
         aic=information_criterion(rss, n, len(names), "aic"), bic=information_criterion(rss, n, len(names), "bic"),
-        nfev=int(solution.nfev) + int(solution.njev or 0) * (len(names) + 1), success=bool(solution.success),
-        message=str(solution.message),
+        nfev=nfev, success=bool(solution.success), message=str(solution.message),
     )
 
 
@@ -768,24 +859,46 @@ def information_criterion(rss, n, n_free, kind="aic"):
     return float(n * math.log(max(rss, 1e-300) / n) + penalty)
 
 
-def _parallel_jacobian(residual, lower, upper, workers, rel_step=1e-6):
-    """Forward-difference Jacobian whose columns run in ``workers`` threads."""
+def _parallel_jacobian(residual, n_global, shooting, upper, workers, rel_step=1e-6):
+    """Forward-difference Jacobian whose columns run in ``workers`` threads.
+
+    The first ``n_global`` columns one evaluation each; with ``shooting``
+    (:class:`_Shooting`), each state's corrections of all segments in one
+    evaluation (a correction moves its own segment's rows only), and the
+    random-walk rows exactly (they are linear).
+    """
 
     def jacobian(x, f0=None):
         f0 = residual(x) if f0 is None else f0
         steps = rel_step * np.maximum(1.0, np.abs(x))
         steps = np.where(x + steps > upper, -steps, steps)
+        groups = [np.array([i]) for i in range(n_global)]
+        if shooting is not None:
+            groups += [n_global + block for block in shooting.blocks()]
 
-        def column(i):
+        def difference(group):
             shifted = x.copy()
-            shifted[i] += steps[i]
-            return (residual(shifted) - f0) / steps[i]
+            shifted[group] += steps[group]
+            return residual(shifted) - f0
 
         if workers > 1:
             with ThreadPoolExecutor(workers) as pool:
-                columns = list(pool.map(column, range(x.size)))
+                differences = list(pool.map(difference, groups))
         else:
-            columns = [column(i) for i in range(x.size)]
-        return np.column_stack(columns)
+            differences = [difference(group) for group in groups]
+        dense = np.column_stack([change / steps[group[0]] for group, change in zip(groups[:n_global], differences)])
+        if shooting is None:
+            return dense
+        from scipy import sparse
+
+        n_data = shooting.segment_of_row.size
+        rows = np.arange(n_data)
+        blocks = []
+        for group, change in zip(groups[n_global:], differences[n_global:]):
+            columns = group[shooting.segment_of_row]
+            blocks.append(sparse.coo_matrix((change[:n_data] / steps[columns], (rows, columns - n_global)),
+                                            shape=(n_data, shooting.size)))
+        corrections = sparse.vstack([sum(blocks[1:], blocks[0]), shooting.weight * sparse.identity(shooting.size)])
+        return sparse.hstack([sparse.csr_matrix(dense), corrections], format="csr")
 
     return jacobian

@@ -57,7 +57,7 @@ import math
 import numpy as np
 
 from .calibrate import (DEFAULT_HORIZON, PLANT_PARAMETERS, calibrate, data_states, predict, refine, segment_bounds,
-                        single_threaded_blas, smoothed_speeds)
+                        single_threaded_blas, speed_noise)
 from .effects import EFFECT_NAMES, get_effect
 from .residuals import residual_analysis
 
@@ -426,7 +426,7 @@ class _Search:
         if twist is not None:
             steps = np.abs(np.diff(twist))
             return float(np.min(steps[steps > 0])) if np.any(steps > 0) else 0.0
-        noise = float(np.mean(_speed_noise(self.measurements)))
+        noise = float(np.mean(speed_noise(self.measurements)))
         return 3.0 * noise * math.sqrt(2.0 * self.measurements.n_samples) * self.measurements.dt
 
     def size_failures(self, key, parameter):
@@ -624,11 +624,6 @@ def _polished(search, chosen, order, tried):
                 return None, []
 
 
-def _speed_noise(measurements):
-    """Standard deviation of each speed's noise (rad/s): measured minus smoothed."""
-    return np.std(measurements.speeds - smoothed_speeds(measurements), axis=0)
-
-
 def _includes_null(parameter, key):
     low, high = parameter.ci95
     return not (low > get_effect(key).null or high < get_effect(key).null)
@@ -696,7 +691,7 @@ def _warnings(measurements, baseline, extended, keys):
                          f"({low:.4g} .. {parameter.ci95[1]:.4g} {parameter.unit})")
     start = extended.calibration.window[0]
     measured = data_states(measurements, 0.0, [start])[0]
-    noise = _speed_noise(measurements)
+    noise = speed_noise(measurements)
     for column, name in ((1, "motor_speed0"), (2, "load_speed0")):
         if name in parameters:
             gap = parameters[name].value - measured[column]
