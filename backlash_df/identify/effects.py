@@ -154,7 +154,8 @@ EFFECTS = {
             "torque_offset", None, "N m",
             "a constant torque added to the commanded motor torque (sensor bias or an unmodelled load)",
             "The applied torque differs from the recorded one by a constant {value:.4g} N m (95 % CI {low:.4g} "
-            "to {high:.4g}): a torque-sensor bias or an unmodelled constant load.",
+            "to {high:.4g}): a torque-sensor bias or an unmodelled load torque; a load that changes with the "
+            "pose (gravity on a robot axis) shows here as its mean over the record.",
             signed=True,
         ),
         Effect(
