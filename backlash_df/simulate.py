@@ -2,13 +2,13 @@
 
 The drive is split into a linear part and the backlash::
 
-    dz/dt = A z + b T + E w(t) + e_d u_d(t - delay) - e_f F tanh(f z / eps)
+    dz/dt = A z + b T + E w(t) + e_d u_d(t - delay) - e_f (F + F_s exp(-(f z / w_s)^2)) tanh(f z / eps)
     theta_d = c_x z,   dtheta_d = c_v z,   T = law(theta_d, dtheta_d [, theta_b])
 
 ``w(t)`` are external inputs sampled on the output grid, or at half steps when
 given as functions of time, ``u_d = d z`` an optional delayed signal (dead
 time, linear between output samples), the last term an optional smoothed
-Coulomb friction.  The open-loop two-mass drive (:func:`two_mass_system`), the
+Coulomb friction with a breakaway (Stribeck) part.  The open-loop two-mass drive (:func:`two_mass_system`), the
 PI loops of :mod:`backlash_df.loops` and the replay of measured data all use
 this form.
 
@@ -132,18 +132,18 @@ def _torque(law, mode, x, v, p):
 
 @_jit
 def _deriv(z, t, mode, sys, law, p, W, hist, dt, out):
-    a_mat, b_t, e_mat, c_x, c_v, d_row, e_d, delay, f_row, e_f, f_level, f_eps = sys
+    a_mat, b_t, e_mat, c_x, c_v, d_row, e_d, delay, f_row, e_f, f_level, f_eps, f_break, f_ws = sys
     x, v = _xv(z, c_x, c_v)
     torque = _torque(law, mode, x, v, p)
     # W spans the run uniformly: one row per output step, or two (half steps)
     w_row = t / dt * (W.shape[0] - 1) / (hist.shape[0] - 1)
     u_d = _history(hist, (t - delay) / dt, max(math.ceil(t / dt) - 1, 0)) if delay > 0.0 else 0.0
     fr = 0.0
-    if f_level > 0.0:
+    if f_level > 0.0 or f_break > 0.0:
         s = 0.0
         for j in range(z.shape[0]):
             s += f_row[j] * z[j]
-        fr = f_level * math.tanh(s / f_eps)
+        fr = (f_level + f_break * math.exp(-((s / f_ws) ** 2))) * math.tanh(s / f_eps)
     for i in range(z.shape[0]):
         out[i] = b_t[i] * torque + e_d[i] * u_d - e_f[i] * fr
     for j in range(W.shape[1]):
@@ -528,6 +528,9 @@ class LinearPart:
     friction, friction_speed, f, e_f : float, float, ndarray, ndarray
         Coulomb friction level (N m), smoothing speed (rad/s), the row of the
         speed it opposes and the column it enters by.
+    breakaway, breakaway_speed : float
+        Breakaway (Stribeck) friction added to the Coulomb level near zero speed,
+        ``F_s exp(-(s / w_s)^2)`` (N m), and its Stribeck speed ``w_s`` (rad/s).
     """
 
     A: np.ndarray
@@ -544,6 +547,8 @@ class LinearPart:
     friction_speed: float = 1e-3
     f: np.ndarray | None = None
     e_f: np.ndarray | None = None
+    breakaway: float = 0.0
+    breakaway_speed: float = 1.0
 
     def __post_init__(self):
         n = len(self.state_names)
@@ -559,11 +564,14 @@ class LinearPart:
             raise ValueError(f"delay must be finite and >= 0, got {self.delay!r}")
         if self.friction < 0.0 or not self.friction_speed > 0.0:
             raise ValueError("friction must be >= 0 and friction_speed > 0")
+        if self.breakaway < 0.0 or not self.breakaway_speed > 0.0:
+            raise ValueError("breakaway must be >= 0 and breakaway_speed > 0")
 
     def _kernel_tuple(self):
         return (
             self.A, self.b, self.E, self.c_x, self.c_v, self.d, self.e_d,
             float(self.delay), self.f, self.e_f, float(self.friction), float(self.friction_speed),
+            float(self.breakaway), float(self.breakaway_speed),
         )
 
 
@@ -632,7 +640,7 @@ class SimulationResult:
 
 def _piecewise_affine(system, model):
     """True if the loop is linear within every mode: no friction, torque affine in (theta_d, dtheta_d)."""
-    if system.friction > 0.0:
+    if system.friction > 0.0 or system.breakaway > 0.0:
         return False
     if model.law == RUBBER:
         return model.rubber_thickness == 0.0

@@ -14,13 +14,17 @@
    multiple-shooting fit, the slower path), whole catalogue
    (target < 20 s), against the named alternative "the same diagnosis on one
    thread" in the same run, best of ``--repeat``.
+4. Breakaway probe: the same sweep over breakaway (Stribeck) friction alone and on top
+   of Coulomb friction (the generator's Stribeck speed 5 % of the reference's amplitude,
+   the fit's 5 % of the record's largest speed): what is named where the catalogue's
+   least visible effect is hidden.
 3. KUKA record (``examples/kuka``): causes and intervals, baseline against
    extended validation fits, time (target < 15 s), and the independent check: a
    rigid-body least-squares fit ``J dw/dt = T_m - F_c sign(w) - d w - T_0`` of the
    same record (numerical derivative of the smoothed load speed).
 
 Run: ``python benchmarks/bench_diagnose.py [--seeds 6] [--processes 2] [--repeat 2] [--duration 4]
-[--encoder-counts 1048576] [--only kuka|timing|sweep]``.
+[--encoder-counts 1048576] [--only kuka|timing|sweep|breakaway]``.
 """
 
 import argparse
@@ -40,6 +44,8 @@ SETS = [(), ("coulomb_friction@load",), ("coulomb_friction@motor",), ("viscous_f
         ("viscous_friction@motor",), ("rubber",), ("actuator_delay",), ("torque_offset",),
         ("coulomb_friction@load", "viscous_friction@load"), ("rubber", "coulomb_friction@load"),
         ("actuator_delay", "viscous_friction@load")]
+#: Breakaway (Stribeck) friction, alone and on top of Coulomb friction: a separate probe (section 4).
+BREAKAWAY_SETS = [("breakaway_friction@load",), ("coulomb_friction@load", "breakaway_friction@load")]
 
 
 def _found(result):
@@ -65,8 +71,8 @@ def one_case(args):
     return tuple(sorted(effects)), seed, _found(result), estimates, (seconds, cpu), ahead
 
 
-def sweep(seeds, processes, duration, counts):
-    cases = [(effects, 2000 + seed, duration, counts) for effects in SETS for seed in range(seeds)]
+def sweep(seeds, processes, duration, counts, sets=SETS):
+    cases = [(effects, 2000 + seed, duration, counts) for effects in sets for seed in range(seeds)]
     with ProcessPoolExecutor(processes) as pool:
         results = list(pool.map(one_case, cases))
     labels = sorted({"+".join(r[0]) or "none" for r in results} | {"+".join(r[2]) or "none" for r in results})
@@ -167,7 +173,7 @@ def main():
     parser.add_argument("--duration", type=float, default=4.0, help="length of the sweep's records, s (default 4)")
     parser.add_argument("--encoder-counts", type=int, default=2**20,
                         help="encoder counts per revolution of the sweep's angle columns (0: no angle columns)")
-    parser.add_argument("--only", choices=("kuka", "timing", "sweep"), help="run one section")
+    parser.add_argument("--only", choices=("kuka", "timing", "sweep", "breakaway"), help="run one section")
     args = parser.parse_args()
     if args.only in (None, "kuka"):
         print("== KUKA record ==")
@@ -179,6 +185,9 @@ def main():
         angles = f"encoder angles {args.encoder_counts} counts/rev" if args.encoder_counts else "no angle columns"
         print(f"\n== sweep: {args.seeds} seeds x {len(SETS)} effect sets, {args.duration:g} s records, {angles} ==")
         sweep(args.seeds, args.processes, args.duration, args.encoder_counts or None)
+    if args.only in (None, "breakaway"):
+        print(f"\n== breakaway probe: {args.seeds} seeds x {len(BREAKAWAY_SETS)} effect sets, {args.duration:g} s records ==")
+        sweep(args.seeds, args.processes, args.duration, args.encoder_counts or None, BREAKAWAY_SETS)
 
 
 if __name__ == "__main__":

@@ -149,5 +149,7 @@ def test_generator_is_reproducible_and_hides_the_given_sizes():
     noisy = synthesize(rig, "none", seed=2, duration=1.0, experiment=Experiment(noise=0.02))
     difference = noisy.measurements.load_speed - quiet.measurements.load_speed
     assert np.std(difference) == pytest.approx(0.02, rel=0.25)
-    with pytest.raises(ValueError, match="cannot hide 'breakaway_friction@load'"):
-        synthesize(rig, "breakaway_friction", seed=1, duration=0.5)
+    with pytest.raises(ValueError, match="one side at a time"):
+        synthesize(rig, ["coulomb_friction@load", "breakaway_friction@motor"], seed=1, duration=0.5)
+    stiction = synthesize(rig, {"coulomb_friction@load": 3.0, "breakaway_friction@load": 6.0}, seed=1, duration=0.5)
+    assert stiction.effects == {"coulomb_friction@load": 3.0, "breakaway_friction@load": 6.0}

@@ -275,3 +275,29 @@ def test_dead_time_converges_at_second_order():
     errors = np.array([np.abs(runs[j].theta_d - runs[3].theta_d[:: 2 ** (3 - j)]).max() for j in range(2)])
     assert errors[0] < 1e-3 * 0.05
     assert np.log2(errors[0] / errors[1]) > 1.8
+
+
+def test_coulomb_and_breakaway_friction_against_solve_ivp():
+    """A load coasting in the gap (no shaft torque) under Coulomb plus breakaway friction,
+    ``J dw/dt = -(F_c + F_s exp(-(w/w_s)^2)) tanh(w/eps)``, against solve_ivp of that equation;
+    the breakaway part slows the last stretch to rest, where exp(-(w/w_s)^2) is near 1."""
+    from backlash_df.simulate import LinearPart, simulate_linear
+
+    coulomb, breakaway, w_s, eps = 2.0, 3.0, 0.2, 0.01
+    system = LinearPart(A=np.zeros((3, 3)), b=np.array([0.0, -1.0 / JM, 1.0 / JL]), E=np.zeros((3, 0)),
+                        c_x=np.array([1.0, 0.0, 0.0]), c_v=np.array([0.0, 1.0, -1.0]),
+                        state_names=("theta_d", "motor_speed", "load_speed"), input_names=(),
+                        friction=coulomb, friction_speed=eps, f=np.array([0.0, 0.0, 1.0]),
+                        e_f=np.array([0.0, 0.0, 1.0 / JL]), breakaway=breakaway, breakaway_speed=w_s)
+    model = make_model("dead-zone", stiffness=K, half_gap=10.0)  # never in contact here
+    result = simulate_linear(system, model, 1.0, 1e-3, z0=[0.0, 0.0, 0.3])
+
+    def rhs(t, w):
+        return [-(coulomb + breakaway * np.exp(-((w[0] / w_s) ** 2))) * np.tanh(w[0] / eps) / JL]
+
+    reference = solve_ivp(rhs, (0.0, 1.0), [0.3], method="LSODA", t_eval=result.time, rtol=1e-10, atol=1e-12).y[0]
+    np.testing.assert_allclose(result.states[:, 2], reference, atol=1e-6)
+    assert np.all(result.states[:, 1] == 0.0)  # the motor feels nothing
+    assert result.states[-1, 2] < 0.005  # at rest (within the smoothing) before the end
+    stopped = result.time[np.argmax(result.states[:, 2] < 0.005)]
+    assert stopped < 0.8 * 0.3 * JL / coulomb  # sooner than Coulomb friction alone (0.84 s) would stop it

@@ -17,10 +17,12 @@ step than the record's (``oversample`` sub-steps a sample):
   commanded torque (controller output plus test signal), exact;
 * hidden effects (none, one or several), of random size unless given:
   Coulomb friction on either side (smoothed 10 times more sharply than the
-  fitted model's; one side at a time), viscous friction on either side, a
-  constant torque offset added to the applied torque (not to the recorded one),
-  an actuator dead time, rubber in the coupling.  Breakaway friction is not
-  simulated.
+  fitted model's; one side at a time), breakaway (Stribeck) friction on top
+  of it or alone (on the same side; Stribeck speed 5 % of the reference's
+  amplitude, where the fitted model takes 5 % of the record's largest speed),
+  viscous friction on either side, a constant torque offset added to the
+  applied torque (not to the recorded one), an actuator dead time, rubber in
+  the coupling.
 
 The simulation is the compiled kernel of :mod:`backlash_df.simulate` with the
 controller states in the linear part.
@@ -34,7 +36,7 @@ import numpy as np
 from ..config import Plant
 from ..models import make_model
 from ..simulate import LinearPart, simulate_linear
-from .effects import COULOMB_SMOOTHING, get_effect
+from .effects import COULOMB_SMOOTHING, STRIBECK_SPEED, get_effect
 from .measurements import measurements_from_arrays
 
 __all__ = ["Experiment", "SyntheticRecord", "synthesize", "random_effect_size"]
@@ -114,7 +116,8 @@ def random_effect_size(cause, rig, rng, experiment=Experiment()):
 
     ``rubber``: beta in [0.5, 1.2] alpha.  ``coulomb_friction`` (either side):
     [4, 12] N m per 100 kg m^2/s^2 of reference torque ``J_tot w_ref 2 pi f_ref``,
-    i.e. a few per cent of the torque moving the load.  ``viscous_friction``: the
+    i.e. a few per cent of the torque moving the load; ``breakaway_friction``
+    twice that (it acts only near zero speed).  ``viscous_friction``: the
     same torque at the reference's peak speed.  ``torque_offset``: the same range,
     either sign.  ``actuator_delay``: [1.5, 6] ms.
     """
@@ -125,13 +128,15 @@ def random_effect_size(cause, rig, rng, experiment=Experiment()):
         return float(rng.uniform(0.5, 1.2) * plant.half_gap)
     if name == "coulomb_friction":
         return float(rng.uniform(0.04, 0.12) * torque)
+    if name == "breakaway_friction":
+        return float(rng.uniform(0.08, 0.24) * torque)
     if name == "viscous_friction":
         return float(rng.uniform(0.04, 0.12) * torque / experiment.speed_amplitude)
     if name == "torque_offset":
         return float(rng.choice([-1.0, 1.0]) * rng.uniform(0.04, 0.12) * torque)
     if name == "actuator_delay":
         return float(rng.uniform(1.5e-3, 6e-3))
-    raise ValueError(f"synthesize: the generator cannot hide {cause!r} (breakaway friction is not simulated)")
+    raise ValueError(f"synthesize: the generator cannot hide {cause!r}")
 
 
 def _perturbed_plant(plant, rng, error):
@@ -149,7 +154,7 @@ def _signals(experiment, phases, time):
     return reference, test, experiment.load_torque * square
 
 
-def _closed_loop(plant, controller, effects, friction_speed):
+def _closed_loop(plant, controller, effects, friction_speed, stribeck_speed):
     """Linear part of plant + PI loop: states theta_d, w_m, w_l, filtered speed, integral.
 
     Inputs: reference now, reference and test torque as applied (delayed by the
@@ -165,13 +170,13 @@ def _closed_loop(plant, controller, effects, friction_speed):
     a[0, 1], a[0, 2] = 1.0, -1.0
     a[3, fb], a[3, 3] = 1.0 / tf, -1.0 / tf
     a[4, 3] = -1.0
-    friction = {"level": 0.0, "row": np.zeros(5), "column": np.zeros(5)}
+    friction = {"level": 0.0, "breakaway": 0.0, "row": np.zeros(5), "column": np.zeros(5)}
     for key, size in effects.items():
         effect = get_effect(key)
         if effect.name == "viscous_friction":
             a[rows[effect.side], rows[effect.side]] -= size / inertias[effect.side]
-        if effect.name == "coulomb_friction":
-            friction["level"] = size
+        if effect.name in ("coulomb_friction", "breakaway_friction"):
+            friction["level" if effect.name == "coulomb_friction" else "breakaway"] = size
             friction["row"][rows[effect.side]] = 1.0
             friction["column"][rows[effect.side]] = 1.0 / inertias[effect.side]
     controller_row = np.array([0.0, 0.0, 0.0, -kp, ki])  # u = kp (r - w_f) + ki xi, state part
@@ -192,6 +197,7 @@ def _closed_loop(plant, controller, effects, friction_speed):
         input_names=("reference", "reference_applied", "test_applied", "load_torque", "noise"),
         delay=delay, d=controller_row if delay else None, e_d=motor_column if delay else None,
         friction=friction["level"], friction_speed=friction_speed, f=friction["row"], e_f=friction["column"],
+        breakaway=friction["breakaway"], breakaway_speed=stribeck_speed,
     )
     return system, (kp, ki, fb)
 
@@ -206,9 +212,9 @@ def _hidden_effects(cause, size, rig, rng, experiment):
     for key, value in cause.items():
         effect = get_effect(key)
         effects[effect.key] = random_effect_size(effect.key, rig, rng, experiment) if value is None else float(value)
-    coulomb = [key for key in effects if key.startswith("coulomb_friction")]
-    if len(coulomb) > 1:
-        raise ValueError("synthesize: Coulomb friction on one side at a time")
+    sides = {get_effect(key).side for key in effects if key.startswith(("coulomb_friction", "breakaway_friction"))}
+    if len(sides) > 1:
+        raise ValueError("synthesize: Coulomb and breakaway friction on one side at a time")
     return effects
 
 
@@ -275,7 +281,8 @@ def synthesize(rig, cause="none", size=None, seed=0, duration=2.0, sample_rate=1
     if "rubber" in effects:
         plant = dataclasses.replace(plant, rubber_thickness=effects["rubber"])
     friction_speed = 0.1 * COULOMB_SMOOTHING * experiment.speed_amplitude
-    system, (kp, ki, fb) = _closed_loop(plant, controller, effects, friction_speed)
+    system, (kp, ki, fb) = _closed_loop(plant, controller, effects, friction_speed,
+                                        STRIBECK_SPEED * experiment.speed_amplitude)
     model = make_model("rubber" if "rubber" in effects else "exact", **plant.shaft)
 
     dt_fine = 1.0 / (sample_rate * oversample)
