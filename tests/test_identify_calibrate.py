@@ -114,6 +114,9 @@ def test_multiple_shooting_does_not_bias_an_offset_on_noisy_speeds(seed):
     low, high = offset.ci95
     assert low <= 5.0 <= high
     assert offset.value == pytest.approx(5.0, rel=0.03)
+    assert fit.shooting_segments == fit.n_clusters and "multiple shooting" in fit.fit_report()
+    speeds_only = dataclasses.replace(record.measurements, motor_angle=None, load_angle=None)
+    assert calibrate(speeds_only, rig, (), window=(0, 300), polish=False).shooting_segments == 0
 
 
 def test_cluster_robust_standard_error_of_a_mean():

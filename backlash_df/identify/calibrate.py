@@ -501,6 +501,8 @@ class Calibration:
         Model evaluations of the optimiser (Jacobian columns included).
     success : bool
     message : str
+    shooting_segments : int
+        Segments whose initial speeds were fitted too (multiple shooting, :class:`_Shooting`; 0: none).
     """
 
     effects: tuple
@@ -516,6 +518,7 @@ class Calibration:
     nfev: int
     success: bool
     message: str
+    shooting_segments: int = 0
 
     @property
     def n_free(self):
@@ -533,7 +536,9 @@ class Calibration:
             f"    samples {self.window[0]}:{self.window[1]}, "
             + (f"k-step segments of {self.horizon} samples" if self.horizon else "free run")
             + f" ({self.n_clusters} blocks), residuals {self.n_residuals}, parameters {self.n_free}, "
-            f"evaluations {self.nfev}",
+            f"evaluations {self.nfev}"
+            + (f", initial speeds of the {self.shooting_segments} segments fitted too (multiple shooting)"
+               if self.shooting_segments else ""),
             f"    RSS {self.rss:.6g}, AIC {self.aic:.6g}, BIC {self.bic:.6g}, success {self.success}",
             "[[Variables]] (95 % CI cluster-robust over the segments; start = rig file)",
         ]
@@ -850,6 +855,7 @@ def _fit(model, effects, window, values0, horizon, workers, max_nfev, fixed=()):
         n_residuals=n, n_clusters=int(blocks[0].size), rss=rss,
         aic=information_criterion(rss, n, len(names), "aic"), bic=information_criterion(rss, n, len(names), "bic"),
         nfev=nfev, success=bool(solution.success), message=str(solution.message),
+        shooting_segments=shooting.n_segments if extra else 0,
     )
 
 
