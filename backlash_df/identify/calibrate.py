@@ -762,7 +762,7 @@ class _Shooting:
         self.scales = list(SMOOTHED_NOISE_SHARE * noise)
         self.size = len(self.states) * self.n_segments
         self.weight = residual_rms
-        self.segment_of_row = np.tile(np.repeat(np.arange(starts.size), stops - starts), len(self.states))
+        self.segment_of_row = np.tile(np.repeat(np.arange(starts.size), stops - starts), len(self.states))  # per speed
 
     @property
     def scale(self):
@@ -869,9 +869,9 @@ def _parallel_jacobian(residual, n_global, shooting, upper, workers, rel_step=1e
     """Forward-difference Jacobian whose columns run in ``workers`` threads.
 
     The first ``n_global`` columns one evaluation each; with ``shooting``
-    (:class:`_Shooting`), each state's corrections of all segments in one
-    evaluation (a correction moves its own segment's rows only), and the
-    random-walk rows exactly (they are linear).
+    (:class:`_Shooting`), each speed's corrections of all segments in one
+    evaluation (a correction moves its own segment's rows only), returned as a
+    sparse matrix with the prior's rows exact (the weight times the identity).
     """
 
     def jacobian(x, f0=None):
