@@ -44,6 +44,24 @@ def test_hidden_effects_are_named_with_intervals(rig, effects, seed):
         assert parameter["ci95"][0] < parameter["value"] < parameter["ci95"][1]
 
 
+# the benchmark's records: 4 s with encoder angles (multiple-shooting fits), each truth inside its interval
+ANGLE_CASES = [("coulomb_friction@load", "viscous_friction@load"), ("rubber", "coulomb_friction@load"),
+               ("actuator_delay", "viscous_friction@load")]
+
+
+@pytest.mark.parametrize("effects", ANGLE_CASES)
+def test_hidden_effects_with_encoder_angles_are_named_and_covered(rig, effects):
+    record = synthesize(rig, dict.fromkeys(effects), seed=2003, duration=4.0, encoder_counts=2**20)
+    result = diagnose(record.measurements, rig, workers=2)
+    assert _keys(result) == set(effects)
+    assert all(candidate.calibration.shooting_segments > 0 for candidate in result.candidates)
+    for cause in result.causes:
+        key = cause["effect"] + (f"@{cause['side']}" if cause["side"] else "")
+        parameter = cause["parameters"][cause["effect"]]
+        assert parameter["value"] == pytest.approx(record.effects[key], rel=0.1)
+        assert parameter["ci95"][0] <= record.effects[key] <= parameter["ci95"][1]
+
+
 def test_kuka_record_names_both_frictions(tmp_path):
     """The real record: Coulomb and viscous friction on the load side, each with an interval;
     the rigid-body least-squares fit of the same record (benchmarks/bench_diagnose.py) gives
