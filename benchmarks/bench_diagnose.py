@@ -68,7 +68,8 @@ def one_case(args):
             parameter = cause["parameters"][cause["effect"]]
             estimates.append((key, record.effects[key], parameter["value"], parameter["ci95"]))
     ahead = min(result.extended.ahead_fit_percent.values())
-    return tuple(sorted(effects)), seed, _found(result), estimates, (seconds, cpu), ahead
+    absorbs = any(" absorbs " in warning for warning in result.warnings)
+    return tuple(sorted(effects)), seed, _found(result), estimates, (seconds, cpu), ahead, absorbs
 
 
 def sweep(seeds, processes, duration, counts, sets=SETS):
@@ -78,12 +79,12 @@ def sweep(seeds, processes, duration, counts, sets=SETS):
     labels = sorted({"+".join(r[0]) or "none" for r in results} | {"+".join(r[2]) or "none" for r in results})
     matrix = np.zeros((len(labels), len(labels)), dtype=int)
     within, covered, n_estimates = 0, 0, 0
-    for truth, seed, found, estimates, (seconds, cpu), _ in results:
+    for truth, seed, found, estimates, (seconds, cpu), _, absorbs in results:
         mark = "ok " if truth == found else "BAD"
         text = ", ".join(f"{key} {true:.4g} -> {value:.4g} [{low:.4g}, {high:.4g}]"
                          for key, true, value, (low, high) in estimates)
         print(f"  {mark} seed {seed} {'+'.join(truth) or 'none':45s} -> {'+'.join(found) or 'none':45s} "
-              f"{text} ({seconds:.1f} s, cpu {cpu:.1f} s)")
+              f"{text} ({seconds:.1f} s, cpu {cpu:.1f} s){' [warned: absorbs]' if absorbs else ''}")
         matrix[labels.index("+".join(truth) or "none"), labels.index("+".join(found) or "none")] += 1
         for key, true, value, (low, high) in estimates:
             n_estimates += 1
@@ -105,6 +106,7 @@ def sweep(seeds, processes, duration, counts, sets=SETS):
     print(f"estimates within 10 % of the truth: {within}/{n_estimates}")
     print(f"coverage of the 95 % intervals: {covered}/{n_estimates} = {100.0 * covered / max(n_estimates, 1):.1f} % "
           f"(target >= 85 %)")
+    print(f"records warned that a named value absorbs a dropped effect: {sum(r[6] for r in results)} of {len(results)}")
     print(f"lowest {VALIDATION_HORIZON:g} s ahead fit of the extended model on a speed: "
           f"{min(r[5] for r in results):.1f} % (the diagnosis warns below {EXTENDED_MIN_AHEAD_FIT:g} %)")
     print(f"mean time per record ({duration:g} s at 1 kHz, whole catalogue): wall {np.mean([r[4][0] for r in results]):.1f} s, "

@@ -85,6 +85,27 @@ def test_kuka_record_names_both_frictions(tmp_path):
     assert not any("unexplained" in w for w in data["warnings"])  # the catalogue covers axis 1
 
 
+def test_kuka_window_that_cannot_separate_the_frictions_says_so():
+    """The first 6 s of the real record: fitted together, Coulomb and viscous friction are both
+    supported (about 510 N m and 1880 N m s/rad), but Coulomb friction does not improve the shorter
+    validation part enough to be named, and viscous friction alone comes out at twice its joint
+    value.  The diagnosis names it, and says it holds both (warning and sentence)."""
+    import dataclasses
+
+    from backlash_df.identify import load_measurements
+
+    rig = load_rig("examples/kuka/kuka_rig.toml")
+    record = load_measurements("examples/kuka/kuka_axis1.csv", gear_ratio=rig.plant.gear_ratio)
+    first = slice(0, int(0.6 * record.n_samples))
+    columns = {name: getattr(record, name)[first] for name in ("time", "motor_torque", "motor_speed", "load_speed",
+                                                               "motor_angle", "load_angle")}
+    result = diagnose(dataclasses.replace(record, **columns), rig, workers=2)
+    assert _keys(result) == {"viscous_friction@load"}
+    absorbed = [w for w in result.warnings if w.startswith("viscous_friction@load absorbs coulomb_friction@load")]
+    assert len(absorbed) == 1 and "does not tell the two apart" in absorbed[0]
+    assert "Not separated from another effect by this record" in result.sentence
+
+
 def test_kuka_axis_with_gravity_is_said_to_be_explained_only_in_part():
     """Axis 2 of the same robot carries a pose-dependent gravity torque (and a counterbalance)
     that no catalogue effect expresses: whatever causes are named, the diagnosis must say they

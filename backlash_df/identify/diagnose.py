@@ -22,7 +22,10 @@ the set with the runners-up, refits it without each member and drops a member
 that fails the rule against the rest (first one whose interval in the joint
 fit includes its null value), until every member passes: two nearly collinear
 effects (Coulomb and viscous friction under a sine speed) are told apart by the
-joint fit, not by which happened to win a forward step.
+joint fit, not by which happened to win a forward step.  A member the joint fit
+supported (interval excluding its null value) but the validation part did not,
+whose removal moves a kept member's value out of its joint interval, is
+*absorbed* by it: the diagnosis warns and says so (:func:`_absorption`).
 
 Significance rule (stated, fixed), for adding an effect to a set:
 
@@ -402,6 +405,7 @@ class _Search:
         self.weights = 1.0 / np.maximum(measurements.speeds[validation].std(axis=0), 1e-12)
         self.torque_rms = float(np.sqrt(np.mean(measurements.motor_torque**2)))
         self.baseline = None  # the nominal structure's CandidateResult, once fitted
+        self.absorbed = []  # warnings of the backward elimination (:func:`_absorption`)
 
     def polish(self, candidate):
         """``candidate`` refined by a free run (:func:`~.calibrate.refine`), scored; the refinement is kept only
@@ -582,10 +586,35 @@ def _backward(search, steps, runners, tried):
                     without) for check, without in checks if not check.accepted]
         if not failing:
             return final, [(check.added, check.gain) for check, _ in checks]
-        final = min(failing, key=lambda item: item[:2])[2]
+        without = min(failing, key=lambda item: item[:2])[2]
+        search.absorbed += _absorption(final, without)
+        final = without
     if final.effects[0] == alone:
         return final, [(alone, steps[0].gain)]
     return _judged_alone(search, final, tried)
+
+
+def _absorption(joint, reduced):
+    """Warnings for a member dropped from ``joint`` (leaving ``reduced``) whose joint interval excluded
+    its null value, where another member's value in ``reduced`` leaves its joint interval: the kept
+    effect absorbs the dropped one (collinear effects, such as Coulomb and viscous friction on a record
+    whose speed magnitude varies little), and its value is not its own."""
+    dropped = next(key for key in joint.effects if key not in reduced.effects)
+    parameter = joint.calibration.effect_parameter(dropped)
+    if _includes_null(parameter, dropped):
+        return []
+    notes = []
+    for key in reduced.effects:
+        before, after = joint.calibration.effect_parameter(key), reduced.calibration.effect_parameter(key)
+        low, high = before.ci95
+        if not low <= after.value <= high:
+            notes.append(f"{key}{_ABSORBS}{dropped}: fitted together they are {before.value:.4g} ({low:.4g} .. "
+                         f"{high:.4g}) {before.unit} and {parameter.value:.4g} ({parameter.ci95[0]:.4g} .. "
+                         f"{parameter.ci95[1]:.4g}) {parameter.unit}, but {dropped} does not improve the validation "
+                         f"part enough to be named, and without it {key} is {after.value:.4g} {after.unit}: this "
+                         f"record does not tell the two apart (a longer record, or one whose speed covers a wider "
+                         f"range, would)")
+    return notes
 
 
 def _judged_alone(search, model, tried):
@@ -657,6 +686,7 @@ def _side_notes(keys, tried):
 
 
 _UNEXPLAINED = "the named causes leave much of the data unexplained"
+_ABSORBS = " absorbs "
 
 
 def _warnings(measurements, baseline, extended, keys):
@@ -716,6 +746,10 @@ def _sentence(causes, extended, baseline, warnings):
         key = cause["effect"] + (f"@{cause['side']}" if cause["side"] else "")
         parameter = cause["parameters"][cause["effect"]]
         sentences.append(get_effect(key).describe(parameter["value"], *parameter["ci95"]))
+    absorbed = [warning.split(":")[0] for warning in warnings if _ABSORBS in warning.split(":")[0]]
+    if absorbed:
+        sentences.append(f"Not separated from another effect by this record ({'; '.join(absorbed)}; see the "
+                         f"warnings): the named value holds both.")
     if any(warning.startswith(_UNEXPLAINED) for warning in warnings):
         sentences.append("These causes are the catalogue's best approximation, not the whole explanation: "
                          "the extended model still misses much of the data (see the warnings).")
@@ -784,7 +818,7 @@ def _diagnose(measurements, rig, candidates, estimation_fraction, transient_frac
         extended, order = _polished(search, chosen, order, tried)
         extended = extended or base_final
     causes = _causes(extended, order)
-    warnings = _warnings(measurements, base_final, extended, [key for key, _ in order]) + _side_notes(
+    warnings = _warnings(measurements, base_final, extended, [key for key, _ in order]) + search.absorbed + _side_notes(
         [key for key, _ in order], tried)
 
     def analysis(candidate):
