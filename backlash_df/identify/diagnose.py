@@ -405,7 +405,7 @@ class _Search:
         self.weights = 1.0 / np.maximum(measurements.speeds[validation].std(axis=0), 1e-12)
         self.torque_rms = float(np.sqrt(np.mean(measurements.motor_torque**2)))
         self.baseline = None  # the nominal structure's CandidateResult, once fitted
-        self.absorbed = []  # warnings of the backward elimination (:func:`_absorption`)
+        self.absorbed = []  # (kept key, dropped key, warning) of the backward elimination (:func:`_absorption`)
 
     def polish(self, candidate):
         """``candidate`` refined by a free run (:func:`~.calibrate.refine`), scored; the refinement is kept only
@@ -595,10 +595,10 @@ def _backward(search, steps, runners, tried):
 
 
 def _absorption(joint, reduced):
-    """Warnings for a member dropped from ``joint`` (leaving ``reduced``) whose joint interval excluded
-    its null value, where another member's value in ``reduced`` leaves its joint interval: the kept
-    effect absorbs the dropped one (collinear effects, such as Coulomb and viscous friction on a record
-    whose speed magnitude varies little), and its value is not its own."""
+    """``(kept, dropped, warning)`` for a member dropped from ``joint`` (leaving ``reduced``) whose joint
+    interval excluded its null value, where another member's value in ``reduced`` leaves its joint
+    interval: the kept effect absorbs the dropped one (collinear effects, such as Coulomb and viscous
+    friction on a record whose speed magnitude varies little), and its value is not its own."""
     dropped = next(key for key in joint.effects if key not in reduced.effects)
     parameter = joint.calibration.effect_parameter(dropped)
     if _includes_null(parameter, dropped):
@@ -608,12 +608,12 @@ def _absorption(joint, reduced):
         before, after = joint.calibration.effect_parameter(key), reduced.calibration.effect_parameter(key)
         low, high = before.ci95
         if not low <= after.value <= high:
-            notes.append(f"{key}{_ABSORBS}{dropped}: fitted together they are {before.value:.4g} ({low:.4g} .. "
+            notes.append((key, dropped, f"{key} absorbs {dropped}: fitted together they are {before.value:.4g} ({low:.4g} .. "
                          f"{high:.4g}) {before.unit} and {parameter.value:.4g} ({parameter.ci95[0]:.4g} .. "
                          f"{parameter.ci95[1]:.4g}) {parameter.unit}, but {dropped} does not improve the validation "
                          f"part enough to be named, and without it {key} is {after.value:.4g} {after.unit}: this "
                          f"record does not tell the two apart (a longer record, or one whose speed covers a wider "
-                         f"range, would)")
+                         f"range, would)"))
     return notes
 
 
@@ -686,7 +686,6 @@ def _side_notes(keys, tried):
 
 
 _UNEXPLAINED = "the named causes leave much of the data unexplained"
-_ABSORBS = " absorbs "
 
 
 def _warnings(measurements, baseline, extended, keys):
@@ -731,7 +730,7 @@ def _warnings(measurements, baseline, extended, keys):
     return notes
 
 
-def _sentence(causes, extended, baseline, warnings):
+def _sentence(causes, extended, baseline, warnings, absorbed):
     gain = (f" Validation fit (k-step) {baseline.mean_fit_percent:.1f} % -> {extended.mean_fit_percent:.1f} %.")
     if not causes:
         if any(warning.startswith("the baseline explains too little") for warning in warnings):
@@ -746,10 +745,10 @@ def _sentence(causes, extended, baseline, warnings):
         key = cause["effect"] + (f"@{cause['side']}" if cause["side"] else "")
         parameter = cause["parameters"][cause["effect"]]
         sentences.append(get_effect(key).describe(parameter["value"], *parameter["ci95"]))
-    absorbed = [warning.split(":")[0] for warning in warnings if _ABSORBS in warning.split(":")[0]]
     if absorbed:
-        sentences.append(f"Not separated from another effect by this record ({'; '.join(absorbed)}; see the "
-                         f"warnings): the named value holds both.")
+        pairs = "; ".join(f"{kept} absorbs {dropped}" for kept, dropped, _ in absorbed)
+        sentences.append(f"Not separated from another effect by this record ({pairs}; see the warnings): the "
+                         f"named value holds both.")
     if any(warning.startswith(_UNEXPLAINED) for warning in warnings):
         sentences.append("These causes are the catalogue's best approximation, not the whole explanation: "
                          "the extended model still misses much of the data (see the warnings).")
@@ -818,8 +817,10 @@ def _diagnose(measurements, rig, candidates, estimation_fraction, transient_frac
         extended, order = _polished(search, chosen, order, tried)
         extended = extended or base_final
     causes = _causes(extended, order)
-    warnings = _warnings(measurements, base_final, extended, [key for key, _ in order]) + search.absorbed + _side_notes(
-        [key for key, _ in order], tried)
+    named = [key for key, _ in order]
+    absorbed = [note for note in search.absorbed if note[0] in named]  # not an absorber dropped later
+    warnings = (_warnings(measurements, base_final, extended, named) + [warning for *_, warning in absorbed]
+                + _side_notes(named, tried))
 
     def analysis(candidate):
         p = candidate.prediction
@@ -827,7 +828,7 @@ def _diagnose(measurements, rig, candidates, estimation_fraction, transient_frac
                                  p.load_speed, p.names)
 
     return Diagnosis(
-        causes=causes, sentence=_sentence(causes, extended, base_final, warnings), baseline=base_final,
+        causes=causes, sentence=_sentence(causes, extended, base_final, warnings, absorbed), baseline=base_final,
         extended=extended, candidates=tried, warnings=warnings, residuals_baseline=analysis(base_final),
         residuals_extended=analysis(extended), measurements=measurements, rig=rig, estimation=estimation,
         validation=validation,
