@@ -763,6 +763,7 @@ class _Shooting:
         self.size = len(self.states) * self.n_segments
         self.weight = residual_rms
         self.segment_of_row = np.tile(np.repeat(np.arange(starts.size), stops - starts), len(self.states))  # per speed
+        self.segment_of_correction = np.tile(np.arange(starts.size), len(self.states))
 
     @property
     def scale(self):
@@ -824,23 +825,21 @@ def _fit(model, effects, window, values0, horizon, workers, max_nfev, fixed=()):
     solution = least_squares(residual, np.array([row[1] for row in rows]) / scales, bounds=(lower, upper),
                              jac=_parallel_jacobian(residual, g, None, upper, workers), method="trf", max_nfev=max_nfev)
     nfev = int(solution.nfev) + int(solution.njev or 0) * g
-    if k is not None and getattr(measurements, "twist", None) is not None:
-        shooting = _Shooting(measurements, starts, stops, math.sqrt(float(np.mean(solution.fun**2))))
-    extra = 0 if shooting is None else shooting.size
-    scales = np.concatenate([scales, shooting.scale if extra else []])
-    lower = np.concatenate([lower, np.full(extra, -np.inf)])
-    upper = np.concatenate([upper, np.full(extra, np.inf)])
-    x0 = np.concatenate([solution.x, np.zeros(extra)])
-    if extra:
-        solution = least_squares(residual, x0, jac=_parallel_jacobian(residual, g, shooting, upper, workers),
-                                 bounds=(lower, upper), method="trf", x_scale="jac", max_nfev=max_nfev,
-                                 tr_solver="lsmr")
-        nfev += int(solution.nfev) + int(solution.njev or 0) * (g + len(shooting.states))
-    jacobian = solution.jac.toarray() if extra else solution.jac
+    jacobian = solution.jac
     blocks = segment_bounds(start, stop, k or _horizon_samples(measurements, DEFAULT_HORIZON))
     clusters = np.tile(np.repeat(np.arange(blocks[0].size), blocks[1] - blocks[0]), measured.shape[1])
-    if extra:
-        clusters = np.concatenate([clusters, np.tile(np.arange(starts.size), len(shooting.states))])
+    if k is not None and getattr(measurements, "twist", None) is not None:
+        shooting = _Shooting(measurements, starts, stops, math.sqrt(float(np.mean(solution.fun**2))))
+        free = np.full(shooting.size, np.inf)
+        scales = np.concatenate([scales, shooting.scale])
+        upper = np.concatenate([upper, free])
+        solution = least_squares(residual, np.concatenate([solution.x, np.zeros(shooting.size)]),
+                                 jac=_parallel_jacobian(residual, g, shooting, upper, workers),
+                                 bounds=(np.concatenate([lower, -free]), upper), method="trf", x_scale="jac",
+                                 max_nfev=max_nfev, tr_solver="lsmr")
+        nfev += int(solution.nfev) + int(solution.njev or 0) * (g + len(shooting.states))
+        jacobian = solution.jac.toarray()
+        clusters = np.concatenate([clusters, shooting.segment_of_correction])  # a prior row per correction
     stderr, quantile = _robust_stderr(jacobian, solution.fun, clusters, scales)
     parameters = {
         name: FitParameter(name, float(value), float(err), float(row[5]), float(row[2]), float(row[3]), row[6],
@@ -855,7 +854,7 @@ def _fit(model, effects, window, values0, horizon, workers, max_nfev, fixed=()):
         n_residuals=n, n_clusters=int(blocks[0].size), rss=rss,
         aic=information_criterion(rss, n, len(names), "aic"), bic=information_criterion(rss, n, len(names), "bic"),
         nfev=nfev, success=bool(solution.success), message=str(solution.message),
-        shooting_segments=shooting.n_segments if extra else 0,
+        shooting_segments=shooting.n_segments if shooting else 0,
     )
 
 
@@ -874,13 +873,18 @@ def _parallel_jacobian(residual, n_global, shooting, upper, workers, rel_step=1e
     sparse matrix with the prior's rows exact (the weight times the identity).
     """
 
+    groups = [np.array([i]) for i in range(n_global)]
+    if shooting is not None:
+        from scipy import sparse
+
+        groups += [n_global + block for block in shooting.blocks()]
+        rows = np.arange(shooting.segment_of_row.size)
+        prior = shooting.weight * sparse.identity(shooting.size)
+
     def jacobian(x, f0=None):
         f0 = residual(x) if f0 is None else f0
         steps = rel_step * np.maximum(1.0, np.abs(x))
         steps = np.where(x + steps > upper, -steps, steps)
-        groups = [np.array([i]) for i in range(n_global)]
-        if shooting is not None:
-            groups += [n_global + block for block in shooting.blocks()]
 
         def difference(group):
             shifted = x.copy()
@@ -895,16 +899,12 @@ def _parallel_jacobian(residual, n_global, shooting, upper, workers, rel_step=1e
         dense = np.column_stack([change / steps[group[0]] for group, change in zip(groups[:n_global], differences)])
         if shooting is None:
             return dense
-        from scipy import sparse
-
-        n_data = shooting.segment_of_row.size
-        rows = np.arange(n_data)
         blocks = []
         for group, change in zip(groups[n_global:], differences[n_global:]):
             columns = group[shooting.segment_of_row]
-            blocks.append(sparse.coo_matrix((change[:n_data] / steps[columns], (rows, columns - n_global)),
-                                            shape=(n_data, shooting.size)))
-        corrections = sparse.vstack([sum(blocks[1:], blocks[0]), shooting.weight * sparse.identity(shooting.size)])
+            blocks.append(sparse.coo_matrix((change[:rows.size] / steps[columns], (rows, columns - n_global)),
+                                            shape=(rows.size, shooting.size)))
+        corrections = sparse.vstack([sum(blocks[1:], blocks[0]), prior])
         return sparse.hstack([sparse.csr_matrix(dense), corrections], format="csr")
 
     return jacobian
