@@ -8,9 +8,9 @@ The drive is split into a linear part and the backlash::
 ``w(t)`` are external inputs sampled on the output grid, or at half steps when
 given as functions of time, ``u_d = d z`` an optional delayed signal (dead
 time, linear between output samples), the last term an optional smoothed
-Coulomb friction with a breakaway (Stribeck) part.  The open-loop two-mass drive (:func:`two_mass_system`), the
-PI loops of :mod:`backlash_df.loops` and the replay of measured data all use
-this form.
+Coulomb friction with a breakaway (Stribeck) part.  The open-loop two-mass
+drive (:func:`two_mass_system`), the PI loops of :mod:`backlash_df.loops` and
+the replay of measured data all use this form.
 
 Integration runs on a fixed grid with the law's *mode* frozen over each step
 (free, rubber band, steel contact; see :mod:`backlash_df.models`); a change of
@@ -73,6 +73,8 @@ def _copy(src, dst):
     """
     for i in range(dst.size):
         dst.flat[i] = src.flat[i]
+
+
 _MAX_EVENTS_PER_STEP = 32
 _BISECTIONS = 52
 _LEVELS = 42  # dyadic sub-steps dt 2^-j, j < _LEVELS, of the exact-discretisation kernel

@@ -45,7 +45,6 @@ TARGET = 1e-7  # accuracy the dead-zone competitor must reach
 GRID_TARGET = 1e-4  # and the grid one (sampling a jump converges like 1 / samples)
 
 
-
 def max_rel_error(values, reference):
     return float(np.max(np.abs(np.asarray(values) - reference) / np.abs(reference)))
 

@@ -14,14 +14,14 @@
    multiple-shooting fit, the slower path), whole catalogue
    (target < 20 s), against the named alternative "the same diagnosis on one
    thread" in the same run, best of ``--repeat``.
-4. Breakaway probe: the same sweep over breakaway (Stribeck) friction alone and on top
-   of Coulomb friction (the generator's Stribeck speed 5 % of the reference's amplitude,
-   the fit's 5 % of the record's largest speed): what is named where the catalogue's
-   least visible effect is hidden.
 3. KUKA record (``examples/kuka``): causes and intervals, baseline against
    extended validation fits, time (target < 15 s), and the independent check: a
    rigid-body least-squares fit ``J dw/dt = T_m - F_c sign(w) - d w - T_0`` of the
    same record (numerical derivative of the smoothed load speed).
+4. Breakaway probe: the same sweep over breakaway (Stribeck) friction alone and on top
+   of Coulomb friction (the generator's Stribeck speed 5 % of the reference's amplitude,
+   the fit's 5 % of the record's largest speed): what is named where the catalogue's
+   least visible effect is hidden.
 
 Run: ``python benchmarks/bench_diagnose.py [--seeds 6] [--processes 2] [--repeat 2] [--duration 4]
 [--encoder-counts 1048576] [--only kuka|timing|sweep|breakaway]``.
@@ -31,6 +31,7 @@ import argparse
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -46,6 +47,19 @@ SETS = [(), ("coulomb_friction@load",), ("coulomb_friction@motor",), ("viscous_f
         ("actuator_delay", "viscous_friction@load")]
 #: Breakaway (Stribeck) friction, alone and on top of Coulomb friction: a separate probe (section 4).
 BREAKAWAY_SETS = [("breakaway_friction@load",), ("coulomb_friction@load", "breakaway_friction@load")]
+
+
+class Case(NamedTuple):
+    """One diagnosed record of the sweep."""
+
+    truth: tuple  # hidden effect keys, sorted
+    seed: int
+    found: tuple  # named effect keys, sorted
+    estimates: list  # (key, true size, estimate, (low, high)) of each named hidden effect
+    seconds: float  # wall time of the diagnosis
+    cpu: float
+    ahead: float  # lowest ahead fit (%) of the extended model on a speed
+    absorbs: bool  # warned that a named value absorbs a dropped effect
 
 
 def _found(result):
@@ -67,26 +81,25 @@ def one_case(args):
         if key in record.effects:
             parameter = cause["parameters"][cause["effect"]]
             estimates.append((key, record.effects[key], parameter["value"], parameter["ci95"]))
-    ahead = min(result.extended.ahead_fit_percent.values())
-    absorbs = any(" absorbs " in warning for warning in result.warnings)
-    return tuple(sorted(effects)), seed, _found(result), estimates, (seconds, cpu), ahead, absorbs
+    return Case(tuple(sorted(effects)), seed, _found(result), estimates, seconds, cpu,
+                min(result.extended.ahead_fit_percent.values()), any(" absorbs " in w for w in result.warnings))
 
 
 def sweep(seeds, processes, duration, counts, sets=SETS):
     cases = [(effects, 2000 + seed, duration, counts) for effects in sets for seed in range(seeds)]
     with ProcessPoolExecutor(processes) as pool:
         results = list(pool.map(one_case, cases))
-    labels = sorted({"+".join(r[0]) or "none" for r in results} | {"+".join(r[2]) or "none" for r in results})
+    labels = sorted({"+".join(r.truth) or "none" for r in results} | {"+".join(r.found) or "none" for r in results})
     matrix = np.zeros((len(labels), len(labels)), dtype=int)
     within, covered, n_estimates = 0, 0, 0
-    for truth, seed, found, estimates, (seconds, cpu), _, absorbs in results:
-        mark = "ok " if truth == found else "BAD"
+    for r in results:
+        mark = "ok " if r.truth == r.found else "BAD"
         text = ", ".join(f"{key} {true:.4g} -> {value:.4g} [{low:.4g}, {high:.4g}]"
-                         for key, true, value, (low, high) in estimates)
-        print(f"  {mark} seed {seed} {'+'.join(truth) or 'none':45s} -> {'+'.join(found) or 'none':45s} "
-              f"{text} ({seconds:.1f} s, cpu {cpu:.1f} s){' [warned: absorbs]' if absorbs else ''}")
-        matrix[labels.index("+".join(truth) or "none"), labels.index("+".join(found) or "none")] += 1
-        for key, true, value, (low, high) in estimates:
+                         for key, true, value, (low, high) in r.estimates)
+        print(f"  {mark} seed {r.seed} {'+'.join(r.truth) or 'none':45s} -> {'+'.join(r.found) or 'none':45s} "
+              f"{text} ({r.seconds:.1f} s, cpu {r.cpu:.1f} s){' [warned: absorbs]' if r.absorbs else ''}")
+        matrix[labels.index("+".join(r.truth) or "none"), labels.index("+".join(r.found) or "none")] += 1
+        for key, true, value, (low, high) in r.estimates:
             n_estimates += 1
             within += abs(value - true) <= 0.1 * abs(true)
             covered += low <= true <= high
@@ -97,21 +110,21 @@ def sweep(seeds, processes, duration, counts, sets=SETS):
     for i in range(len(labels)):
         if matrix[i].sum():
             print(f"  [{i:2d}]" + "".join(f"{value:4d}" for value in matrix[i]))
-    exact = sum(r[0] == r[2] for r in results)
-    clean = [r for r in results if not r[0]]
-    invented = sum(bool(set(r[2]) - set(r[0])) for r in results)
+    exact = sum(r.truth == r.found for r in results)
+    clean = [r for r in results if not r.truth]
+    invented = sum(bool(set(r.found) - set(r.truth)) for r in results)
     print(f"\nexactly right: {exact}/{len(results)} = {100.0 * exact / len(results):.1f} % (target >= 95 %)")
-    print(f"effects named on clean records: {sum(bool(r[2]) for r in clean)} of {len(clean)} (target 0); "
+    print(f"effects named on clean records: {sum(bool(r.found) for r in clean)} of {len(clean)} (target 0); "
           f"records with an invented effect: {invented} of {len(results)}")
     print(f"estimates within 10 % of the truth: {within}/{n_estimates}")
     print(f"coverage of the 95 % intervals: {covered}/{n_estimates} = {100.0 * covered / max(n_estimates, 1):.1f} % "
           f"(target >= 85 %)")
-    print(f"records warned that a named value absorbs a dropped effect: {sum(r[6] for r in results)} of {len(results)}")
+    print(f"records warned that a named value absorbs a dropped effect: {sum(r.absorbs for r in results)} of "
+          f"{len(results)}")
     print(f"lowest {VALIDATION_HORIZON:g} s ahead fit of the extended model on a speed: "
-          f"{min(r[5] for r in results):.1f} % (the diagnosis warns below {EXTENDED_MIN_AHEAD_FIT:g} %)")
-    print(f"mean time per record ({duration:g} s at 1 kHz, whole catalogue): wall {np.mean([r[4][0] for r in results]):.1f} s, "
-          f"cpu {np.mean([r[4][1] for r in results]):.1f} s")
-
+          f"{min(r.ahead for r in results):.1f} % (the diagnosis warns below {EXTENDED_MIN_AHEAD_FIT:g} %)")
+    print(f"mean time per record ({duration:g} s at 1 kHz, whole catalogue): "
+          f"wall {np.mean([r.seconds for r in results]):.1f} s, cpu {np.mean([r.cpu for r in results]):.1f} s")
 
 def timing(repeat):
     rig = load_rig(RIG)
@@ -188,7 +201,8 @@ def main():
         print(f"\n== sweep: {args.seeds} seeds x {len(SETS)} effect sets, {args.duration:g} s records, {angles} ==")
         sweep(args.seeds, args.processes, args.duration, args.encoder_counts or None)
     if args.only in (None, "breakaway"):
-        print(f"\n== breakaway probe: {args.seeds} seeds x {len(BREAKAWAY_SETS)} effect sets, {args.duration:g} s records ==")
+        print(f"\n== breakaway probe: {args.seeds} seeds x {len(BREAKAWAY_SETS)} effect sets, "
+              f"{args.duration:g} s records ==")
         sweep(args.seeds, args.processes, args.duration, args.encoder_counts or None, BREAKAWAY_SETS)
 
 

@@ -54,7 +54,6 @@ REPEAT = 3
 RTOLS = 10.0 ** -np.arange(9, 14)
 
 
-
 class Loop:
     """The linear part and the law of one rig as plain arrays: ``dz/dt = A z + b T(c_x z, c_v z)``."""
 

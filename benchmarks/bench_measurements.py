@@ -66,7 +66,6 @@ def parse_backlash_df(path):
     return _read_columns(Path(path))
 
 
-
 def relative_error(parsed, exact):
     """Largest relative difference of any parsed value (inf if a column is missing or short)."""
     if any(parsed[name].shape != exact[name].shape for name in NAMES):

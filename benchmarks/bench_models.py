@@ -17,7 +17,6 @@
    best of three on both sides.
 """
 
-
 import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.special import lambertw
@@ -32,7 +31,6 @@ from timing import best_of
 N_POINTS = 1_000_000
 DT = 5e-5  # step of tests/test_simulate.py's halving test (1e-4 -> 5e-5)
 T_END = 2.0
-
 
 
 def numpy_law(name, x, v, k, c, alpha):

@@ -40,7 +40,6 @@ EXAMPLES = ROOT / "examples"
 MODELS = ("phase-plane", "exact", "damped-dead-zone")
 
 
-
 def rigs():
     """The bundled rigs with a controller, and the near-tangent tuning of load_feedback."""
     out = {name: bd.load_rig(EXAMPLES / f"{name}.toml") for name in ("load_feedback", "motor_lag_feedback",
