@@ -58,10 +58,16 @@ cannot handle (rubber with beta > 0, elasto-backlash) raise its ``ValueError``.
 
 import dataclasses
 import functools
+import html
 
 import numpy as np
 
+from .limit_cycles import predict_limit_cycles
+from .loops import drive_loop
 from .orbits import OrbitNotFound, orbit_residual, periodic_orbit
+from .plotting import ResultPlot, axes_or_new
+from .report import figure_html, html_page, table_html
+from .simulation import simulated_limit_cycle
 from .sweeps import rig_with, run_cells
 
 __all__ = ["BranchPoint", "SpecialPoint", "Branch", "continue_limit_cycles", "branch_plot"]
@@ -77,6 +83,9 @@ class BranchPoint:
     def to_dict(self):
         """JSON-ready: the parameter and the orbit's summary."""
         return {"parameter": float(self.parameter), **self.orbit.to_dict()}
+
+    def __repr__(self):
+        return f"BranchPoint({self.parameter:.6g}: {self.orbit!r})"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -172,31 +181,37 @@ class Branch:
             "range": list(self.value_range),
             "points": [point.to_dict() for point in self.points],
             "special": [point.to_dict() for point in self.special],
-            "df": [{"parameter": float(value), "cycles": prediction.to_dicts()} for value, prediction in self.df],
+            "df": [{"parameter": float(value), "cycles": prediction.cycle_dicts()} for value, prediction in self.df],
         }
 
-    def plot(self, axes=None):
+    def plot(self, ax=None):
         """Amplitude and frequency against the parameter; see :func:`branch_plot`."""
-        return branch_plot(self, axes=axes)
+        return branch_plot(self, ax=ax)
 
-    def report_html(self, title="Continuation", rig_text=""):
-        """A self-contained HTML page: the branch figure and the special points."""
-        from .report import figure_html, html_page, table_html
+    def report_html(self, title="", rig_text=""):
+        """A self-contained HTML page: the branch figure and the special points.
 
-        figure = self.plot()[0].figure
+        Parameters
+        ----------
+        title : str
+            Page title (default "Continuation").
+        rig_text : str
+            The rig file's text, shown as it is.
+        """
+        figure = self.plot().figure
         rows = [[s.kind, f"{s.parameter:.6g}", f"{s.amplitude:.5g}", s.detail] for s in self.special]
         sections = [("", f'<div class="summary"><p>{len(self.points)} exact periodic orbits (shooting, '
                          f"Floquet multipliers) of the {self.model} law continued in {self.parameter}; solid: "
                          "stable, dashed: unstable; markers: the describing function's cycles.</p></div>")]
         if rig_text:
-            sections.append(("Rig", f"<pre>{rig_text}</pre>"))
+            sections.append(("Rig", f"<pre>{html.escape(rig_text)}</pre>"))
         sections += [("Branch", figure_html(figure, f"A and w against {self.parameter}")),
                      ("Special points", table_html(["kind", self.parameter, "A (rad)", "detail"], rows,
                                                    text_columns=(0, 3)))]
-        return html_page(title, sections)
+        return html_page(title or "Continuation", sections)
 
 
-def branch_plot(branch, axes=None):
+def branch_plot(branch, ax=None):
     """Amplitude A (rad) and frequency w (rad/s) of the branch against the parameter.
 
     Stable stretches solid, unstable dashed; the DF cycles as markers (filled:
@@ -204,13 +219,10 @@ def branch_plot(branch, axes=None):
 
     Returns
     -------
-    ndarray of Axes
-        ``[amplitude axis, frequency axis]``.
+    ResultPlot
+        Axes ``[amplitude, frequency]``.
     """
-    import matplotlib.pyplot as plt
-
-    if axes is None:
-        _, axes = plt.subplots(2, 1, sharex=True, figsize=(7.5, 6))
+    figure, axes = axes_or_new(ax, (2, 1), sharex=True, figsize=(7.5, 6), layout="constrained")
     values, stable = branch.values, branch.stable
     for ax, series in zip(axes, (branch.amplitude, branch.omega)):
         start = 0
@@ -236,7 +248,7 @@ def branch_plot(branch, axes=None):
     axes[1].set_ylabel("w (rad/s)")
     axes[1].set_xlabel(branch.parameter)
     axes[0].set_title(f"{branch.model}: limit cycles against {branch.parameter}")
-    return np.asarray(axes)
+    return ResultPlot(figure, axes)
 
 
 # --------------------------------------------------------------------------- the continuation
@@ -451,8 +463,6 @@ def _extrapolate_to_zero(pair):
 
 def _contact_instability(rig, parameter, model, inside, outside):
     """Where the loop with the shaft in full contact loses stability between two values (text), by bisection."""
-    from .loops import drive_loop
-
     shaft = rig.make_model(model)
 
     def unstable(value):
@@ -471,16 +481,11 @@ def _contact_instability(rig, parameter, model, inside, outside):
 
 
 def _df_prediction(rig, parameter, model, grid, value):
-    from .limit_cycles import predict_limit_cycles
-
     return predict_limit_cycles(rig_with(rig, parameter, value), model, grid=grid)
 
 
 def _start(rig, parameter, model, values, seed):
     """First orbit: from ``seed`` at ``values[0]``, else from the DF's or a simulation's cycle at the first value that has one."""
-    from .limit_cycles import predict_limit_cycles
-    from .simulate import simulated_limit_cycle
-
     for value in values:
         tuned = _rig_of(rig, parameter, value)
         seeds = [seed] if seed is not None else []

@@ -1,13 +1,17 @@
 """Describing functions N(A, w, bias) of the backlash torque laws by harmonic balance.
 
-Convention (DESIGN.md): the input is ``x(t) = bias + A sin(w t)``, ``v = dx/dt``;
+Convention (the contract page of the documentation): the input is
+``x(t) = bias + A sin(w t)``, ``v = dx/dt``;
 with ``b1``, ``a1`` the sine and cosine Fourier coefficients of the steady-state
 torque over one period,
 
     N(A, w, bias) = (b1 + j a1) / A        (N m / rad)
 
-and the mean torque ``a0 = (1 / 2 pi) int T dphi`` (N m) is the DC term of a
-dual-input analysis.  Because the laws depend on the rate ``v``, N depends on
+and the mean torque ``N0(A, w, bias) = (1 / 2 pi) int T dphi`` (N m) is the DC
+term of the dual-input describing function (:func:`dual_input_describing_function`).
+Under a constant load torque ``T_l`` the DC balance ``N0(A, w, b) = -T_l`` fixes the
+bias (:func:`dc_bias`), and ``N(A, w, b(A, w))`` is the describing function of the
+loaded loop (:class:`BiasedDescribing`).  Because the laws depend on the rate ``v``, N depends on
 ``w`` as well as on ``A``.
 
 How each law is computed:
@@ -47,6 +51,7 @@ import math
 import numba
 import numpy as np
 
+from ._json import json_ready
 from .models import (
     DAMPED_DEAD_ZONE,
     DEAD_ZONE,
@@ -56,15 +61,19 @@ from .models import (
     REVISED_DEAD_ZONE,
     RUBBER,
     BacklashModel,
-    _theta_star,
     held_mode,
     make_model,
     mode_torque,
     static_mode,
+    theta_star_kernel,
 )
+from .plotting import ResultPlot, axes_or_new
 
 __all__ = [
     "describing_function",
+    "dual_input_describing_function",
+    "dc_bias",
+    "BiasedDescribing",
     "describing_function_grid",
     "DescribingFunctionResult",
     "phase_plane_validity",
@@ -256,7 +265,7 @@ def _boundary(index, phi, amp, omega, bias, p):
     v = amp * omega * math.cos(phi)
     if index >= _SIDE:
         x, v, index = -x, -v, index - _SIDE
-    ts = _theta_star(v, p[0], p[1], p[2]) if index >= _THETA_STAR and index <= _BAND_BOTTOM else p[2]
+    ts = theta_star_kernel(v, p[0], p[1], p[2]) if index >= _THETA_STAR and index <= _BAND_BOTTOM else p[2]
     return _boundary_of(index, x, v, ts, p)
 
 
@@ -272,10 +281,10 @@ def _boundary_values(law, phi, amp, omega, bias, p):
     x = bias + amp * math.sin(phi)
     v = amp * omega * math.cos(phi)
     i = _boundaries(law, p[3])
-    ts = _theta_star(v, p[0], p[1], p[2])
+    ts = theta_star_kernel(v, p[0], p[1], p[2])
     right = (_slot(i[0], x, v, ts, p), _slot(i[1], x, v, ts, p), _slot(i[2], x, v, ts, p),
              _slot(i[3], x, v, ts, p), _slot(i[4], x, v, ts, p), _slot(i[5], x, v, ts, p))
-    ts = _theta_star(-v, p[0], p[1], p[2])
+    ts = theta_star_kernel(-v, p[0], p[1], p[2])
     left = (_slot(i[0], -x, -v, ts, p), _slot(i[1], -x, -v, ts, p), _slot(i[2], -x, -v, ts, p),
             _slot(i[3], -x, -v, ts, p), _slot(i[4], -x, -v, ts, p), _slot(i[5], -x, -v, ts, p))
     return right, left
@@ -742,6 +751,116 @@ def describing_function(model, amplitude, omega, bias=0.0, method="auto"):
     return _evaluate(model, amplitude, omega, bias, method)[0]
 
 
+def dual_input_describing_function(model, amplitude, omega, bias=0.0, method="auto"):
+    """The dual-input describing function: N(A, w, bias) and the mean torque N0(A, w, bias).
+
+    For ``x(t) = bias + A sin(w t)``: ``N = (b1 + j a1) / A`` (N m/rad) of the
+    first harmonic and ``N0 = (1 / 2 pi) int T dphi`` (N m), the DC term.  At zero
+    bias every law is odd and ``N0 = 0``.
+
+    Parameters
+    ----------
+    model, amplitude, omega, bias, method
+        As :func:`describing_function`.
+
+    Returns
+    -------
+    n : complex ndarray
+        N, N m/rad, broadcast over the arguments.
+    mean_torque : ndarray
+        N0, N m, same shape.
+
+    Examples
+    --------
+    Resting on the right flank of a dead-zone (``bias - A > alpha``) the torque is
+    ``k (x - alpha)``: ``N = k`` and ``N0 = k (bias - alpha)``.
+
+    >>> model = make_model("dead-zone", stiffness=100.0, half_gap=0.1)
+    >>> n, mean = dual_input_describing_function(model, 0.05, 10.0, bias=0.3)
+    >>> round(float(n.real), 9), round(float(mean), 9)
+    (100.0, 20.0)
+    """
+    return _evaluate(model, amplitude, omega, bias, method)
+
+
+_BIAS_TOL = 1e-11  # relative to the bracket width (alpha + A + |T_l| / k) and to k times it
+
+
+def dc_bias(model, amplitude, omega, load_torque, iterations=40):
+    """Bias b (rad) of theta_d solving the DC balance ``N0(A, w, b) = -load_torque``.
+
+    Parameters
+    ----------
+    model : BacklashModel
+    amplitude, omega : array_like
+        A (rad, > 0) and w (rad/s), broadcast together.
+    load_torque : float
+        T_l, N m, applied to the load (positive: the shaft carries ``-T_l``).
+    iterations : int
+        Most Newton steps (safeguarded by bisection).
+
+    Returns
+    -------
+    ndarray
+        b, rad, shape of the broadcast arguments.
+
+    Examples
+    --------
+    A large amplitude with the shaft in contact most of the time needs about
+    ``b = -alpha - T_l / k`` at small amplitude (resting on the left flank):
+
+    >>> model = make_model("dead-zone", stiffness=1000.0, half_gap=0.05)
+    >>> round(float(dc_bias(model, 1e-3, 10.0, 20.0)), 6)
+    -0.07
+    """
+    a, w = np.broadcast_arrays(np.asarray(amplitude, dtype=float), np.asarray(omega, dtype=float))
+    target = -float(load_torque)
+    # at b = +-width the oscillation never leaves a flank: N0 = k (b -+ alpha) passes the target
+    width = model.half_gap + a + abs(target) / model.stiffness
+    lo, hi = (np.zeros(a.shape), width) if target > 0.0 else (-width, np.zeros(a.shape))
+    # start as if always in contact: exact for small A, and Newton's steps stay inside the bracket
+    b = np.clip(np.full(a.shape, target / model.stiffness + np.copysign(model.half_gap, target)), lo, hi)
+    step = 1e-7 * width
+    for _ in range(iterations):
+        f = _evaluate(model, a, w, b, "auto")[1] - target
+        if np.all(np.abs(f) <= _BIAS_TOL * model.stiffness * width):
+            break
+        slope = (_evaluate(model, a, w, b + step, "auto")[1] - target - f) / step
+        lo, hi = np.where(f < 0.0, b, lo), np.where(f > 0.0, b, hi)
+        newton = b - f / np.where(slope > 0.0, slope, 1.0)
+        inside = (slope > 0.0) & (newton > lo) & (newton < hi)
+        b = np.where(f == 0.0, b, np.where(inside, newton, 0.5 * (lo + hi)))
+    return b
+
+
+@dataclasses.dataclass(frozen=True)
+class BiasedDescribing:
+    """``N(A, w, b(A, w))`` with the bias slaved to the DC balance: a callable ``(A, w) -> N``.
+
+    The describing function of a loop under the constant load torque ``T_l``
+    (:func:`dc_bias`; the PI integrator removes the mean speed error, so the mean
+    shaft torque carries the load).
+
+    Attributes
+    ----------
+    model : BacklashModel
+    load_torque : float
+        T_l, N m.
+    """
+
+    model: BacklashModel
+    load_torque: float
+
+    def __call__(self, amplitude, omega):
+        a, w = np.broadcast_arrays(np.asarray(amplitude, dtype=float), np.asarray(omega, dtype=float))
+        bias = dc_bias(self.model, a, w, self.load_torque)
+        return _evaluate(self.model, a, w, bias, "auto")[0]
+
+    def bias(self, amplitude, omega):
+        """b (rad) at (A, w); see :func:`dc_bias`."""
+        return dc_bias(self.model, amplitude, omega, self.load_torque)
+
+
 @dataclasses.dataclass(frozen=True)
 class DescribingFunctionResult:
     """Describing function of one law on an (amplitude x omega) grid.
@@ -789,18 +908,32 @@ class DescribingFunctionResult:
             f"{self.omega.size} frequencies, bias={self.bias!r})"
         )
 
-    def plot(self, axes=None):
+    def to_dict(self):
+        """JSON-ready: the law and one entry per (A, w) point, as ``backlash-df df --json`` writes them.
+
+        Each point: ``amplitude`` (rad), ``omega`` (rad/s), ``gain`` (N m/rad),
+        ``phase_deg``, ``real`` and ``imag`` of N, ``mean_torque`` N0 (N m).
+        """
+        points = []
+        for i, amplitude in enumerate(self.amplitude):
+            for j, omega in enumerate(self.omega):
+                points.append({
+                    "amplitude": float(amplitude), "omega": float(omega),
+                    "gain": float(self.gain[i, j]), "phase_deg": float(self.phase_deg[i, j]),
+                    "real": float(self.N[i, j].real), "imag": float(self.N[i, j].imag),
+                    "mean_torque": float(self.mean_torque[i, j]),
+                })
+        return {"model": self.model.name, "shaft": self.model.plant_params, "bias": self.bias, "points": points}
+
+    def plot(self, ax=None):
         """Gain (normalised by k) and phase against A / alpha, one line per c w / k.
 
         Returns
         -------
-        axes : ndarray of matplotlib Axes
-            Gain and phase axes.
+        ResultPlot
+            Axes ``[gain, phase]``.
         """
-        import matplotlib.pyplot as plt
-
-        if axes is None:
-            _, axes = plt.subplots(2, 1, sharex=True, figsize=(7, 5.5))
+        figure, axes = axes_or_new(ax, (2, 1), sharex=True, figsize=(7, 5.5), layout="constrained")
         ratio = self.amplitude / self.model.half_gap
         for j, rate in enumerate(self.rate):
             label = f"c w / k = {rate:.3g}"
@@ -811,9 +944,9 @@ class DescribingFunctionResult:
         axes[1].set_xlabel("A / alpha")
         axes[0].set_title(f"describing function: {self.model.name}")
         axes[0].legend(fontsize="small")
-        for ax in axes:
-            ax.grid(True, which="both", alpha=0.3)
-        return axes
+        for panel in axes:
+            panel.grid(True, which="both", alpha=0.3)
+        return ResultPlot(figure, axes)
 
 
 def describing_function_grid(model, amplitude, omega, bias=0.0):
@@ -868,13 +1001,25 @@ class ValidityMap:
     relative_error: np.ndarray
     early_contact: np.ndarray
 
-    def plot(self, ax=None, levels=(0.01, 0.05, 0.2)):
-        """Contours of the relative difference at ``levels`` (1 %, 5 %, 20 %) and the
-        early-contact region; returns the axes."""
-        import matplotlib.pyplot as plt
+    def __repr__(self):
+        worst = float(np.nanmax(self.relative_error, initial=0.0))
+        return (f"ValidityMap({self.amplitude_ratio.size} amplitudes x {self.rate.size} rates, largest relative "
+                f"difference {100 * worst:.3g} %)")
 
-        if ax is None:
-            _, ax = plt.subplots(figsize=(7, 4.5))
+    def to_dict(self):
+        """JSON-ready: A / alpha, c w / k, the relative difference (null where N_exact = 0), early contact."""
+        return json_ready({"amplitude_ratio": self.amplitude_ratio, "rate": self.rate,
+                           "relative_error": self.relative_error, "early_contact": self.early_contact})
+
+    def plot(self, ax=None, levels=(0.01, 0.05, 0.2)):
+        """Contours of the relative difference at ``levels`` (1 %, 5 %, 20 %) and the early-contact region.
+
+        Returns
+        -------
+        ResultPlot
+        """
+        figure, axes = axes_or_new(ax, figsize=(7, 4.5), layout="constrained")
+        ax = axes[0]
         err = np.where(np.isfinite(self.relative_error), self.relative_error, np.nan)
         bounds = [0.0, *levels, max(float(np.nanmax(err, initial=0.0)), 2.0 * levels[-1])]
         colours = ["#f7fbff", "#c6dbef", "#6baed6", "#08519c", "#08306b"][: len(bounds) - 1]
@@ -891,7 +1036,7 @@ class ValidityMap:
         colorbar = ax.figure.colorbar(filled, ax=ax, spacing="uniform")
         colorbar.set_ticks(bounds)
         colorbar.set_ticklabels(["0", *[f"{level:.0%}" for level in levels], f"{bounds[-1]:.0%}"])
-        return ax
+        return ResultPlot(figure, axes)
 
 
 def phase_plane_validity(stiffness, damping, half_gap, amplitude_ratio, rate):

@@ -28,26 +28,34 @@ left half plane.  It is a local, first-harmonic statement; the time simulation
 """
 
 import dataclasses
+import functools
+import html
 import math
+import warnings
 
 import numpy as np
 
+from ._json import json_ready
+from .describing import BiasedDescribing, describing_function
 from .loops import DriveLoop, drive_loop, frequency_response_of
 from .models import BacklashModel
+from .plotting import ResultPlot, axes_or_new
+from .report import figure_html, html_page, signed_percent, table_html
+from .simulation import simulated_limit_cycle
 
 __all__ = [
     "LimitCycle",
     "NearMiss",
     "LimitCyclePrediction",
     "solve_harmonic_balance",
+    "default_ranges",
     "predict_limit_cycles",
     "verify_limit_cycles",
     "limit_cycle_plot",
     "prediction_rows",
-    "prediction_json",
+    "prediction_sections",
     "prediction_report",
-    "verdict_rows",
-    "orbit_rows",
+    "PREDICTION_NOTE",
 ]
 
 _NEWTON_TOL = 1e-11
@@ -74,7 +82,7 @@ class LimitCycle:
         The cycle measured in time simulation, once verified.
     bias : float
         Mean of theta_d, rad: 0 without load, set by the DC balance under a load
-        torque (:mod:`backlash_df.loaded`).
+        torque (:func:`~backlash_df.describing.dc_bias`).
     """
 
     amplitude: float
@@ -98,6 +106,16 @@ class LimitCycle:
         if self.simulated is None or not self.simulated.found:
             return math.nan
         return self.omega / self.simulated.omega - 1.0
+
+    def to_dict(self):
+        """The entry of the ``predict`` JSON's ``limit_cycles`` (rad, rad/s), without ``model``."""
+        return {
+            "amplitude": float(self.amplitude),
+            "omega": float(self.omega),
+            "bias": float(self.bias),
+            "stable": bool(self.stable),
+            "simulated": None if self.simulated is None else self.simulated.cycle_dict(),
+        }
 
     def __repr__(self):
         kind = "stable" if self.stable else "unstable"
@@ -124,6 +142,10 @@ class NearMiss:
     omega: float
     distance: float
 
+    def to_dict(self):
+        """JSON-ready: ``{"amplitude", "omega", "distance"}`` (rad, rad/s, relative)."""
+        return {"amplitude": self.amplitude, "omega": self.omega, "distance": self.distance}
+
     def __repr__(self):
         return f"NearMiss(A={self.amplitude:.6g} rad, omega={self.omega:.6g} rad/s, distance={100 * self.distance:.3f} %)"
 
@@ -142,19 +164,19 @@ class LimitCyclePrediction:
         Closest approaches that are not solutions, by increasing distance.
     amplitude_range, omega_range : tuple of float
         The searched box, rad and rad/s.
+    simulation : MeasuredCycle or None
+        After :func:`verify_limit_cycles`: what the time simulation settled to
+        (started on the first stable predicted cycle, or from the default kick
+        when none is predicted).
+    verdict : LoopVerdict or None
+        Deprecated: set only by the deprecated :func:`backlash_df.verdict.judge`;
+        :func:`backlash_df.judge_loop` returns the verdict, which holds its prediction.
     linear : object
         The linear part (DriveLoop, LTI or callable), for plots.
     describing : callable
         ``N(A, w)`` used, for plots.
     half_gap : float
         alpha, rad.
-    simulation : MeasuredCycle or None
-        After :func:`verify_limit_cycles`: what the time simulation settled to
-        (started on the first stable predicted cycle, or from the default kick
-        when none is predicted).
-    verdict : LoopVerdict or None
-        After :func:`backlash_df.verdict.judge`: no oscillation, limit cycle,
-        bistable, unstable or undetermined, with its evidence.
     """
 
     model: str
@@ -173,23 +195,41 @@ class LimitCyclePrediction:
         """The cycles Loeb's criterion calls stable (those a simulation can show)."""
         return tuple(cycle for cycle in self.cycles if cycle.stable)
 
+    def __repr__(self):
+        cycles = ", ".join(f"{'stable' if c.stable else 'unstable'} A={c.amplitude:.4g} rad w={c.omega:.4g} rad/s"
+                           for c in self.cycles) or "no cycle"
+        miss = f"; closest miss {100 * self.near_misses[0].distance:.2f} %" if self.near_misses else ""
+        sim = "" if self.simulation is None else f"; simulated: {self.simulation.verdict}"
+        return f"<LimitCyclePrediction {self.model}: {cycles}{miss}{sim}>"
+
+    def cycle_dicts(self):
+        """The ``limit_cycles`` entries of the ``predict`` JSON (contract page): one per cycle."""
+        return [{"model": self.model, **cycle.to_dict()} for cycle in self.cycles]
+
     def to_dicts(self):
-        """The ``limit_cycles`` entries of the ``predict`` JSON (DESIGN.md)."""
-        return [
-            {
-                "model": self.model,
-                "amplitude": float(cycle.amplitude),
-                "omega": float(cycle.omega),
-                "bias": float(cycle.bias),
-                "stable": bool(cycle.stable),
-                "simulated": None if cycle.simulated is None else cycle.simulated.to_dict(),
-            }
-            for cycle in self.cycles
-        ]
+        """Deprecated alias of :meth:`cycle_dicts`."""
+        warnings.warn("LimitCyclePrediction.to_dicts() is deprecated: use cycle_dicts() (the predict JSON's "
+                      "limit_cycles entries) or to_dict()", DeprecationWarning, stacklevel=2)
+        return self.cycle_dicts()
+
+    def to_dict(self):
+        """JSON-ready: the cycles, near misses, what the simulation settled to and the searched box."""
+        return json_ready({
+            "model": self.model,
+            "cycles": [cycle.to_dict() for cycle in self.cycles],
+            "near_misses": [miss.to_dict() for miss in self.near_misses],
+            "simulated": None if self.simulation is None else self.simulation.cycle_dict(),
+            "amplitude_range": list(self.amplitude_range),
+            "omega_range": list(self.omega_range),
+        })
 
     def plot(self, ax=None, **kwargs):
         """Nyquist overlay of G(jw) and the -1/N(A, w) loci; see :func:`limit_cycle_plot`."""
         return limit_cycle_plot([self], ax=ax, **kwargs)
+
+    def report_html(self, title="", rig_text=""):
+        """A self-contained HTML page: the Nyquist overlay and the predicted (and simulated) cycles."""
+        return prediction_report([self], title or f"Limit-cycle prediction: {self.model}", rig_text)
 
 
 # --------------------------------------------------------------------------- solver
@@ -370,15 +410,6 @@ def _cycle(problem, p, q):
 # --------------------------------------------------------------------------- rig level
 
 
-def _describing_of(model, bias):
-    from . import describing_function
-
-    def n_of(amplitude, omega):
-        return describing_function(model, amplitude, omega, bias=bias)
-
-    return n_of
-
-
 def default_ranges(rig, linear=None):
     """Default search box: A in (alpha (1 + 1e-4), 200 alpha), w within 3 decades of the shaft mode.
 
@@ -392,8 +423,14 @@ def default_ranges(rig, linear=None):
 
 
 def predict_limit_cycles(rig, model=None, linear=None, amplitude_range=None, omega_range=None, bias=0.0,
-                         grid=(60, 80), describing=None, near_miss_cutoff=0.5):
+                         grid=(60, 80), describing=None, near_miss_cutoff=0.5, load_torque=None):
     """Predict the limit cycles of a rig's loop by the describing function.
+
+    The describing function the loop needs is picked here: ``N(A, w, bias)`` of
+    the torque law, or, under a constant load torque, the dual-input DF with the
+    bias slaved to the DC balance (:class:`~backlash_df.describing.BiasedDescribing`:
+    ``N0(A, w, b) = -T_l``), whose cycles carry their ``bias`` and may be smaller
+    than alpha (a cycle that lifts off one flank only).
 
     Parameters
     ----------
@@ -404,15 +441,19 @@ def predict_limit_cycles(rig, model=None, linear=None, amplitude_range=None, ome
     linear : DriveLoop, control.LTI or callable, optional
         The linear part G (shaft torque -> -theta_d); default the rig's PI loop.
     amplitude_range, omega_range : (float, float), optional
-        Search box in rad and rad/s (default :func:`default_ranges`).
+        Search box in rad and rad/s (default :func:`default_ranges`; under a load
+        the amplitudes reach down to alpha / 50).
     bias : float
-        Mean of theta_d, rad, passed to the describing function.
+        Mean of theta_d, rad, passed to the describing function (no DC balance).
     grid : (int, int)
         Scan points in A and w.
     describing : callable, optional
-        ``N(A, w)`` to use instead of :func:`backlash_df.describing_function`.
+        ``N(A, w)`` to use instead of the law's describing function.
     near_miss_cutoff : float
         Largest ``|1 + G N|`` reported as a near miss.
+    load_torque : float, optional
+        T_l, N m: solve with the DC balance under this load (default: the rig's
+        ``[load] torque``, balanced when it is not zero).
 
     Returns
     -------
@@ -420,23 +461,26 @@ def predict_limit_cycles(rig, model=None, linear=None, amplitude_range=None, ome
     """
     if not isinstance(model, BacklashModel):
         model = rig.make_model(model)
-    if describing is None and bias == 0.0 and rig.load.torque != 0.0:  # biased cycles by the DC balance
-        from .loaded import predict_loaded
-
-        return predict_loaded(rig, model, linear=linear, amplitude_range=amplitude_range, omega_range=omega_range,
-                              grid=grid, near_miss_cutoff=near_miss_cutoff)
     linear = drive_loop(rig) if linear is None else linear
     default_a, default_w = default_ranges(rig)
+    balanced = describing is None and bias == 0.0 and (load_torque is not None or rig.load.torque != 0.0)
+    if balanced:
+        n_of = BiasedDescribing(model, rig.load.torque if load_torque is None else float(load_torque))
+        half_gap, default_a = 0.0, (0.02 * model.half_gap, default_a[1])
+    else:
+        n_of = describing or functools.partial(describing_function, model, bias=bias)
+        half_gap = model.half_gap
     amplitude_range = default_a if amplitude_range is None else tuple(amplitude_range)
     omega_range = default_w if omega_range is None else tuple(omega_range)
-    n_of = _describing_of(model, bias) if describing is None else describing
     cycles, near = solve_harmonic_balance(
-        lambda omega: frequency_response_of(linear, omega), n_of, model.half_gap,
+        lambda omega: frequency_response_of(linear, omega), n_of, half_gap,
         amplitude_range, omega_range, grid=grid, near_miss_cutoff=near_miss_cutoff,
     )
+    if balanced:
+        cycles = [dataclasses.replace(c, bias=float(n_of.bias(c.amplitude, c.omega))) for c in cycles]
     return LimitCyclePrediction(
         model=model.name, cycles=tuple(cycles), near_misses=tuple(near), amplitude_range=amplitude_range,
-        omega_range=omega_range, linear=linear, describing=n_of, half_gap=model.half_gap,
+        omega_range=omega_range, linear=linear, describing=n_of, half_gap=half_gap,
     )
 
 
@@ -449,7 +493,7 @@ def verify_limit_cycles(rig, prediction, linear=None, kick=None, t_end=None, max
 
     Every stable predicted cycle is simulated from the kick ``dtheta_d(0) = A w``
     (theta_d(0) = 0, the cycle's zero crossing) until steady state
-    (:func:`~backlash_df.simulate.simulated_limit_cycle`); unstable cycles cannot
+    (:func:`~backlash_df.simulation.simulated_limit_cycle`); unstable cycles cannot
     be observed and keep ``simulated = None``.  Without a stable prediction the
     loop is simulated once from ``kick`` to see whether it settles.
 
@@ -473,8 +517,6 @@ def verify_limit_cycles(rig, prediction, linear=None, kick=None, t_end=None, max
     LimitCyclePrediction
         A copy with ``simulated`` filled in and ``simulation`` set.
     """
-    from .simulate import simulated_limit_cycle
-
     model = rig.make_model(prediction.model)
     user_linear = linear if linear is not None and not isinstance(linear, DriveLoop) else None
     cycles = []
@@ -534,15 +576,15 @@ def limit_cycle_plot(predictions, ax=None, n_loci=7, n_amplitudes=200, g_omega=N
 
     Returns
     -------
-    Axes
-        The axes drawn on (``ax.figure`` is the figure), as every ``.plot()``
-        of the package returns its axes.
+    ResultPlot
+        One panel; the legend below it in a new figure (nothing is cut off by
+        ``savefig``), inside the axes given otherwise.
     """
     import matplotlib.pyplot as plt
 
     own_figure = ax is None
-    if own_figure:
-        _, ax = plt.subplots(figsize=(8, 7.5), layout="constrained")
+    figure, axes = axes_or_new(ax, figsize=(8, 7.5), layout="constrained")
+    ax = axes[0]
     first = predictions[0]
     lo_w, hi_w = first.omega_range
     g_omega = np.geomspace(lo_w, hi_w, 2000) if g_omega is None else np.asarray(g_omega, dtype=float)
@@ -582,10 +624,10 @@ def limit_cycle_plot(predictions, ax=None, n_loci=7, n_amplitudes=200, g_omega=N
     ax.set_ylabel("imaginary part (rad/(N m))")
     ax.set_title("Nyquist overlay: G(jw) and -1/N(A, w); thin loci labelled with w (rad/s)")
     if own_figure:
-        ax.figure.legend(loc="outside lower center", ncols=2, fontsize=8)
+        legend = figure.legend(loc="outside lower center", ncols=2, fontsize=8)
     else:
-        ax.legend(loc="best", fontsize=7)
-    return ax
+        legend = ax.legend(loc="best", fontsize=7)
+    return ResultPlot(figure, axes, legend)
 
 
 def _label_loci(ax, loci, gap=(0.06, 0.025)):
@@ -625,10 +667,6 @@ def _zoom(ax, predictions, points):
 # --------------------------------------------------------------------------- tables and report
 
 
-def _percent(value):
-    return "" if not math.isfinite(value) else f"{100.0 * value:+.2f} %"
-
-
 def prediction_rows(predictions):
     """One row per predicted cycle (or per model without one): predicted next to simulated.
 
@@ -650,7 +688,7 @@ def prediction_rows(predictions):
                 "stable" if cycle.stable else "unstable",
                 f"{sim.amplitude:.5g}" if found else ("" if sim is None else sim.verdict),
                 f"{sim.omega:.5g}" if found else "",
-                _percent(cycle.amplitude_error), _percent(cycle.omega_error), miss,
+                signed_percent(cycle.amplitude_error), signed_percent(cycle.omega_error), miss,
             ])
         if not prediction.stable_cycles:
             sim = prediction.simulation
@@ -663,91 +701,21 @@ def prediction_rows(predictions):
     return header, rows
 
 
-def verdict_rows(predictions):
-    """One row per model: verdict, linear stability in contact and open, disturbance that starts hunting.
+def prediction_sections(predictions, rig_text="", notes=None):
+    """The HTML sections of a prediction report: summary, rig, Nyquist overlay, cycle table.
 
-    Models without a verdict (:func:`backlash_df.verdict.judge` not run) are left out.
-
-    Returns
-    -------
-    header : list of str
-    rows : list of list of str
-    """
-    header = ["model", "verdict", "contact loop (k + c s)", "open loop (T = 0)", "hunts beyond (rad)"]
-    rows = []
-    for prediction in predictions:
-        verdict = prediction.verdict
-        if verdict is None:
-            continue
-        start = "" if verdict.disturbance_to_start is None else (
-            f"{verdict.disturbance_to_start:.4g} ({verdict.disturbance_source})")
-        rows.append([prediction.model, verdict.verdict, verdict.contact_loop.describe(),
-                     verdict.open_loop.describe(), start])
-    return header, rows
-
-
-def orbit_rows(predictions):
-    """One row per exact periodic orbit (:mod:`backlash_df.orbits`) next to the DF cycle it continues.
-
-    The DF error compares the orbit with the predicted cycle of the same
-    stability nearest in amplitude.
+    Parameters
+    ----------
+    predictions : sequence of LimitCyclePrediction
+    rig_text : str
+        The rig file's text, shown as it is under "Rig" when given.
+    notes : dict of str to str, optional
+        Model name -> HTML appended to that model's summary line (a verdict, say).
 
     Returns
     -------
-    header : list of str
-    rows : list of list of str
+    list of (heading, html)
     """
-    header = ["model", "A exact (rad)", "peak (rad)", "period (s)", "w (rad/s)", "Floquet", "|mu| max",
-              "A DF (rad)", "A DF error", "w DF error"]
-    rows = []
-    for prediction in predictions:
-        for orbit in () if prediction.verdict is None else prediction.verdict.orbits:
-            same = [c for c in prediction.cycles if c.stable == orbit.stable]
-            df = min(same, key=lambda c: abs(math.log(c.amplitude / orbit.amplitude)), default=None)
-            rows.append([
-                prediction.model, f"{orbit.amplitude:.6g}", f"{orbit.peak:.6g}", f"{orbit.period:.6g}",
-                f"{orbit.omega:.6g}", "stable" if orbit.stable else "unstable", f"{orbit.max_multiplier:.4f}",
-                "" if df is None else f"{df.amplitude:.5g}",
-                "" if df is None else _percent(df.amplitude / orbit.amplitude - 1.0),
-                "" if df is None else _percent(df.omega / orbit.omega - 1.0),
-            ])
-    return header, rows
-
-
-def prediction_json(predictions, source=""):
-    """The ``predict`` JSON of DESIGN.md: ``limit_cycles``, then per model its verdict and details.
-
-    A ``models`` entry holds ``model``, the verdict fields of
-    :meth:`~backlash_df.verdict.LoopVerdict.to_dict` (``verdict``, ``reason``,
-    ``contact_loop``, ``open_loop``, ``disturbance_to_start``, ... ; ``verdict``
-    is null when none was formed), ``simulated``, ``near_misses`` and the searched box.
-    """
-    return {
-        "limit_cycles": [entry for prediction in predictions for entry in prediction.to_dicts()],
-        "rig": source,
-        "models": [
-            {
-                "model": prediction.model,
-                **({"verdict": None} if prediction.verdict is None else prediction.verdict.to_dict()),
-                "simulated": None if prediction.simulation is None else prediction.simulation.to_dict(),
-                "near_misses": [
-                    {"amplitude": m.amplitude, "omega": m.omega, "distance": m.distance}
-                    for m in prediction.near_misses
-                ],
-                "amplitude_range": list(prediction.amplitude_range),
-                "omega_range": list(prediction.omega_range),
-            }
-            for prediction in predictions
-        ],
-    }
-
-
-def prediction_report(predictions, title="Limit-cycle prediction", rig_text=""):
-    """A self-contained HTML page: summary, Nyquist overlay, predicted vs simulated table."""
-    import html
-
-    from .report import figure_html, html_page, table_html
-
     header, rows = prediction_rows(predictions)
     lines = []
     for prediction in predictions:
@@ -755,43 +723,30 @@ def prediction_report(predictions, title="Limit-cycle prediction", rig_text=""):
         sim = prediction.simulation
         said = f"{len(stable)} stable and {len(prediction.cycles) - len(stable)} unstable predicted cycle(s)"
         seen = html.escape("simulation: " + (str(sim) if sim is not None else "not run"))
-        verdict = prediction.verdict
-        if verdict is not None:
-            seen += f"<br><b>verdict: {verdict.verdict}</b>: {html.escape(verdict.reason)}"
+        seen += (notes or {}).get(prediction.model, "")
         lines.append(f"<li><b>{prediction.model}</b>: {said}; {seen}</li>")
-    summary = (
-        '<div class="summary"><p>Solutions of G(jw) N(A, w) = -1 (A: first-harmonic amplitude of '
-        "theta_d), stability by Loeb's criterion, each stable cycle checked by closed-loop time "
-        "simulation with the same torque law. A near miss is the smallest |1 + G N|: the relative "
-        f"change of G that would create a cycle.</p><ul>{''.join(lines)}</ul></div>"
-    )
-    ax = limit_cycle_plot(predictions)
+    summary = f'<div class="summary"><p>{PREDICTION_NOTE}</p><ul>{"".join(lines)}</ul></div>'
     sections = [("", summary)]
     if rig_text:
-        sections.append(("Rig", f"<pre>{rig_text}</pre>"))
+        sections.append(("Rig", f"<pre>{html.escape(rig_text)}</pre>"))
+    figure = limit_cycle_plot(predictions).figure
     sections += [
-        ("Nyquist overlay", figure_html(ax.figure, "G(jw) (black) and -1/N(A, w) per model at several frequencies; "
+        ("Nyquist overlay", figure_html(figure, "G(jw) (black) and -1/N(A, w) per model at several frequencies; "
                                         "o stable cycle, x unstable, diamond near miss")),
         ("Predicted and simulated limit cycles", table_html(header, rows, text_columns=(0, 3, 4))),
     ]
-    verdict_header, verdicts = verdict_rows(predictions)
-    if verdicts:
-        sections.append(("Verdict and linear stability", _VERDICT_NOTE + table_html(
-            verdict_header, verdicts, text_columns=(0, 1, 2, 3, 4))))
-    orbit_header, orbits = orbit_rows(predictions)
-    if orbits:
-        sections.append(("Exact periodic orbits", _ORBIT_NOTE + table_html(orbit_header, orbits,
-                                                                            text_columns=(0, 5))))
-    return html_page(title, sections)
+    return sections
 
 
-_VERDICT_NOTE = (
-    "<p>Contact loop: the PI loop with the shaft as the spring-damper k + c s (large motions); open loop: "
-    "shaft torque 0 (inside the gap); poles from the state matrix, dead time by its Pade approximant. "
-    "The verdict also weighs simulations from rest with kicks of several sizes (JSON: <code>probes</code>).</p>"
-)
-_ORBIT_NOTE = (
-    "<p>Periodic orbits of the piecewise-smooth loop by shooting, switching events located exactly; "
-    "stability from the Floquet multipliers (saltation matrices at contact and release). "
-    "The DF errors are those of the predicted cycle of the same stability nearest in amplitude.</p>"
+def prediction_report(predictions, title="Limit-cycle prediction", rig_text=""):
+    """A self-contained HTML page of :func:`prediction_sections`."""
+    return html_page(title, prediction_sections(predictions, rig_text))
+
+
+#: What a prediction report's numbers are (HTML).
+PREDICTION_NOTE = (
+    "Solutions of G(jw) N(A, w) = -1 (A: first-harmonic amplitude of "
+    "theta_d), stability by Loeb's criterion, each stable cycle checked by closed-loop time "
+    "simulation with the same torque law. A near miss is the smallest |1 + G N|: the relative "
+    "change of G that would create a cycle."
 )

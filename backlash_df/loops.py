@@ -34,9 +34,9 @@ import dataclasses
 
 import numpy as np
 
-from .simulate import LinearPart
+from .system import LinearPart, closed_loop_matrix, frequency_response
 
-__all__ = ["DriveLoop", "drive_loop", "lti_linear_part", "frequency_response_of"]
+__all__ = ["DriveLoop", "drive_loop", "frequency_response_of"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -158,8 +158,8 @@ class DriveLoop:
     def frequency_response(self, omega):
         """G(jw), complex, from the state-space loop with the dead time exact.
 
-        ``G(jw) = -c_x (jw I - A - e_d d e^{-jw delay})^{-1} b`` for the
-        :meth:`linear_part` matrices; vectorised over ``omega``.
+        :func:`backlash_df.system.frequency_response` of :meth:`linear_part`;
+        vectorised over ``omega``.
 
         Parameters
         ----------
@@ -171,19 +171,12 @@ class DriveLoop:
         ndarray of complex
             Same shape as ``omega``.
         """
-        omega = np.asarray(omega, dtype=float)
-        part = self.linear_part()
-        n = part.A.shape[0]
-        flat = omega.reshape(-1)
-        jw = 1j * flat[:, None, None]
-        mats = jw * np.eye(n) - part.A - np.exp(-jw * part.delay) * np.outer(part.e_d, part.d)
-        z = np.linalg.solve(mats, np.broadcast_to(part.b[:, None], (flat.size, n, 1)).astype(complex))
-        return (-(z[:, :, 0] @ part.c_x)).reshape(omega.shape)
+        return frequency_response(self.linear_part(), omega)
 
     # ------------------------------------------------------------------ time domain
 
     def linear_part(self):
-        """The same loop as a :class:`~backlash_df.simulate.LinearPart` for time simulation.
+        """The same loop as a :class:`~backlash_df.system.LinearPart`: the loop cut at the backlash.
 
         States ``theta_d`` (rad), ``motor_speed``, ``load_speed`` (rad/s),
         ``integrator`` (rad, the integral of the speed error), then
@@ -260,48 +253,12 @@ class DriveLoop:
         part = self.linear_part()
         if part.delay > 0.0:
             raise ValueError("linear_poles: the loop has a dead time (infinitely many poles); use a Pade model")
-        closed = part.A + np.outer(part.b, stiffness * part.c_x + damping * part.c_v)
-        return np.linalg.eigvals(closed)
+        return np.linalg.eigvals(closed_loop_matrix(part, stiffness, damping))
 
 
 def drive_loop(rig):
     """The :class:`DriveLoop` of a rig (needs its ``[controller]`` table)."""
     return DriveLoop(rig.plant, rig.require_controller())
-
-
-def lti_linear_part(system):
-    """A user's python-control LTI G (shaft torque -> -theta_d) as a simulation LinearPart.
-
-    Parameters
-    ----------
-    system : control.LTI
-        SISO, continuous time, strictly proper with relative degree >= 2 (so that
-        dtheta_d is a state function, as the torque laws need it).
-
-    Returns
-    -------
-    LinearPart
-        States of ``control.ss(system)``, no external inputs.
-    """
-    import control as ct
-
-    sys_ss = ct.ss(system)
-    if sys_ss.ninputs != 1 or sys_ss.noutputs != 1 or not sys_ss.isctime():
-        raise ValueError("the linear part must be a SISO continuous-time LTI system")
-    a, b, c, d = (np.asarray(m, dtype=float) for m in (sys_ss.A, sys_ss.B, sys_ss.C, sys_ss.D))
-    scale = max(np.abs(c).max() * np.abs(b).max(), 1e-300)
-    if abs(d[0, 0]) > 0.0 or abs((c @ b)[0, 0]) > 1e-12 * scale:
-        raise ValueError("the linear part must have relative degree >= 2 (theta_d and its rate depend on the state only)")
-    n = a.shape[0]
-    return LinearPart(
-        A=a,
-        b=b[:, 0],
-        E=np.zeros((n, 0)),
-        c_x=-c[0],
-        c_v=-(c @ a)[0],
-        state_names=tuple(f"x{i}" for i in range(n)),
-        input_names=(),
-    )
 
 
 def frequency_response_of(linear, omega):

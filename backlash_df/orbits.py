@@ -44,12 +44,10 @@ present), then ``pade_1 .. pade_p`` if the loop has a dead time, then ``theta_b`
 for the exact model.  :func:`orbit_state_names` lists them.
 
 **Dead time.**  An orbit with a delay is infinite-dimensional; here the delay of the
-measured speed is replaced by its Pade approximant of order ``pade_order``
-(``control.pade``, default 6) in the loop's state space.  It is all-pass; at ``w tau
-= 0.5`` its phase error is 8e-11 rad for order 4 and below round-off for order 6.  The
-tests check that the orbit converges with the order (orders 4 and 6 agree to 1e-9 in
-amplitude on the issue's near-critical tuning); above order 8 the realisation loses
-digits.
+measured speed is replaced by its Pade approximant of order ``pade_order`` (default 6)
+in the loop's state space, realised by :func:`backlash_df.system.with_pade` (the
+realisation the verdict's poles use).  The tests check that the orbit converges with
+the order (orders 4 and 6 agree to 1e-9 in amplitude on a near-critical tuning).
 
 **Not supported** (a ``ValueError`` says so): the rubber law with ``beta > 0`` (36)
 and elasto-backlash (torque not affine inside a mode), Coulomb friction of the load.
@@ -62,6 +60,7 @@ import math
 
 import numpy as np
 
+from .limit_cycles import predict_limit_cycles
 from .loops import drive_loop
 from .models import (
     DAMPED_DEAD_ZONE,
@@ -73,7 +72,9 @@ from .models import (
     BacklashModel,
     theta_star,
 )
-from .simulate import LinearPart, _ladder, _mode_matrices
+from .plotting import ResultPlot, axes_or_new
+from .simulation import MeasuredCycle, SimulationResult, default_step, simulate_linear, upward_crossings
+from .system import closed_loop_matrix, exp_ladder, mode_matrices, with_pade
 
 __all__ = [
     "OrbitNotFound",
@@ -167,43 +168,11 @@ def _orbit_law(model, rig):
     return law
 
 
-def _with_pade(part, order):
-    """The loop with the measured speed's dead time replaced by a Pade approximant of ``order``.
-
-    Returns a delay-free :class:`~backlash_df.simulate.LinearPart` whose states are
-    the loop's, then ``pade_1 .. pade_p``.  The approximant (``control.pade``) is
-    realised in the normalised time ``t / delay`` and balanced, so that its entries
-    stay moderate (the companion form in ``t`` has entries up to ``delay^-p``).
-    """
-    if order < 1:
-        raise ValueError(f"pade_order must be an integer >= 1, got {order!r}")
-    import control as ct  # lazy: python-control takes a second to import
-    from scipy import linalg
-
-    pade = ct.ss(ct.tf(*ct.pade(1.0, order)))
-    ap, bp, cp, dp = (np.asarray(m, dtype=float) for m in (pade.A, pade.B, pade.C, pade.D))
-    ap, (scale, _) = linalg.matrix_balance(ap, permute=False, separate=True)
-    ap, bp, cp = ap / part.delay, bp / scale[:, None] / part.delay, cp * scale
-    n, p = part.A.shape[0], ap.shape[0]
-    a_mat = np.zeros((n + p, n + p))
-    a_mat[:n, :n] = part.A + dp[0, 0] * np.outer(part.e_d, part.d)
-    a_mat[:n, n:] = np.outer(part.e_d, cp[0])
-    a_mat[n:, :n] = np.outer(bp[:, 0], part.d)
-    a_mat[n:, n:] = ap
-
-    def pad(row):
-        return np.concatenate([row, np.zeros(p)])
-
-    return LinearPart(A=a_mat, b=pad(part.b), E=np.vstack([part.E, np.zeros((p, part.E.shape[1]))]),
-                      c_x=pad(part.c_x), c_v=pad(part.c_v), input_names=part.input_names,
-                      state_names=part.state_names + tuple(f"pade_{i + 1}" for i in range(p)))
-
-
 class _Loop:
     """The closed loop as a piecewise-affine hybrid system (see module docs).
 
     ``aug[m]`` is the augmented matrix ``[[F_m, g_m], [0, 0]]`` of mode ``m`` over
-    ``[q, 1]``, from :func:`backlash_df.simulate._mode_matrices` (the simulation
+    ``[q, 1]``, from :func:`backlash_df.system.mode_matrices` (the simulation
     kernel's own), with the constant load torque in ``g_m`` and the speed reference 0.
     """
 
@@ -212,13 +181,13 @@ class _Loop:
         self.model, self.exact = model, self.law == EXACT
         self.k, self.c, self.alpha = model.stiffness, model.damping, model.half_gap
         part = drive_loop(rig).linear_part()
-        contact = part.A + np.outer(part.b, self.k * part.c_x + self.c * part.c_v)
+        contact = closed_loop_matrix(part, self.k, self.c)
         self.fast = max(np.abs(np.linalg.eigvals(contact)).max(), 1e-3, 1.0 / part.delay if part.delay else 0.0)
         self.pade_order = int(pade_order) if part.delay > 0.0 else 0
-        self.part = _with_pade(part, self.pade_order) if part.delay > 0.0 else part
+        self.part = with_pade(part, pade_order) if part.delay > 0.0 else part
         n = self.part.A.shape[0]
         keep = list(range(n)) + ([n] if self.exact else []) + [n + 1]  # q = [z, (theta_b)], then 1
-        matrices = _mode_matrices(self.part, model, self.law, [], np.array([0.0, rig.load.torque]))
+        matrices = mode_matrices(self.part, model, self.law, [], np.array([0.0, rig.load.torque]))
         self.aug = {side: m_aug[np.ix_(keep, keep)] for side, m_aug in zip((-1, 0, 1), matrices)}
         self.size = len(keep) - 1
         self.names = self.part.state_names + (("theta_b",) if self.exact else ())
@@ -293,7 +262,7 @@ class _Loop:
         """``exp(M_m step 2^-j)``, ``j < 53``, of the augmented mode matrix (cached per step)."""
         key = (mode, step)
         if key not in self._ladders:
-            self._ladders[key] = _ladder(self.aug[mode], step, _LEVELS)
+            self._ladders[key] = exp_ladder(self.aug[mode], step, _LEVELS)
         return self._ladders[key]
 
     @staticmethod
@@ -583,16 +552,17 @@ class PeriodicOrbit:
 
         Returns
         -------
-        ndarray of matplotlib axes
-            ``[theta_d(t), T(t), phase plane]``.
+        ResultPlot
+            Axes ``[theta_d(t), T(t), phase plane]``.
         """
         import matplotlib.pyplot as plt
 
         if ax is None:
-            figure = plt.figure(figsize=(10, 4.5))
+            figure = plt.figure(figsize=(10, 4.5), layout="constrained")
             grid = figure.add_gridspec(2, 2)
             ax = np.array([figure.add_subplot(grid[0, 0]), figure.add_subplot(grid[1, 0]),
                            figure.add_subplot(grid[:, 1])])
+        figure, ax = axes_or_new(ax)
         ax[0].plot(self.time, self.theta_d)
         ax[0].set_ylabel("theta_d (rad)")
         ax[1].plot(self.time, self.torque)
@@ -603,7 +573,7 @@ class PeriodicOrbit:
         ax[2].set_ylabel("dtheta_d (rad/s)")
         ax[0].set_title(f"{self.model}: {'stable' if self.stable else 'unstable'} orbit, "
                         f"T = {self.period:.5g} s")
-        return np.asarray(ax)
+        return ResultPlot(figure, ax)
 
 
 # --------------------------------------------------------------------------- API
@@ -659,8 +629,6 @@ def orbit_residual(rig, model, unknowns, *, pade_order=DEFAULT_PADE_ORDER):
 
 def _seed_unknowns(loop, seed):
     """Packed (q0, T) from a seed: LimitCycle, MeasuredCycle, tuple, PeriodicOrbit or SimulationResult."""
-    from .simulate import MeasuredCycle, SimulationResult
-
     if isinstance(seed, PeriodicOrbit):
         return np.append(_orbit_seed(loop, seed), seed.period)
     if isinstance(seed, SimulationResult):
@@ -706,15 +674,13 @@ def _simulation_seed(loop, result):
     three times with the shaft in contact at some time; the Pade states (dead time)
     come from the harmonic seed of that swing.
     """
-    from .simulate import _upward_crossings
-
     half = result.time >= 0.5 * result.time[-1]
     time, x, v = result.time[half], result.theta_d[half], result.dtheta_d[half]
     if not np.all(np.isfinite(x)) or not np.any(result.mode[half] != 0):
         raise OrbitNotFound("the simulation from the seed diverges or leaves the shaft out of contact: "
                             "no orbit near it")
     center, swing = 0.5 * (x.max() + x.min()), 0.5 * (x.max() - x.min())
-    crossings = _upward_crossings(time, x - center)
+    crossings = upward_crossings(time, x - center)
     tops = np.nonzero((v[:-1] > 0.0) & (v[1:] <= 0.0))[0]
     if crossings.size < 3 or tops.size == 0 or swing <= _COLLAPSED * loop.alpha:
         raise OrbitNotFound("the simulation from the seed shows no oscillation to start from")
@@ -827,8 +793,6 @@ def periodic_orbit(rig, model=None, seed=None, *, tol=1e-10, max_iter=50, pade_o
     model = _resolve_model(rig, model)
     loop = _loop(rig, model, pade_order)
     if seed is None:
-        from .limit_cycles import predict_limit_cycles
-
         cycles = predict_limit_cycles(rig, model).cycles
         if not cycles:
             raise OrbitNotFound(f"no seed: the describing function of {model.name!r} predicts no limit cycle; "
@@ -847,8 +811,6 @@ def periodic_orbit(rig, model=None, seed=None, *, tol=1e-10, max_iter=50, pade_o
 
 
 def _is_simulation(seed):
-    from .simulate import SimulationResult
-
     return isinstance(seed, SimulationResult)
 
 
@@ -870,8 +832,6 @@ def _relaxed(loop, rig, unknowns):
     A seed near an attracting orbit (a DF cycle far off, as where the loci are
     nearly tangent) ends close to it; the project's simulation kernel runs it.
     """
-    from .simulate import default_step, simulate_linear
-
     system = drive_loop(rig).linear_part()
     n = system.A.shape[0]
     q0, period = unknowns[:-1], unknowns[-1]
@@ -942,7 +902,7 @@ def _harmonics(loop, segments, omega):
         system[width:, :width] = np.kron(c_aug, np.eye(3))
         initial = np.concatenate([np.kron(np.append(q, 1.0), [math.cos(omega * start), math.sin(omega * start), 1.0]),
                                   np.zeros(3)])
-        integrals += (_ladder(system, duration, 1)[0] @ initial)[width:]
+        integrals += (exp_ladder(system, duration, 1)[0] @ initial)[width:]
     period = 2.0 * math.pi / omega
     return 2.0 * (integrals[0] - 1j * integrals[1]) / period, integrals[2] / period
 

@@ -3,7 +3,7 @@
 Each cell of a map is a pure function of (rig, the two values): the rig with
 those values (:func:`rig_with`) is analysed by the describing function
 (:func:`~backlash_df.limit_cycles.predict_limit_cycles`; with a load torque the
-biased prediction of :mod:`backlash_df.loaded`) and, optionally, simulated in
+biased prediction of the dual-input describing function) and, optionally, simulated in
 closed loop.  The cells run on any :class:`concurrent.futures.Executor` (a
 process pool, or ``dask.distributed.Client.get_executor()``); ``None`` runs
 them one after the other.  The results do not depend on the executor.
@@ -28,10 +28,17 @@ Every cell gets a verdict per model, the classes of ``predict``:
 
 import dataclasses
 import functools
+import html
 import math
 
 import numpy as np
 
+from ._json import json_ready
+from .config import rig_from_dict
+from .limit_cycles import predict_limit_cycles, verify_limit_cycles
+from .loops import drive_loop
+from .plotting import ResultPlot, axes_or_new
+from .report import figure_html, html_page, table_html
 from .verdict import VERDICTS, linear_stability
 
 __all__ = ["VERDICTS", "rig_with", "DesignMap", "design_map", "design_map_plot", "prediction_verdict",
@@ -91,8 +98,6 @@ def rig_with(rig, parameter, value):
     >>> rig_with(rig, "kp", 60.0).controller.kp
     60.0
     """
-    from .config import rig_from_dict
-
     table, key = _table_of(rig, parameter)
     data = {name: dataclasses.asdict(getattr(rig, name)) for name in ("plant", "controller", "load")
             if getattr(rig, name) is not None}
@@ -117,8 +122,6 @@ def prediction_verdict(rig, prediction):
     str
         One of :data:`VERDICTS`.
     """
-    from .loops import drive_loop
-
     stable = prediction.stable_cycles
     if stable:
         lowest = stable[0].amplitude
@@ -131,7 +134,7 @@ def prediction_verdict(rig, prediction):
 
 
 def simulation_verdict(measured):
-    """Verdict class of a simulated run (:class:`~backlash_df.simulate.MeasuredCycle`)."""
+    """Verdict class of a simulated run (:class:`~backlash_df.simulation.MeasuredCycle`)."""
     if measured is None:
         return "undetermined"
     if measured.found:
@@ -194,11 +197,15 @@ class DesignMap:
         """Fraction of cells where the DF and the simulation agree on whether there is a cycle."""
         return float(np.mean(self.predicted[name] == self.simulated[name]))
 
+    def __repr__(self):
+        sims = "with simulation" if self.sim_verdict else "DF only"
+        return (f"<DesignMap {self.x_name} ({self.x.size}) x {self.y_name} ({self.y.size}), "
+                f"{', '.join(self.models)}, {sims}>")
+
     def to_dict(self):
         """JSON-ready: grid, then per model the verdict and amplitude tables (rows along ``x``)."""
         def table(values):
-            return [[None if isinstance(v, float) and math.isnan(v) else v for v in row]
-                    for row in np.asarray(values).tolist()]
+            return json_ready(np.asarray(values).tolist())
 
         return {
             "x": {"parameter": self.x_name, "values": self.x.tolist()},
@@ -215,14 +222,20 @@ class DesignMap:
             ],
         }
 
-    def plot(self, axes=None):
+    def plot(self, ax=None):
         """Verdict colours and amplitude contours, DF and simulation side by side; see :func:`design_map_plot`."""
-        return design_map_plot(self, axes=axes)
+        return design_map_plot(self, ax=ax)
 
-    def report_html(self, title="Design map", rig_text=""):
-        """A self-contained HTML page: the map and the agreement per model."""
-        from .report import figure_html, html_page, table_html
+    def report_html(self, title="", rig_text=""):
+        """A self-contained HTML page: the map and the agreement per model.
 
+        Parameters
+        ----------
+        title : str
+            Page title (default "Design map").
+        rig_text : str
+            The rig file's text, shown as it is.
+        """
         rows = []
         for name in self.models:
             counts = [int(np.sum(self.df_verdict[name] == v)) for v in VERDICTS]
@@ -233,11 +246,11 @@ class DesignMap:
                          "closed-loop simulation with the same law (right); contours: amplitude A (rad, first "
                          "harmonic of theta_d) of the stable cycle.</p></div>")]
         if rig_text:
-            sections.append(("Rig", f"<pre>{rig_text}</pre>"))
-        sections += [("Map", figure_html(plotted[0, 0].figure, f"{self.x_name} x {self.y_name}")),
+            sections.append(("Rig", f"<pre>{html.escape(rig_text)}</pre>"))
+        sections += [("Map", figure_html(plotted.figure, f"{self.x_name} x {self.y_name}")),
                      ("DF verdicts (cells) and agreement with simulation",
                       table_html(["model", *VERDICTS, "agreement"], rows))]
-        return html_page(title, sections)
+        return html_page(title or "Design map", sections)
 
 
 def _scale(values):
@@ -245,7 +258,7 @@ def _scale(values):
     return "log" if values.size > 2 and np.all(values > 0) and values.max() / values.min() > 20 else "linear"
 
 
-def design_map_plot(dmap, axes=None, levels=6):
+def design_map_plot(dmap, ax=None, levels=6):
     """Draw a design map: one row per model, DF verdicts left, simulation right.
 
     Colours are the verdict classes (:data:`VERDICTS`), black contours the
@@ -254,25 +267,22 @@ def design_map_plot(dmap, axes=None, levels=6):
     Parameters
     ----------
     dmap : DesignMap
-    axes : array of Axes, optional
+    ax : array of Axes, optional
         Shape (n_models, 2) (or (n_models, 1) without simulation).
     levels : int
         Number of amplitude contour levels.
 
     Returns
     -------
-    ndarray of Axes
-        Shape (n_models, columns), as every ``.plot()`` of the package returns
-        its axes; ``axes[0, 0].figure`` is the figure.
+    ResultPlot
+        Axes of shape (n_models, columns).
     """
-    import matplotlib.pyplot as plt
     from matplotlib.colors import BoundaryNorm, ListedColormap
     from matplotlib.patches import Patch
 
     columns = 2 if dmap.sim_verdict else 1
-    if axes is None:
-        _, axes = plt.subplots(len(dmap.models), columns, figsize=(4.6 * columns, 3.8 * len(dmap.models)),
-                               squeeze=False, sharex=True, sharey=True, layout="constrained")
+    figure, axes = axes_or_new(ax, (len(dmap.models), columns), figsize=(4.6 * columns, 3.8 * len(dmap.models)),
+                               sharex=True, sharey=True, layout="constrained")
     axes = np.asarray(axes).reshape(len(dmap.models), columns)
     cmap, norm = ListedColormap(_COLOURS), BoundaryNorm(np.arange(len(VERDICTS) + 1) - 0.5, len(VERDICTS))
     for row, name in enumerate(dmap.models):
@@ -291,8 +301,8 @@ def design_map_plot(dmap, axes=None, levels=6):
     for ax in axes[-1]:
         ax.set_xlabel(dmap.x_name)
     handles = [Patch(color=c, label=v) for c, v in zip(_COLOURS, VERDICTS)]
-    axes[0, -1].legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
-    return axes
+    legend = axes[0, -1].legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    return ResultPlot(figure, axes, legend)
 
 
 # --------------------------------------------------------------------------- cells
@@ -319,8 +329,6 @@ def _largest_stable(prediction):
 
 def _cell(settings, point):
     """One cell: per model (DF verdict, A, bias, simulated verdict, A, bias); a pure function of its inputs."""
-    from .limit_cycles import predict_limit_cycles, verify_limit_cycles
-
     tuned = rig_with(rig_with(settings.rig, settings.x_name, point[0]), settings.y_name, point[1])
     out = []
     for name in settings.models:

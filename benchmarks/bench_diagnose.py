@@ -63,7 +63,7 @@ class Case(NamedTuple):
 
 
 def _found(result):
-    keys = [cause["effect"] + (f"@{cause['side']}" if cause["side"] else "") for cause in result.causes]
+    keys = [cause.key for cause in result.causes]
     return tuple(sorted(keys))
 
 
@@ -77,10 +77,9 @@ def one_case(args):
     seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
     estimates = []
     for cause in result.causes:
-        key = cause["effect"] + (f"@{cause['side']}" if cause["side"] else "")
-        if key in record.effects:
-            parameter = cause["parameters"][cause["effect"]]
-            estimates.append((key, record.effects[key], parameter["value"], parameter["ci95"]))
+        if cause.key in record.effects:
+            parameter = cause.parameters[cause.effect]
+            estimates.append((cause.key, record.effects[cause.key], parameter.value, parameter.ci95))
     return Case(tuple(sorted(effects)), seed, _found(result), estimates, seconds, cpu,
                 min(result.extended.ahead_fit_percent.values()), any(" absorbs " in w for w in result.warnings))
 
@@ -165,9 +164,9 @@ def kuka():
     result = diagnose(data, rig, workers=2)
     seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
     for cause in result.causes:
-        for name, parameter in cause["parameters"].items():
-            print(f"  {cause['effect']} ({cause['side']}): {parameter['value']:.4g} {parameter['unit']} "
-                  f"95 % CI {parameter['ci95'][0]:.4g} .. {parameter['ci95'][1]:.4g}")
+        for parameter in cause.parameters.values():
+            print(f"  {cause.effect} ({cause.side}): {parameter.value:.4g} {parameter.unit} "
+                  f"95 % CI {parameter.ci95[0]:.4g} .. {parameter.ci95[1]:.4g}")
     for label, model in (("baseline", result.baseline), ("extended", result.extended)):
         print(f"  {label}: k-step {model.fit_percent}, free run {model.free_run_fit_percent}")
     for warning in result.warnings:

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import backlash_df as bd
 from backlash_df.orbits import OrbitNotFound, exact_orbits, periodic_orbit
-from backlash_df.simulate import measure_limit_cycle, simulated_limit_cycle
+from backlash_df.simulation import measure_limit_cycle, simulated_limit_cycle
 
 import timing
 

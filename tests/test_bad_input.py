@@ -21,14 +21,13 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-import backlash_df.continuation
-import backlash_df.identify
-import backlash_df.limit_cycles
+import backlash_df.analysis
+import backlash_df.cli.diagnose
+import backlash_df.cli.sweeps
 import backlash_df.reproduce
-import backlash_df.sweeps
 from backlash_df.cli import main
-from backlash_df.report import Outputs
-from rig_texts import PLANT_TOML
+from backlash_df.cli.outputs import Outputs
+from conftest import PLANT_TOML
 
 RIG = PLANT_TOML + """
 [controller]
@@ -59,13 +58,13 @@ def work(tmp_path, monkeypatch):
 @pytest.fixture
 def no_computation(monkeypatch):
     """Fail the test if a command gets as far as its heavy stage."""
-    monkeypatch.setattr(backlash_df.limit_cycles, "predict_limit_cycles", _never)
-    monkeypatch.setattr(backlash_df.identify, "diagnose", _never)
+    monkeypatch.setattr(backlash_df.analysis, "predict_limit_cycles", _never)
+    monkeypatch.setattr(backlash_df.cli.diagnose, "run_diagnosis", _never)
     monkeypatch.setattr(backlash_df.reproduce, "table1", _never)
     monkeypatch.setattr(backlash_df.reproduce, "compare_torques", _never)
     monkeypatch.setattr(backlash_df.reproduce, "figure2_maps", _never)
-    monkeypatch.setattr(backlash_df.sweeps, "design_map", _never)
-    monkeypatch.setattr(backlash_df.continuation, "continue_limit_cycles", _never)
+    monkeypatch.setattr(backlash_df.cli.sweeps, "design_map", _never)
+    monkeypatch.setattr(backlash_df.cli.sweeps, "continue_limit_cycles", _never)
 
 
 def rig_with(old, new):

@@ -1,7 +1,6 @@
 """Continuation: every point an orbit, the branch against simulation, folds and births where they are."""
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,8 +10,8 @@ from backlash_df.continuation import continue_limit_cycles
 from backlash_df.loops import drive_loop
 from backlash_df.orbits import orbit_residual
 from backlash_df.sweeps import rig_with
+from conftest import EXAMPLES
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 RIG = bd.load_rig(EXAMPLES / "load_feedback.toml")
 
 
@@ -54,11 +53,11 @@ def test_json_and_plot(short_branch):
     data = json.loads(json.dumps(short_branch.to_dict()))
     assert data["parameter"] == "kp" and len(data["points"]) == len(short_branch.points)
     assert data["df"][0]["cycles"][0]["stable"] is True
-    axes = short_branch.plot()
-    assert axes[1].get_xlabel() == "kp"
+    drawn = short_branch.plot()
+    assert drawn.axes[1].get_xlabel() == "kp"
     import matplotlib.pyplot as plt
 
-    plt.close(axes[0].figure)
+    plt.close(drawn.figure)
 
 
 def test_bad_range_and_parameter():

@@ -267,8 +267,8 @@ def test_grid_result_and_plot():
     assert result.N.shape == (3, 2)
     np.testing.assert_allclose(result.gain, np.abs(result.N))
     assert np.all(result.phase_deg > 0.0)  # the damped law leads (notes item 11)
-    axes = result.plot()
-    assert len(axes[0].lines) == 2
+    drawn = result.plot()
+    assert len(drawn.axes[0].lines) == 2
 
 
 def test_phase_plane_leads_less_than_the_damped_dead_zone():

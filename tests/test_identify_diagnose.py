@@ -19,7 +19,7 @@ def rig():
 
 
 def _keys(result):
-    return {cause["effect"] + (f"@{cause['side']}" if cause["side"] else "") for cause in result.causes}
+    return {cause.key for cause in result.causes}
 
 
 # two effects at once, friction on either side, none (records of 2 s at 1 kHz, random sizes)
@@ -38,10 +38,9 @@ def test_hidden_effects_are_named_with_intervals(rig, effects, seed):
         return
     assert result.extended.mean_fit_percent > result.baseline.mean_fit_percent
     for cause in result.causes:
-        key = cause["effect"] + (f"@{cause['side']}" if cause["side"] else "")
-        parameter = cause["parameters"][cause["effect"]]
-        assert parameter["value"] == pytest.approx(record.effects[key], rel=0.1)
-        assert parameter["ci95"][0] < parameter["value"] < parameter["ci95"][1]
+        parameter = cause.parameters[cause.effect]
+        assert parameter.value == pytest.approx(record.effects[cause.key], rel=0.1)
+        assert parameter.ci95[0] < parameter.value < parameter.ci95[1]
 
 
 # the benchmark's records: 4 s with encoder angles (multiple-shooting fits), each truth inside its interval
@@ -56,10 +55,9 @@ def test_hidden_effects_with_encoder_angles_are_named_and_covered(rig, effects):
     assert _keys(result) == set(effects)
     assert all(candidate.calibration.shooting_segments > 0 for candidate in result.candidates)
     for cause in result.causes:
-        key = cause["effect"] + (f"@{cause['side']}" if cause["side"] else "")
-        parameter = cause["parameters"][cause["effect"]]
-        assert parameter["value"] == pytest.approx(record.effects[key], rel=0.1)
-        assert parameter["ci95"][0] <= record.effects[key] <= parameter["ci95"][1]
+        parameter = cause.parameters[cause.effect]
+        assert parameter.value == pytest.approx(record.effects[cause.key], rel=0.1)
+        assert parameter.ci95[0] <= record.effects[cause.key] <= parameter.ci95[1]
 
 
 def test_kuka_record_names_both_frictions(tmp_path):
@@ -190,7 +188,7 @@ def test_baseline_that_explains_too_little_names_no_cause(rig):
     assert min(result.baseline.fit_percent.values()) < 30.0
     assert result.warnings[0].startswith("the baseline explains too little")
     assert result.sentence.startswith("No cause named")
-    assert json.loads(result.to_json())["cause"] == "none"
+    assert json.loads(json.dumps(result.to_dict()))["cause"] == "none"
 
 
 def test_encoder_angles_measure_the_twist(rig):

@@ -3,7 +3,6 @@
 import codecs
 import importlib.util
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,7 +10,8 @@ import pytest
 from backlash_df.config import Plant, load_rig
 from backlash_df.identify import load_measurements, measurements_from_arrays, write_measurements
 from backlash_df.identify.measurements import MAX_DECIMATED_INTERVAL, MIN_SAMPLES
-from backlash_df.simulate import simulate_two_mass
+from backlash_df.simulation import simulate_two_mass
+from conftest import KUKA
 
 N = 400
 DT = 1e-3
@@ -292,7 +292,6 @@ def test_extra_columns_are_ignored_even_text(tmp_path):
 
 # ---- the real record: KUKA KR300 axis 1 (examples/kuka)
 
-KUKA = Path(__file__).resolve().parent.parent / "examples" / "kuka"
 
 
 def _converter():

@@ -8,7 +8,6 @@ and convergence of the Pade approximant of a dead time with its order.
 
 import dataclasses
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,9 +21,9 @@ from backlash_df.orbits import (
     orbit_state_names,
     periodic_orbit,
 )
-from backlash_df.simulate import measure_limit_cycle, simulate_linear, simulate_rig, simulated_limit_cycle
+from backlash_df.simulation import measure_limit_cycle, simulate_linear, simulate_rig, simulated_limit_cycle
+from conftest import EXAMPLES
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
 @pytest.fixture(scope="module")
@@ -220,17 +219,27 @@ def test_monodromy_matches_finite_differences_of_the_period_map(load_rig, load_o
 
 
 def _flows_only(load_rig, model, orbit):
-    """M - I without the saltation matrices: what a naive product of mode flows gives."""
+    """M - I without the saltation matrices: what a naive product of mode flows gives.
+
+    The mode sequence and durations come from the orbit's events; each mode's
+    state matrix from :func:`backlash_df.system.mode_matrices` (left contact,
+    free, right contact; the loop has no dead time: its states, then theta_b for
+    the exact model).
+    """
     from scipy.linalg import expm
 
-    from backlash_df.orbits import _loop
+    from backlash_df.system import mode_matrices
 
-    loop = _loop(load_rig, load_rig.make_model(model), 6)
-    _, _, _, _, segments = loop.period_map(orbit.state, orbit.period)
-    product = np.eye(orbit.state.size)
-    for _, mode, _, duration in segments:
-        product = expm(loop.aug[mode][:-1, :-1] * duration) @ product
-    return product - np.eye(orbit.state.size)
+    law = load_rig.make_model(model)
+    part = bd.drive_loop(load_rig).linear_part()
+    n = orbit.state.size
+    flows = {side: m_aug[:n, :n] for side, m_aug in zip((-1, 0, 1), mode_matrices(part, law, law.law))}
+    times = [0.0] + [t for t, _, _ in orbit.events] + [orbit.period]
+    modes = [orbit.events[0][1]] + [after for _, _, after in orbit.events]
+    product = np.eye(n)
+    for mode, start, stop in zip(modes, times[:-1], times[1:]):
+        product = expm(flows[mode] * (stop - start)) @ product
+    return product - np.eye(n)
 
 
 # --------------------------------------------------------------------------- dead time
@@ -305,8 +314,8 @@ def test_plot_returns_three_axes(load_orbit):
     import matplotlib
 
     matplotlib.use("Agg")
-    ax = load_orbit.plot()
-    assert ax.shape == (3,) and ax[2].get_xlabel() == "theta_d (rad)"
+    axes = load_orbit.plot().axes
+    assert axes.shape == (3,) and axes[2].get_xlabel() == "theta_d (rad)"
 
 
 def test_no_cycle_and_bad_input_are_one_line_errors(load_rig, load_orbit):

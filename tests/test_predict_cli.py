@@ -7,7 +7,7 @@ import pytest
 from click.testing import CliRunner
 
 from backlash_df.cli import main
-from rig_texts import PLANT_TOML
+from conftest import PLANT_TOML
 
 GOOD = PLANT_TOML + """
 [controller]

@@ -2,7 +2,6 @@
 
 import json
 from concurrent.futures import ProcessPoolExecutor
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,8 +9,8 @@ import pytest
 import backlash_df as bd
 from backlash_df.loops import drive_loop
 from backlash_df.sweeps import VERDICTS, design_map, rig_with
+from conftest import EXAMPLES
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 RIG = bd.load_rig(EXAMPLES / "load_feedback.toml")
 KP, TI = [10.0, 30.0], [0.1, 0.5]
 SMALL = dict(models=("phase-plane",), grid=(20, 30), t_end=3.0, max_t_end=6.0)
@@ -80,10 +79,10 @@ def test_json_and_plot(serial_map):
     assert data["x"] == {"parameter": "kp", "values": KP}
     assert data["models"][0]["df"]["verdict"][1][1] == "limit cycle"
     drawn = serial_map.plot()
-    assert drawn.shape == (1, 2)
+    assert drawn.axes.shape == (1, 2)
     import matplotlib.pyplot as plt
 
-    plt.close(drawn[0, 0].figure)
+    plt.close(drawn.figure)
 
 
 def test_rig_with_names_the_bad_parameter():

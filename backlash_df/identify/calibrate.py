@@ -47,7 +47,9 @@ from concurrent.futures import ThreadPoolExecutor
 import numba
 import numpy as np
 
+from .._json import json_ready
 from ..models import LAW_CODES, PHASE_PLANE, RUBBER, held_mode, mode_torque
+from ..plotting import ResultPlot, axes_or_new
 from .effects import get_effect, smoothing_speeds
 
 __all__ = [
@@ -279,20 +281,32 @@ class Replay:
         window = slice(start, stop)
         return {name: float(np.sqrt(np.mean(self.residual[window, j] ** 2))) for j, name in enumerate(self.names)}
 
-    def plot(self, axes=None, label=None):
-        """Measured against simulated speeds; returns the axes (one per speed)."""
-        import matplotlib.pyplot as plt
+    def __repr__(self):
+        fits = ", ".join(f"{name} {value:.1f} %" for name, value in self.fit_percent().items())
+        return f"<Replay {self.mode}: {self.time.size} samples, fit {fits}>"
 
-        if axes is None:
-            _, axes = plt.subplots(len(self.names), 1, sharex=True, figsize=(8, 2.2 * len(self.names)), squeeze=False)
-            axes = axes[:, 0]
+    def to_dict(self):
+        """JSON-ready: mode, fit percentages, and the simulated and measured speeds (s, rad/s)."""
+        return json_ready({"mode": self.mode, "names": list(self.names), "fit_percent": self.fit_percent(),
+                           "time": self.time, "simulated": self.simulated, "measured": self.measured,
+                           "theta_d": self.theta_d, "torque": self.torque})
+
+    def plot(self, ax=None, label=None):
+        """Measured against simulated speeds, one panel per speed.
+
+        Returns
+        -------
+        ResultPlot
+        """
+        figure, axes = axes_or_new(ax, (len(self.names), 1), sharex=True, figsize=(8, 2.2 * len(self.names)),
+                                   layout="constrained")
         for j, name in enumerate(self.names):
             axes[j].plot(self.time, self.measured[:, j], color="0.6", lw=1.0, label="measured")
             axes[j].plot(self.time, self.simulated[:, j], lw=1.0, label=label or self.mode)
             axes[j].set_ylabel(f"{name} (rad/s)")
             axes[j].legend(loc="upper right", fontsize="small")
         axes[-1].set_xlabel("time (s)")
-        return axes
+        return ResultPlot(figure, axes)
 
 
 def nominal_values(rig):
@@ -553,6 +567,16 @@ class Calibration:
     def __repr__(self):
         return (f"<Calibration {' + '.join(self.effects) or 'none'}: RSS {self.rss:.4g}, "
                 f"BIC {self.bic:.6g}, {self.n_free} parameters>")
+
+    def to_dict(self):
+        """JSON-ready: effects, parameters (:meth:`FitParameter.to_dict`) and the fit statistics."""
+        return json_ready({
+            "effects": list(self.effects),
+            "parameters": {name: parameter.to_dict() for name, parameter in self.parameters.items()},
+            "window": list(self.window), "horizon": self.horizon, "n_residuals": self.n_residuals,
+            "n_clusters": self.n_clusters, "rss": self.rss, "aic": self.aic, "bic": self.bic, "nfev": self.nfev,
+            "success": self.success, "message": self.message, "shooting_segments": self.shooting_segments,
+        })
 
 
 def _free_parameters(measurements, rig, effects, values0, window, free_run):

@@ -54,17 +54,22 @@ includes its null value is dropped.
 
 import dataclasses
 import functools
+import html
 import json
 import math
+import warnings
 
 import numpy as np
 
+from .._json import json_ready
+from ..plotting import ResultPlot, axes_or_new
+from ..report import figure_html, html_page, table_html
 from .calibrate import (DEFAULT_HORIZON, PLANT_PARAMETERS, calibrate, data_states, predict, refine, segment_bounds,
                         single_threaded_blas, speed_noise)
 from .effects import EFFECT_NAMES, get_effect
 from .residuals import residual_analysis
 
-__all__ = ["CandidateResult", "Diagnosis", "diagnose", "check_speed_units", "check_excitation", "MIN_GAIN",
+__all__ = ["CandidateResult", "Cause", "Diagnosis", "diagnose", "check_speed_units", "check_excitation", "MIN_GAIN",
            "MIN_T", "BASELINE_MIN_FIT", "VALIDATION_HORIZON", "MIN_TORQUE_SHARE", "MIN_RUBBER_SHARE",
            "EXTENDED_MIN_AHEAD_FIT", "MIN_SEGMENTS"]
 
@@ -180,15 +185,49 @@ def _parameter_dict(parameter):
             "unit": parameter.unit}
 
 
-def _clean(obj):
-    """JSON-safe copy: NaN and infinities become null."""
-    if isinstance(obj, dict):
-        return {key: _clean(value) for key, value in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(value) for value in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
+@dataclasses.dataclass(frozen=True, repr=False)
+class Cause:
+    """One named cause: an effect of the catalogue, its side and its fitted parameter.
+
+    Attributes
+    ----------
+    effect : str
+        Catalogue name (``"coulomb_friction"``, ``"rubber"``, ...).
+    side : str or None
+        ``"motor"`` or ``"load"`` for a friction, None where the effect has no side.
+    parameters : dict of str to FitParameter
+        The effect's fitted parameter(s), with value, 95 % interval and unit.
+    gain : float
+        Share of the validation RSS the effect removed when it was added (0 .. 1).
+    """
+
+    effect: str
+    side: str | None
+    parameters: dict
+    gain: float
+
+    @property
+    def key(self):
+        """Catalogue key: ``effect@side``, or ``effect`` without a side."""
+        return self.effect + (f"@{self.side}" if self.side else "")
+
+    def to_dict(self):
+        """The ``causes`` entry of the ``diagnose`` JSON: effect, side, gain, ``{name: {"value", "ci95", "unit"}}``."""
+        return {"effect": self.effect, "side": self.side, "gain": self.gain,
+                "parameters": {name: {"value": p.value, "ci95": list(p.ci95), "unit": p.unit}
+                               for name, p in self.parameters.items()}}
+
+    def __repr__(self):
+        values = ", ".join(f"{name} = {p.value:.4g} {p.unit} (95 % CI {p.ci95[0]:.4g} .. {p.ci95[1]:.4g})"
+                           for name, p in self.parameters.items())
+        return f"<Cause {self.key}: {values}; gain {100 * self.gain:.1f} %>"
+
+    def __getitem__(self, key):
+        """Deprecated: the JSON entry's fields (``cause["effect"]``); use the attributes or :meth:`to_dict`."""
+        warnings.warn("indexing a Cause like the JSON dict it was is deprecated: use its attributes "
+                      "(cause.effect, cause.parameters[name].value) or cause.to_dict()", DeprecationWarning,
+                      stacklevel=2)
+        return self.to_dict()[key]
 
 
 @dataclasses.dataclass(frozen=True, repr=False)
@@ -197,9 +236,8 @@ class Diagnosis:
 
     Attributes
     ----------
-    causes : list of dict
-        ``{"effect", "side", "parameters": {name: {"value", "ci95", "unit"}}, "gain"}``,
-        ordered by gain (empty: the nominal structure explains the data).
+    causes : list of Cause
+        The named causes, by decreasing gain (empty: the nominal structure explains the data).
     sentence : str
         The causes in sentences a person can act on.
     baseline, extended : CandidateResult
@@ -232,7 +270,7 @@ class Diagnosis:
     @property
     def cause(self):
         """The first cause's effect name, ``none`` when there is none."""
-        return self.causes[0]["effect"] if self.causes else "none"
+        return self.causes[0].effect if self.causes else "none"
 
     @property
     def prediction_mode(self):
@@ -242,7 +280,7 @@ class Diagnosis:
                 f"both scored on the validation part only")
 
     def __repr__(self):
-        names = ", ".join(f"{c['effect']}" + (f"@{c['side']}" if c["side"] else "") for c in self.causes) or "none"
+        names = ", ".join(c.key for c in self.causes) or "none"
         return (f"<Diagnosis causes: {names}; validation k-step fit {self.baseline.mean_fit_percent:.1f} % -> "
                 f"{self.extended.mean_fit_percent:.1f} %>")
 
@@ -251,11 +289,11 @@ class Diagnosis:
             "parameters": {name: p.to_dict() for name, p in candidate.calibration.parameters.items()}}
 
     def to_dict(self):
-        """The JSON document of ``backlash-df diagnose --json`` (DESIGN.md)."""
+        """The JSON document of ``backlash-df diagnose --json`` (contract page)."""
         time = self.measurements.time
-        return _clean({
+        return json_ready({
             "cause": self.cause,
-            "causes": self.causes,
+            "causes": [cause.to_dict() for cause in self.causes],
             "sentence": self.sentence,
             "warnings": self.warnings,
             "prediction": self.prediction_mode,
@@ -268,17 +306,21 @@ class Diagnosis:
         })
 
     def to_json(self):
-        """:meth:`to_dict` as indented JSON text."""
+        """Deprecated: :meth:`to_dict` as indented JSON text (``json.dumps(d.to_dict(), indent=2)``)."""
+        warnings.warn("Diagnosis.to_json() is deprecated: use json.dumps(diagnosis.to_dict(), indent=2)",
+                      DeprecationWarning, stacklevel=2)
         return json.dumps(self.to_dict(), indent=2)
 
-    def plot(self, axes=None):
-        """Measured against baseline and extended k-step predictions (validation part); returns the axes."""
-        import matplotlib.pyplot as plt
+    def plot(self, ax=None):
+        """Measured against baseline and extended k-step predictions (validation part), one panel per speed.
 
+        Returns
+        -------
+        ResultPlot
+        """
         names = self.measurements.speed_names
-        if axes is None:
-            _, axes = plt.subplots(len(names), 1, sharex=True, figsize=(9, 2.4 * len(names)), squeeze=False)
-            axes = axes[:, 0]
+        figure, axes = axes_or_new(ax, (len(names), 1), sharex=True, figsize=(9, 2.4 * len(names)),
+                                   layout="constrained")
         base, ext = self.baseline.prediction, self.extended.prediction
         for j, name in enumerate(names):
             axes[j].plot(base.time, base.measured[:, j], color="0.55", lw=1.2, label="measured")
@@ -289,25 +331,23 @@ class Diagnosis:
             axes[j].set_ylabel(f"{name} (rad/s)")
             axes[j].legend(loc="upper right", fontsize="small")
         axes[-1].set_xlabel(f"time (s), validation part, {base.mode}")
-        return axes
+        return ResultPlot(figure, axes)
 
-    def report_html(self):
-        """A self-contained HTML report: verdict, warnings, overlays, residuals, search, parameters."""
-        import html
+    def report_html(self, title="", rig_text=""):
+        """A self-contained HTML report: verdict, warnings, overlays, residuals, search, parameters.
 
-        import matplotlib.pyplot as plt
-
-        from ..report import figure_html, html_page, table_html
-
-        fig, axes = plt.subplots(len(self.measurements.speed_names), 1, sharex=True, squeeze=False,
-                                 figsize=(9, 2.4 * len(self.measurements.speed_names)))
-        self.plot(axes[:, 0])
-        overlay = figure_html(fig, "Validation part: measured speeds against the k-step predictions, "
-                                   "before (baseline) and after (extended) the extension.")
+        Parameters
+        ----------
+        title : str
+            Page title (default "Diagnosis of" and the record's source).
+        rig_text : str
+            The rig file's text, shown as it is (not shown when empty).
+        """
+        overlay = figure_html(self.plot().figure, "Validation part: measured speeds against the k-step predictions, "
+                                                  "before (baseline) and after (extended) the extension.")
         residual_figures = []
         for label, analysis in (("baseline", self.residuals_baseline), ("extended", self.residuals_extended)):
-            fig = plt.figure(figsize=(10, 7))
-            analysis.plot(fig)
+            fig = analysis.plot().figure
             fig.suptitle(f"Residuals of the {label} model")
             residual_figures.append(figure_html(
                 fig, f"{label}: residual over time, against theta_d and shaft torque, spectrum, "
@@ -332,8 +372,9 @@ class Diagnosis:
                    f"{html.escape(self.sentence)}</p>"
                    + (f"<p><b>Warnings</b></p><ul>{warnings}</ul>" if warnings else "")
                    + f"<p>Prediction mode: {html.escape(self.prediction_mode)}.</p>")
-        return html_page(f"Diagnosis of {self.measurements.source}", [
-            ("", summary),
+        rig = [("Rig", f"<pre>{html.escape(rig_text)}</pre>")] if rig_text else []
+        return html_page(title or f"Diagnosis of {self.measurements.source}", [
+            ("", summary), *rig,
             ("Measured against predicted", overlay),
             ("Forward selection and backward check", search_table + f"<p>{html.escape(RULE)}</p>"),
             ("What the model gets wrong", "\n".join(residual_figures)),
@@ -341,8 +382,7 @@ class Diagnosis:
         ])
 
     def _cause_list(self):
-        return ", ".join(f"{c['effect']}" + (f" ({c['side']} side)" if c["side"] else "") for c in self.causes) \
-            or "none"
+        return ", ".join(c.effect + (f" ({c.side} side)" if c.side else "") for c in self.causes) or "none"
 
 
 RULE = (f"an effect is added (forward selection, then backward elimination) if the validation RSS falls by at "
@@ -659,15 +699,12 @@ def _includes_null(parameter, key):
 
 
 def _causes(extended, order):
-    """The ``causes`` list: each effect of the set with its parameter, in the given order."""
+    """The causes: each effect of the set with its parameter, by decreasing gain."""
     causes = []
     for key, gain in sorted(order, key=lambda item: -item[1]):
         effect = get_effect(key)
         parameter = extended.calibration.effect_parameter(key)
-        low, high = parameter.ci95
-        causes.append({"effect": effect.name, "side": effect.side, "gain": gain,
-                       "parameters": {effect.parameter: {"value": parameter.value, "ci95": [low, high],
-                                                         "unit": parameter.unit}}})
+        causes.append(Cause(effect.name, effect.side, {effect.parameter: parameter}, gain))
     return causes
 
 
@@ -742,9 +779,8 @@ def _sentence(causes, extended, baseline, warnings, absorbed):
                 + "; an effect smaller than this record's noise and length can show may still be present." + gain)
     sentences = []
     for cause in causes:
-        key = cause["effect"] + (f"@{cause['side']}" if cause["side"] else "")
-        parameter = cause["parameters"][cause["effect"]]
-        sentences.append(get_effect(key).describe(parameter["value"], *parameter["ci95"]))
+        parameter = cause.parameters[cause.effect]
+        sentences.append(get_effect(cause.key).describe(parameter.value, *parameter.ci95))
     if absorbed:
         pairs = "; ".join(f"{kept} absorbs {dropped}" for kept, dropped, _ in absorbed)
         sentences.append(f"Not separated from another effect by this record ({pairs}; see the warnings): the "

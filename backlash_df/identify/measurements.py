@@ -1,6 +1,6 @@
 """Measurement files of a drive: loading, reflection through the gear, checks, writing.
 
-The file is a CSV with a header row, SI units and uniform sampling (DESIGN.md):
+The file is a CSV with a header row, SI units and uniform sampling (the contract page of the documentation):
 
 =================  ======  ===========  ==============================================
 column             unit    side (file)  holds
@@ -41,9 +41,13 @@ from pathlib import Path
 
 import numpy as np
 
+from .._json import json_ready
+from ..plotting import ResultPlot, axes_or_new
+
 __all__ = [
     "Measurements",
     "load_measurements",
+    "read_columns",
     "measurements_from_arrays",
     "write_measurements",
     "REQUIRED_COLUMNS",
@@ -212,13 +216,21 @@ class Measurements:
             f"gear_ratio={self.gear_ratio:g}, columns={list(self.columns())})"
         )
 
-    def plot(self, axes=None):
-        """Plot torques, speeds and (if measured) the twist against time, load side; returns the axes."""
-        import matplotlib.pyplot as plt
+    def to_dict(self):
+        """JSON-ready: source, sampling, gear ratio, notes and every column (load side, SI units)."""
+        return json_ready({"source": str(self.source), "n_samples": self.n_samples, "dt": self.dt,
+                           "gear_ratio": self.gear_ratio, "notes": list(self.notes),
+                           "columns": {name: values for name, values in self.columns().items()}})
 
+    def plot(self, ax=None):
+        """Torques, speeds and (if measured) the twist against time, load side.
+
+        Returns
+        -------
+        ResultPlot
+        """
         rows = 3 if self.twist is not None else 2
-        if axes is None:
-            _, axes = plt.subplots(rows, 1, sharex=True, figsize=(8, 2.2 * rows))
+        figure, axes = axes_or_new(ax, (rows, 1), sharex=True, figsize=(8, 2.2 * rows), layout="constrained")
         axes[0].plot(self.time, self.motor_torque, label="motor_torque")
         if self.load_torque is not None:
             axes[0].plot(self.time, self.load_torque, label="load_torque")
@@ -230,9 +242,9 @@ class Measurements:
             axes[2].plot(self.time, 1e3 * self.twist, label="twist")
             axes[2].set_ylabel("twist (mrad)")
         axes[-1].set_xlabel("time (s)")
-        for ax in axes:
-            ax.legend(loc="upper right", fontsize="small")
-        return axes
+        for panel in axes:
+            panel.legend(loc="upper right", fontsize="small")
+        return ResultPlot(figure, axes)
 
 
 def _num(value):
@@ -448,8 +460,21 @@ def _parse_rows(reader, header, known, path):
     return data
 
 
-def _read_columns(path):
-    """The known columns of a CSV file as arrays: numpy's C parser, the slow path to locate errors."""
+def read_columns(path):
+    """The known columns of a CSV file as arrays, unchecked beyond the header (:func:`load_measurements` checks).
+
+    numpy's C parser reads the table; where it fails, a row-by-row parse names the
+    bad cell.
+
+    Parameters
+    ----------
+    path : Path
+
+    Returns
+    -------
+    dict of str to ndarray
+        The columns of the module docs that the header holds, in file units.
+    """
     with path.open(newline="", encoding="utf-8-sig") as handle:
         header = [name.strip() for name in next(csv.reader([handle.readline()]), [])]
         _check_header(header, path)
@@ -497,7 +522,7 @@ def load_measurements(path, gear_ratio=1.0, max_samples=MAX_SAMPLES):
     """
     path = Path(path)
     try:
-        columns = _read_columns(path)
+        columns = read_columns(path)
     except OSError as error:
         raise ValueError(f"{path}: cannot read measurement file ({error.strerror})") from None
     except UnicodeDecodeError as error:

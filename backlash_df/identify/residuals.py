@@ -21,6 +21,9 @@ import dataclasses
 
 import numpy as np
 
+from .._json import json_ready
+from ..plotting import ResultPlot
+
 __all__ = ["ResidualAnalysis", "residual_analysis", "correlation", "BAND_99"]
 
 #: Normal quantile of the 99 % two-sided band drawn around correlations.
@@ -112,12 +115,34 @@ class ResidualAnalysis:
         rms = ", ".join(f"{name} {value:.3g}" for name, value in self.rms.items())
         return f"<ResidualAnalysis N={self.time.size}, RMS (rad/s): {rms}, 99 % band +-{self.band:.3g}>"
 
-    def plot(self, fig=None):
-        """Residuals over time, vs theta_d, spectrum, auto- and cross-correlation; returns the axes."""
-        import matplotlib.pyplot as plt
+    def to_dict(self):
+        """JSON-ready: RMS per signal, the 99 % band, lags, auto- and cross-correlations, share outside the band."""
+        return json_ready({"names": list(self.names), "n_samples": self.time.size, "rms": self.rms,
+                           "band": self.band, "lags": self.lags, "autocorrelation": self.autocorrelation,
+                           "cross_correlation": self.cross_correlation, "outside_band": self.outside_band()})
 
-        fig = fig or plt.figure(figsize=(10, 7))
-        axes = fig.subplots(3, 2)
+    def plot(self, ax=None):
+        """Residuals over time, against theta_d and shaft torque, spectrum, auto- and cross-correlation.
+
+        Parameters
+        ----------
+        ax : Figure or sequence of 6 Axes, optional
+            A figure to fill with the six panels, or the panels; a new figure by default.
+
+        Returns
+        -------
+        ResultPlot
+            Axes of shape (3, 2).
+        """
+        import matplotlib.pyplot as plt
+        from matplotlib.figure import Figure
+
+        if ax is None or isinstance(ax, Figure):
+            fig = ax or plt.figure(figsize=(10, 7), layout="constrained")
+            axes = fig.subplots(3, 2)
+        else:
+            axes = np.asarray(ax, dtype=object).reshape(3, 2)
+            fig = axes[0, 0].figure
         ax_time, ax_state, ax_psd, ax_torque, ax_auto, ax_cross = axes.ravel()
         for j, name in enumerate(self.names):
             ax_time.plot(self.time, self.residual[:, j], lw=0.8, label=name)
@@ -141,8 +166,7 @@ class ResidualAnalysis:
         ax_auto.set_ylabel("autocorrelation")
         ax_cross.set_ylabel("cross-corr. with motor torque")
         ax_time.legend(fontsize="small")
-        fig.tight_layout()
-        return axes
+        return ResultPlot(fig, axes)
 
 
 def _binned(x, residual, bins=15):

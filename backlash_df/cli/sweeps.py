@@ -1,19 +1,19 @@
-"""``backlash-df map`` and ``backlash-df continue`` (and the executor options they share): registered on the main group.
+"""``backlash-df map`` and ``backlash-df continue``: verdicts over two rig values, branches over one."""
 
-``--workers N`` runs the cells on a local process pool of N processes, with
-``--dask`` on a ``dask.distributed.LocalCluster`` of N single-threaded workers;
-``--scheduler ADDRESS`` runs them on an existing Dask cluster.  The cells are
-pure functions of (rig, values), so the result does not depend on the choice.
-"""
-
-import contextlib
+import json
 
 import click
+import numpy as np
 
-from .cli import _FINITE, main
-from .models import MODEL_NAMES
+from ..config import load_rig
+from ..continuation import continue_limit_cycles
+from ..report import figure_png
+from ..sweeps import VERDICTS, design_map, rig_with
+from .common import FINITE, MODEL, read_text
+from .executors import executor_for, executor_options
+from .outputs import Outputs
 
-__all__ = ["executor_for", "executor_options", "parse_values", "map_command", "continue_command"]
+__all__ = ["map_command", "continue_command", "parse_values"]
 
 
 def parse_values(option, text):
@@ -24,8 +24,6 @@ def parse_values(option, text):
     ValueError
         One line naming ``option``.
     """
-    import numpy as np
-
     parts = text.split(":")
     try:
         if len(parts) == 1:
@@ -40,85 +38,25 @@ def parse_values(option, text):
     raise ValueError(f"{option} {text!r}: give START:STOP:N, START:STOP:N:log (positive ends) or V1,V2,...")
 
 
-@contextlib.contextmanager
-def executor_for(workers, dask=False, scheduler=None):
-    """A ``concurrent.futures.Executor`` for ``--workers/--dask/--scheduler`` (``None``: serial).
-
-    Parameters
-    ----------
-    workers : int
-        Local processes (1: run in this process, unless ``dask``).
-    dask : bool
-        Use a ``dask.distributed.LocalCluster`` of ``workers`` single-threaded workers.
-    scheduler : str, optional
-        Address of an existing Dask scheduler (``tcp://host:8786``).
-    """
-    if workers < 1:
-        raise ValueError(f"--workers must be >= 1, got {workers}")
-    if dask or scheduler:
-        try:
-            import distributed
-        except ImportError:
-            raise ValueError("--dask/--scheduler need dask.distributed: pip install 'backlash-df[dask]'") from None
-        with contextlib.ExitStack() as stack:
-            if scheduler:
-                try:
-                    client = stack.enter_context(distributed.Client(scheduler, timeout="10s"))
-                except OSError as error:
-                    raise ValueError(f"--scheduler {scheduler}: cannot connect ({error})") from None
-            else:
-                cluster = stack.enter_context(distributed.LocalCluster(
-                    n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None))
-                client = stack.enter_context(distributed.Client(cluster))
-            yield client.get_executor()
-        return
-    if workers == 1:
-        yield None
-        return
-    from concurrent.futures import ProcessPoolExecutor
-
-    with ProcessPoolExecutor(workers) as pool:
-        yield pool
-
-
-def executor_options(function):
-    """Add ``--workers``, ``--dask`` and ``--scheduler`` to a command."""
-    function = click.option("--scheduler", default=None, metavar="ADDRESS",
-                            help="Run on an existing Dask cluster (scheduler address).")(function)
-    function = click.option("--dask", is_flag=True, help="With --workers: a dask.distributed LocalCluster.")(function)
-    return click.option("--workers", type=int, default=1, show_default=True,
-                        help="Processes running the cells (a local process pool).")(function)
-
-
-def _write_results(outputs, rig_file, result, title, first_axes):
-    """Write the requested ``--json``, ``--report`` and ``--plot`` of a map or a branch, all or none.
-
-    ``first_axes`` picks an Axes out of what ``result.plot()`` returns (its figure is saved).
-    """
-    import html
-    import json
-    from pathlib import Path
-
-    from .report import figure_png
-
+def _write_results(outputs, rig_file, result, title):
+    """Write the requested ``--json``, ``--report`` and ``--plot`` of a map or a branch, all or none."""
     texts = {}
     if "--json" in outputs:
         texts["--json"] = json.dumps({"rig": str(rig_file), **result.to_dict()}, indent=2) + "\n"
     if "--report" in outputs:
-        rig_text = html.escape(Path(rig_file).read_text(encoding="utf-8"))
-        texts["--report"] = result.report_html(title=title, rig_text=rig_text)
+        texts["--report"] = result.report_html(title=title, rig_text=read_text(rig_file))
     if "--plot" in outputs:
-        texts["--plot"] = figure_png(first_axes(result.plot()).figure, dpi=110)
+        texts["--plot"] = figure_png(result.plot().figure, dpi=110)
     outputs.write(texts)
 
 
-@main.command("map")
+@click.command("map")
 @click.argument("rig_file", type=click.Path(dir_okay=False))
 @click.option("--x", "x_spec", nargs=2, default=("kp", "5:60:12"), show_default=True, metavar="NAME VALUES",
               help="First rig value and its grid: START:STOP:N, START:STOP:N:log or V1,V2,...")
 @click.option("--y", "y_spec", nargs=2, default=("ti", "0.1:2:10:log"), show_default=True, metavar="NAME VALUES",
               help="Second rig value and its grid.")
-@click.option("--model", "models", multiple=True, type=click.Choice(MODEL_NAMES),
+@click.option("--model", "models", multiple=True, type=MODEL,
               help="Torque law (repeatable; default: the rig's [model] backlash).")
 @click.option("--no-simulate", is_flag=True, help="DF verdicts only (no time simulation).")
 @executor_options
@@ -131,10 +69,6 @@ def map_command(rig_file, x_spec, y_spec, models, no_simulate, workers, dask, sc
 
     Example: backlash-df map RIG --x kp 5:60:40 --y ti 0.1:2:40:log --workers 2
     """
-    from .config import load_rig
-    from .report import Outputs
-    from .sweeps import VERDICTS, design_map, rig_with
-
     outputs = Outputs({"--json": json_out, "--report": report_out, "--plot": plot_out})
     rig = load_rig(rig_file)
     rig.require_controller()
@@ -151,16 +85,16 @@ def map_command(rig_file, x_spec, y_spec, models, no_simulate, workers, dask, sc
         counts = ", ".join(f"{v} {int((dmap.df_verdict[name] == v).sum())}" for v in VERDICTS)
         agree = f"; agrees with simulation on {100 * dmap.agreement(name):.1f} %" if name in dmap.sim_verdict else ""
         click.echo(f"  {name}: DF {counts}{agree}")
-    _write_results(outputs, rig_file, dmap, f"Design map: {rig_file}", lambda axes: axes[0, 0])
+    _write_results(outputs, rig_file, dmap, f"Design map: {rig_file}")
 
 
-@main.command("continue")
+@click.command("continue")
 @click.argument("rig_file", type=click.Path(dir_okay=False))
 @click.option("--parameter", required=True, metavar="NAME",
               help="Rig value to continue in: kp, ti, stiffness, load.torque, ... (any numeric key).")
-@click.option("--from", "start", type=_FINITE, required=True, help="First value of the parameter.")
-@click.option("--to", "stop", type=_FINITE, required=True, help="Last value of the parameter.")
-@click.option("--model", "model_name", default=None, type=click.Choice(MODEL_NAMES),
+@click.option("--from", "start", type=FINITE, required=True, help="First value of the parameter.")
+@click.option("--to", "stop", type=FINITE, required=True, help="Last value of the parameter.")
+@click.option("--model", "model_name", default=None, type=MODEL,
               help="Torque law (default: the rig's [model] backlash); piecewise-affine laws only.")
 @click.option("--df-values", type=click.IntRange(min=2), default=25, show_default=True,
               help="Parameter values at which the describing function is evaluated beside the branch.")
@@ -178,10 +112,6 @@ def continue_command(rig_file, parameter, start, stop, model_name, df_values, wo
 
     Example: backlash-df continue RIG --parameter kp --from 5 --to 60
     """
-    from .config import load_rig
-    from .continuation import continue_limit_cycles
-    from .report import Outputs
-
     outputs = Outputs({"--json": json_out, "--report": report_out, "--plot": plot_out})
     rig = load_rig(rig_file)
     rig.require_controller()
@@ -197,4 +127,4 @@ def continue_command(rig_file, parameter, start, stop, model_name, df_values, wo
     for special in branch.special:
         click.echo(f"{special.kind} at {parameter} = {special.parameter:.6g} (A = {special.amplitude:.4g} rad): "
                    f"{special.detail}")
-    _write_results(outputs, rig_file, branch, f"Continuation in {parameter}: {rig_file}", lambda axes: axes[0])
+    _write_results(outputs, rig_file, branch, f"Continuation in {parameter}: {rig_file}")

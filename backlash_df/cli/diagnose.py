@@ -1,0 +1,54 @@
+"""``backlash-df diagnose``: what the rig's model gets wrong in a measurement record, and why."""
+
+import json
+import os
+import sys
+
+import click
+from tqdm import tqdm
+
+from ..config import load_rig
+from ..identify import diagnose as run_diagnosis
+from ..identify import load_measurements
+from .outputs import Outputs
+
+__all__ = ["diagnose_command"]
+
+
+@click.command("diagnose")
+@click.argument("data", type=click.Path(dir_okay=False))
+@click.option("--rig", "rig_file", required=True, type=click.Path(dir_okay=False), help="Rig file (TOML).")
+@click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="Write the diagnosis as JSON.")
+@click.option("--report", "report_out", type=click.Path(dir_okay=False), default=None,
+              help="Write a self-contained HTML report.")
+def diagnose_command(data, rig_file, json_out, report_out):
+    """Name the physical cause of what the rig's model gets wrong in a measurement CSV."""
+    outputs = Outputs({"--json": json_out, "--report": report_out})
+    rig = load_rig(rig_file)
+    measurements = load_measurements(data, gear_ratio=rig.plant.gear_ratio)
+    for note in measurements.notes:
+        click.echo(f"note: {note}", err=True)
+    with tqdm(desc="diagnose: fits", unit="fit", file=sys.stderr, leave=False) as bar:
+        result = run_diagnosis(measurements, rig, workers=min(2, os.cpu_count() or 1),
+                               progress=lambda label: (bar.set_postfix_str(label[:40]), bar.update()))
+    click.echo(f"cause: {result.cause}")
+    for cause in result.causes:
+        side = f" ({cause.side} side)" if cause.side else ""
+        for name, parameter in cause.parameters.items():
+            low, high = parameter.ci95
+            click.echo(f"  {cause.effect}{side}: {name} = {parameter.value:.4g} {parameter.unit} "
+                       f"(95 % CI {low:.4g} .. {high:.4g}), gain {100 * cause.gain:.1f} %")
+    click.echo(result.sentence)
+    for model in (result.baseline, result.extended):
+        label = " + ".join(model.effects) or "none (baseline)"
+        fits = ", ".join(f"{name} {model.fit_percent[name]:.1f} % k-step / {model.ahead_fit_percent[name]:.1f} % ahead "
+                         f"/ {model.free_run_fit_percent[name]:.1f} % free run" for name in model.fit_percent)
+        click.echo(f"  validation fit of {label}: {fits}")
+    for warning in result.warnings:
+        click.echo(f"warning: {warning}")
+    texts = {}
+    if "--json" in outputs:
+        texts["--json"] = json.dumps(result.to_dict(), indent=2) + "\n"
+    if "--report" in outputs:
+        texts["--report"] = result.report_html()
+    outputs.write(texts)

@@ -1,0 +1,374 @@
+"""The ground floor: the loop cut at the backlash, one state-space type under every analysis.
+
+Every stage of the package works on one object, a :class:`LinearPart`: the drive
+and its controller as a linear system that the shaft torque ``T`` closes::
+
+    dz/dt = A z + b T + E w(t) + e_d u_d(t - delay) - e_f (F + F_s exp(-(f z / w_s)^2)) tanh(f z / eps)
+    theta_d = c_x z,   dtheta_d = c_v z,   T = law(theta_d, dtheta_d [, theta_b])
+
+``w(t)`` are external inputs (speed reference, load torque), ``u_d = d z`` the
+measured signal that a dead time ``delay`` delays, the last term an optional
+smoothed Coulomb friction with a breakaway (Stribeck) part.  The loop builder
+(:meth:`backlash_df.loops.DriveLoop.linear_part`) makes one from a rig file,
+:func:`lti_linear_part` from a user's python-control LTI, :func:`two_mass_system`
+is the open two-mass drive (paper eq. 42).  On it this module computes what the
+describing function, the simulation, the orbits and the verdict share:
+
+* :func:`frequency_response`: ``G(jw)`` from ``T`` to ``-theta_d``, the dead time exact;
+* :func:`closed_loop_matrix`: the delay-free state matrix with the shaft as the
+  spring-damper ``T = k theta_d + c dtheta_d`` (contact; ``k = c = 0``: the gear open);
+* :func:`with_pade`: the dead time replaced by its Pade approximant, realised once,
+  balanced, for every pole, orbit and Floquet computation;
+* :func:`mode_matrices`: the augmented matrices of the left-contact, free and
+  right-contact modes of a piecewise-affine law;
+* :func:`exp_ladder`: the dyadic ladder ``exp(M dt 2^-j)`` that steps and locates
+  events inside one mode.
+
+The sign convention of ``G`` (``T -> -theta_d``) makes a harmonic balance read
+``1 + G(jw) N(A, w) = 0`` (see the contract page of the documentation).
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+
+from ._jit import copy_into as _copy
+from ._jit import jit as _jit
+from .models import DEAD_ZONE, EXACT
+
+__all__ = [
+    "LinearPart",
+    "frequency_response",
+    "closed_loop_matrix",
+    "with_pade",
+    "mode_matrices",
+    "exp_ladder",
+    "lti_linear_part",
+    "two_mass_system",
+]
+
+
+@dataclasses.dataclass(frozen=True)
+class LinearPart:
+    """The loop cut at the backlash: ``dz/dt = A z + b T + E w + ...`` (module docs).
+
+    Built by :meth:`backlash_df.loops.DriveLoop.linear_part` from a rig, by
+    :func:`lti_linear_part` from a user's LTI and by :func:`two_mass_system`;
+    simulated by :func:`backlash_df.simulation.simulate_linear`.
+
+    Attributes
+    ----------
+    A, b, E : ndarray
+        State matrix (n x n), shaft-torque column (n), input matrix (n x m).
+    c_x, c_v : ndarray
+        Rows giving theta_d (rad) and dtheta_d (rad/s) from the state.
+    state_names, input_names : tuple of str
+        Names of the states and of the input channels, for results and errors.
+    delay, d, e_d : float, ndarray, ndarray
+        Dead time (s), the row of the delayed signal and the column it enters by.
+    friction, friction_speed, f, e_f : float, float, ndarray, ndarray
+        Coulomb friction level (N m), smoothing speed (rad/s), the row of the
+        speed it opposes and the column it enters by.
+    breakaway, breakaway_speed : float
+        Breakaway (Stribeck) friction added to the Coulomb level near zero speed,
+        ``F_s exp(-(s / w_s)^2)`` (N m), and its Stribeck speed ``w_s`` (rad/s).
+    """
+
+    A: np.ndarray
+    b: np.ndarray
+    E: np.ndarray
+    c_x: np.ndarray
+    c_v: np.ndarray
+    state_names: tuple
+    input_names: tuple
+    delay: float = 0.0
+    d: np.ndarray | None = None
+    e_d: np.ndarray | None = None
+    friction: float = 0.0
+    friction_speed: float = 1e-3
+    f: np.ndarray | None = None
+    e_f: np.ndarray | None = None
+    breakaway: float = 0.0
+    breakaway_speed: float = 1.0
+
+    def __post_init__(self):
+        n = len(self.state_names)
+        zeros = np.zeros(n)
+        for name in ("A", "b", "E", "c_x", "c_v"):
+            object.__setattr__(self, name, np.ascontiguousarray(getattr(self, name), dtype=float))
+        for name in ("d", "e_d", "f", "e_f"):
+            value = getattr(self, name)
+            object.__setattr__(self, name, zeros.copy() if value is None else np.ascontiguousarray(value, dtype=float))
+        if self.A.shape != (n, n) or self.E.shape != (n, len(self.input_names)):
+            raise ValueError("LinearPart: A must be n x n and E n x m for n states and m inputs")
+        if not (self.delay >= 0.0 and math.isfinite(self.delay)):
+            raise ValueError(f"delay must be finite and >= 0, got {self.delay!r}")
+        if self.friction < 0.0 or not self.friction_speed > 0.0:
+            raise ValueError("friction must be >= 0 and friction_speed > 0")
+        if self.breakaway < 0.0 or not self.breakaway_speed > 0.0:
+            raise ValueError("breakaway must be >= 0 and breakaway_speed > 0")
+
+    @property
+    def n_states(self):
+        """Number of states n."""
+        return len(self.state_names)
+
+    def kernel_arrays(self):
+        """The matrices and friction constants in the order the compiled kernels take them."""
+        return (
+            self.A, self.b, self.E, self.c_x, self.c_v, self.d, self.e_d,
+            float(self.delay), self.f, self.e_f, float(self.friction), float(self.friction_speed),
+            float(self.breakaway), float(self.breakaway_speed),
+        )
+
+
+def frequency_response(part, omega):
+    """G(jw) of a linear part, from shaft torque T (N m) to -theta_d (rad), the dead time exact.
+
+    ``G(jw) = -c_x (jw I - A - e_d d e^{-jw delay})^{-1} b``, vectorised over ``omega``.
+
+    Parameters
+    ----------
+    part : LinearPart
+    omega : array_like
+        Frequencies, rad/s (> 0); any shape.
+
+    Returns
+    -------
+    ndarray of complex
+        Same shape as ``omega``, rad/(N m).
+    """
+    omega = np.asarray(omega, dtype=float)
+    n = part.A.shape[0]
+    flat = omega.reshape(-1)
+    jw = 1j * flat[:, None, None]
+    mats = jw * np.eye(n) - part.A - np.exp(-jw * part.delay) * np.outer(part.e_d, part.d)
+    z = np.linalg.solve(mats, np.broadcast_to(part.b[:, None], (flat.size, n, 1)).astype(complex))
+    return (-(z[:, :, 0] @ part.c_x)).reshape(omega.shape)
+
+
+def closed_loop_matrix(part, stiffness, damping=0.0):
+    """State matrix of the loop closed through the linear shaft ``T = k theta_d + c dtheta_d``.
+
+    ``A + b (k c_x + c c_v)``: the gear in contact (``k``, ``c`` of the shaft) or
+    open (``0, 0``).  A dead time's term ``e_d d z(t - delay)`` is not in it: pass
+    ``with_pade(part, order)`` for the poles of a loop with one.
+
+    Parameters
+    ----------
+    part : LinearPart
+    stiffness, damping : float
+        k (N m/rad) and c (N m s/rad).
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+    """
+    return part.A + np.outer(part.b, stiffness * part.c_x + damping * part.c_v)
+
+
+def with_pade(part, order):
+    """The loop with the dead time of its measured signal replaced by a Pade approximant.
+
+    The approximant of ``order`` (``control.pade``) is realised in the normalised
+    time ``t / delay`` and balanced (:func:`scipy.linalg.matrix_balance`), so that
+    its entries stay moderate: the companion form in ``t`` has entries up to
+    ``delay^-order``.  It is all-pass; at ``w delay = 0.5`` its phase error is 8e-11
+    rad for order 4 and below round-off for order 6; above order 8 the
+    realisation loses digits.  This is the one realisation of the dead time that the
+    verdict's poles, the orbits' monodromy and their Floquet multipliers share.
+
+    Parameters
+    ----------
+    part : LinearPart
+    order : int
+        Pade order, >= 1.
+
+    Returns
+    -------
+    LinearPart
+        Without dead time; its states are the loop's, then ``pade_1 .. pade_order``.
+        ``part`` itself when it has no dead time.
+    """
+    if isinstance(order, bool) or int(order) != order or order < 1:
+        raise ValueError(f"pade_order must be an integer >= 1, got {order!r}")
+    if part.delay == 0.0:
+        return part
+    import control as ct  # lazy: python-control takes a second to import
+    from scipy import linalg
+
+    pade = ct.ss(ct.tf(*ct.pade(1.0, int(order))))
+    ap, bp, cp, dp = (np.asarray(m, dtype=float) for m in (pade.A, pade.B, pade.C, pade.D))
+    ap, (scale, _) = linalg.matrix_balance(ap, permute=False, separate=True)
+    ap, bp, cp = ap / part.delay, bp / scale[:, None] / part.delay, cp * scale
+    n, p = part.A.shape[0], ap.shape[0]
+    a_mat = np.zeros((n + p, n + p))
+    a_mat[:n, :n] = part.A + dp[0, 0] * np.outer(part.e_d, part.d)
+    a_mat[:n, n:] = np.outer(part.e_d, cp[0])
+    a_mat[n:, :n] = np.outer(bp[:, 0], part.d)
+    a_mat[n:, n:] = ap
+
+    def pad(row):
+        return np.concatenate([row, np.zeros(p)])
+
+    return LinearPart(A=a_mat, b=pad(part.b), E=np.vstack([part.E, np.zeros((p, part.E.shape[1]))]),
+                      c_x=pad(part.c_x), c_v=pad(part.c_v), input_names=part.input_names,
+                      state_names=part.state_names + tuple(f"pade_{i + 1}" for i in range(p)))
+
+
+def mode_matrices(system, model, law, varying=(), constant=None):
+    """Augmented state matrices of the left-contact, free and right-contact modes of a piecewise-affine law.
+
+    State ``[z, theta_b, 1, (w_j, dw_j/dt, d2w_j/dt2) for the inputs j in
+    varying and the delayed signal]``: in contact ``T = k (theta_d -+ alpha) +
+    c dtheta_d`` (``c = 0`` for the dead-zone (24)); free, ``T = 0`` and, for
+    the exact model, ``dtheta_b/dt = (k / c) (theta_d - theta_b) + dtheta_d``
+    (12), (14).  Inputs are quadratic in time over a step (chains of
+    integrators); those constant over the run (values ``constant``, the other
+    channels) enter with the state ``1``.
+
+    Parameters
+    ----------
+    system : LinearPart
+    model : BacklashModel
+        Shaft parameters k, c, alpha.
+    law : int
+        Law code (:data:`backlash_df.models.LAW_CODES`) the modes follow: the
+        dead-zone (24) contacts without damping, the exact model adds theta_b.
+    varying : sequence of int
+        Input channels that vary over the run (quadratic over a step).
+    constant : array_like, optional
+        Values of the other channels (default zero).
+
+    Returns
+    -------
+    ndarray, shape (3, N, N)
+        ``N = n + 2 + 3 (len(varying) + [delay > 0])``.
+    """
+    n = system.A.shape[0]
+    varying = list(varying)
+    constant = np.zeros(system.E.shape[1] - len(varying)) if constant is None else np.asarray(constant, dtype=float)
+    columns = [system.E[:, j] for j in varying] + ([system.e_d] if system.delay > 0.0 else [])
+    size = n + 2 + 3 * len(columns)
+    k, c, alpha = model.stiffness, model.damping, model.half_gap
+    fixed = np.delete(system.E, varying, axis=1) @ constant
+    out = np.zeros((3, size, size))
+    for m_aug, side in zip(out, (-1, 0, 1)):
+        m_aug[:n, :n] = system.A
+        m_aug[:n, n + 1] = fixed
+        if side:
+            damping = 0.0 if law == DEAD_ZONE else c
+            m_aug[:n, :n] += np.outer(system.b, k * system.c_x + damping * system.c_v)
+            m_aug[:n, n + 1] -= system.b * k * side * alpha
+        elif law == EXACT:
+            m_aug[n, :n] = k / c * system.c_x + system.c_v
+            m_aug[n, n] = -k / c
+        for j, column in enumerate(columns):
+            base = n + 2 + 3 * j
+            m_aug[:n, base] = column
+            m_aug[base, base + 1] = m_aug[base + 1, base + 2] = 1.0
+    return out
+
+
+@_jit
+def _taylor(powers, ratio, scaled):
+    """``sum_k ratio^k A0^k / k!`` from the powers of ``A0`` (``||A0||_1 = scaled <= 1/2``), terms down to 1e-18."""
+    out = powers[0].copy()
+    coef = 1.0
+    for k in range(1, powers.shape[0]):
+        coef *= ratio / k
+        if coef * scaled**k < 1e-18:
+            break
+        out += coef * powers[k]
+    return out
+
+
+@_jit
+def exp_ladder(m_aug, dt, levels):
+    """``exp(M dt 2^-j)`` for ``j = 0 .. levels - 1``, shape (levels, N, N).
+
+    Scaling and squaring: Taylor series of ``A0 = M dt 2^-j0`` (``||A0||_1 <=
+    1/2``) at the levels ``j >= j0``, repeated squaring of level ``j0`` above.
+    """
+    size = m_aug.shape[0]
+    norm = 0.0
+    for j in range(size):
+        norm = max(norm, np.abs(m_aug[:, j]).sum() * dt)
+    base = 0
+    while norm * 0.5**base > 0.5:
+        base += 1
+    scaled = norm * 0.5**base
+    powers = np.empty((25, size, size))
+    _copy(np.eye(size), powers[0])
+    _copy(m_aug * (dt * 0.5**base), powers[1])
+    for k in range(2, powers.shape[0]):
+        _copy(powers[k - 1] @ powers[1], powers[k])
+    out = np.empty((levels, size, size))
+    for j in range(base, levels):
+        _copy(_taylor(powers, 0.5 ** (j - base), scaled), out[j])
+    square = _taylor(powers, 1.0, scaled)
+    for j in range(base - 1, -1, -1):
+        square = square @ square
+        if j < levels:
+            _copy(square, out[j])
+    return out
+
+
+def lti_linear_part(system):
+    """A user's python-control LTI G (shaft torque -> -theta_d) as a :class:`LinearPart`.
+
+    Parameters
+    ----------
+    system : control.LTI
+        SISO, continuous time, strictly proper with relative degree >= 2 (so that
+        dtheta_d is a state function, as the torque laws need it).
+
+    Returns
+    -------
+    LinearPart
+        States of ``control.ss(system)``, no external inputs.
+    """
+    import control as ct
+
+    sys_ss = ct.ss(system)
+    if sys_ss.ninputs != 1 or sys_ss.noutputs != 1 or not sys_ss.isctime():
+        raise ValueError("the linear part must be a SISO continuous-time LTI system")
+    a, b, c, d = (np.asarray(m, dtype=float) for m in (sys_ss.A, sys_ss.B, sys_ss.C, sys_ss.D))
+    scale = max(np.abs(c).max() * np.abs(b).max(), 1e-300)
+    if abs(d[0, 0]) > 0.0 or abs((c @ b)[0, 0]) > 1e-12 * scale:
+        raise ValueError("the linear part must have relative degree >= 2 (theta_d and its rate depend on the state only)")
+    n = a.shape[0]
+    return LinearPart(
+        A=a,
+        b=b[:, 0],
+        E=np.zeros((n, 0)),
+        c_x=-c[0],
+        c_v=-(c @ a)[0],
+        state_names=tuple(f"x{i}" for i in range(n)),
+        input_names=(),
+    )
+
+
+def two_mass_system(motor_inertia, load_inertia, motor_damping=0.0, load_damping=0.0):
+    """Open-loop two-mass drive: states theta_d, motor_speed, load_speed.
+
+    ``J_m dw_m/dt = T_m - T - d_m w_m``, ``J_l dw_l/dt = T_l + T - d_l w_l``,
+    ``dtheta_d/dt = w_m - w_l`` (paper eq. 42 and the Figure 3 model).
+    Inputs: ``motor_torque`` T_m and ``load_torque`` T_l (N m).
+    """
+    for name, value in (("motor_inertia", motor_inertia), ("load_inertia", load_inertia)):
+        if not (value > 0.0 and math.isfinite(value)):
+            raise ValueError(f"{name} must be finite and > 0, got {value!r}")
+    jm, jl = float(motor_inertia), float(load_inertia)
+    a_mat = np.array([[0.0, 1.0, -1.0], [0.0, -motor_damping / jm, 0.0], [0.0, 0.0, -load_damping / jl]])
+    return LinearPart(
+        A=a_mat,
+        b=np.array([0.0, -1.0 / jm, 1.0 / jl]),
+        E=np.array([[0.0, 0.0], [1.0 / jm, 0.0], [0.0, 1.0 / jl]]),
+        c_x=np.array([1.0, 0.0, 0.0]),
+        c_v=np.array([0.0, 1.0, -1.0]),
+        state_names=("theta_d", "motor_speed", "load_speed"),
+        input_names=("motor_torque", "load_torque"),
+    )
+
