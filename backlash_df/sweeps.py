@@ -99,11 +99,13 @@ def rig_with(rig, parameter, value):
     60.0
     """
     table, key = _table_of(rig, parameter)
-    data = {name: dataclasses.asdict(getattr(rig, name)) for name in ("plant", "controller", "load")
-            if getattr(rig, name) is not None}
-    data["model"] = {"backlash": rig.model}
+    data = rig.to_dict()
     data[table][key] = value
-    return rig_from_dict(data, source=f"{rig.source} with {table}.{key} = {value!r}")
+    tuned = rig_from_dict(data, source=f"{rig.source} with {table}.{key} = {value!r}")
+    if rig.controller is None:
+        return tuned
+    users = {name: getattr(rig.controller, name) for name in ("speed_controller", "position_controller")}
+    return dataclasses.replace(tuned, controller=dataclasses.replace(tuned.controller, **users))
 
 
 # --------------------------------------------------------------------------- verdicts

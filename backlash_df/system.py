@@ -20,7 +20,10 @@ describing function, the simulation, the orbits and the verdict share:
 * :func:`with_pade`: the dead time replaced by its Pade approximant, realised once,
   balanced, for every pole, orbit and Floquet computation;
 * :func:`mode_matrices`: the augmented matrices of the left-contact, free and
-  right-contact modes of a piecewise-affine law;
+  right-contact modes of a piecewise-affine law; with a torque limit
+  (:class:`Command`), :func:`command_matrices` splits each into the command's
+  modes (linear, saturated, integrator clamped, sliding on the limit) and
+  :func:`command_mode_of` says which a state is in;
 * :func:`exp_ladder`: the dyadic ladder ``exp(M dt 2^-j)`` that steps and locates
   events inside one mode.
 
@@ -43,10 +46,56 @@ __all__ = [
     "closed_loop_matrix",
     "with_pade",
     "mode_matrices",
+    "COMMAND_MODES",
+    "command_index",
+    "augmented_row",
+    "command_matrices",
+    "command_mode_of",
     "exp_ladder",
     "lti_linear_part",
     "two_mass_system",
 ]
+
+
+@dataclasses.dataclass(frozen=True)
+class Command:
+    """The torque command of a loop with a torque limit: ``clip(u, -limit, limit)``, a clamped integrator.
+
+    ``u = row . [z, w, u_d]`` (the controller's output, N m) enters ``dz/dt``
+    by ``column``; :attr:`LinearPart.A` (and ``E``, ``e_d``) hold the loop with
+    the command unsaturated.  While ``|u| > limit`` the loop sees
+    ``+-limit`` instead of ``u``; with an ``integrator`` (the PI's state), it is
+    clamped, ``dI/dt = 0``, while ``e = error . [z, w, u_d]`` has the sign of
+    ``u``, and slides on the limit (``dI/dt`` holds ``u = +-limit``) where
+    clamping would let ``u`` fall back inside while integrating pushes it out
+    (the Filippov solution of the clamped loop).
+
+    Attributes
+    ----------
+    column : ndarray, shape (n,)
+    row, error : ndarray, shape (n + m + k,)
+        Over the states, the inputs and the delayed signals.
+    limit : float
+        N m, > 0.
+    integrator : int
+        Index of the clamped integrator state, -1 for none (a P or a user's controller).
+    """
+
+    column: np.ndarray
+    row: np.ndarray
+    limit: float
+    integrator: int = -1
+    error: np.ndarray | None = None
+
+    def __post_init__(self):
+        for name in ("column", "row"):
+            object.__setattr__(self, name, np.ascontiguousarray(getattr(self, name), dtype=float))
+        error = np.zeros(self.row.size) if self.error is None else self.error
+        object.__setattr__(self, "error", np.ascontiguousarray(error, dtype=float))
+        if not (self.limit > 0.0 and math.isfinite(self.limit)):
+            raise ValueError(f"the torque limit must be finite and > 0, got {self.limit!r}")
+        if self.integrator >= 0 and not self.row[self.integrator] != 0.0:
+            raise ValueError("the clamped integrator must act on the command (its coefficient in u is 0)")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -66,13 +115,17 @@ class LinearPart:
     state_names, input_names : tuple of str
         Names of the states and of the input channels, for results and errors.
     delay, d, e_d : float, ndarray, ndarray
-        Dead time (s), the row of the delayed signal and the column it enters by.
+        Dead time (s), the rows of the ``k`` delayed (measured) signals ``u_d = d z``,
+        shape (k, n), and the columns they enter by, shape (n, k); ``k = 0`` without
+        a dead time (a 1-D ``d``, ``e_d`` is one signal).
     friction, friction_speed, f, e_f : float, float, ndarray, ndarray
         Coulomb friction level (N m), smoothing speed (rad/s), the row of the
         speed it opposes and the column it enters by.
     breakaway, breakaway_speed : float
         Breakaway (Stribeck) friction added to the Coulomb level near zero speed,
         ``F_s exp(-(s / w_s)^2)`` (N m), and its Stribeck speed ``w_s`` (rad/s).
+    command : Command or None
+        The torque command and its limit; None: no limit (the loop is linear but for the backlash).
     """
 
     A: np.ndarray
@@ -91,28 +144,47 @@ class LinearPart:
     e_f: np.ndarray | None = None
     breakaway: float = 0.0
     breakaway_speed: float = 1.0
+    command: Command | None = None
 
     def __post_init__(self):
         n = len(self.state_names)
         zeros = np.zeros(n)
         for name in ("A", "b", "E", "c_x", "c_v"):
             object.__setattr__(self, name, np.ascontiguousarray(getattr(self, name), dtype=float))
-        for name in ("d", "e_d", "f", "e_f"):
+        for name in ("f", "e_f"):
             value = getattr(self, name)
             object.__setattr__(self, name, zeros.copy() if value is None else np.ascontiguousarray(value, dtype=float))
-        if self.A.shape != (n, n) or self.E.shape != (n, len(self.input_names)):
-            raise ValueError("LinearPart: A must be n x n and E n x m for n states and m inputs")
         if not (self.delay >= 0.0 and math.isfinite(self.delay)):
             raise ValueError(f"delay must be finite and >= 0, got {self.delay!r}")
+        if self.delay > 0.0 and self.d is not None:
+            d = np.atleast_2d(np.asarray(self.d, dtype=float))
+            e_d = np.asarray(self.e_d, dtype=float).reshape(n, -1)
+        else:
+            d, e_d = np.zeros((0, n)), np.zeros((n, 0))
+        object.__setattr__(self, "d", np.ascontiguousarray(d))
+        object.__setattr__(self, "e_d", np.ascontiguousarray(e_d))
+        if self.A.shape != (n, n) or self.E.shape != (n, len(self.input_names)):
+            raise ValueError("LinearPart: A must be n x n and E n x m for n states and m inputs")
+        if self.d.shape[1] != n or self.e_d.shape != (n, self.d.shape[0]):
+            raise ValueError("LinearPart: d must be k x n and e_d n x k for k delayed signals")
         if self.friction < 0.0 or not self.friction_speed > 0.0:
             raise ValueError("friction must be >= 0 and friction_speed > 0")
         if self.breakaway < 0.0 or not self.breakaway_speed > 0.0:
             raise ValueError("breakaway must be >= 0 and breakaway_speed > 0")
+        width = n + self.E.shape[1] + self.d.shape[0]
+        if self.command is not None and (self.command.column.shape != (n,) or self.command.row.shape != (width,)):
+            raise ValueError(f"LinearPart: the command's column must have n = {n} entries and its rows "
+                             f"n + m + k = {width}")
 
     @property
     def n_states(self):
         """Number of states n."""
         return len(self.state_names)
+
+    @property
+    def n_delayed(self):
+        """Number of delayed signals k (0 without a dead time)."""
+        return self.d.shape[0]
 
     def kernel_arrays(self):
         """The matrices and friction constants in the order the compiled kernels take them."""
@@ -126,7 +198,8 @@ class LinearPart:
 def frequency_response(part, omega):
     """G(jw) of a linear part, from shaft torque T (N m) to -theta_d (rad), the dead time exact.
 
-    ``G(jw) = -c_x (jw I - A - e_d d e^{-jw delay})^{-1} b``, vectorised over ``omega``.
+    ``G(jw) = -c_x (jw I - A - e_d d e^{-jw delay})^{-1} b``, vectorised over ``omega``; the
+    torque command unsaturated.
 
     Parameters
     ----------
@@ -143,7 +216,7 @@ def frequency_response(part, omega):
     n = part.A.shape[0]
     flat = omega.reshape(-1)
     jw = 1j * flat[:, None, None]
-    mats = jw * np.eye(n) - part.A - np.exp(-jw * part.delay) * np.outer(part.e_d, part.d)
+    mats = jw * np.eye(n) - part.A - np.exp(-jw * part.delay) * (part.e_d @ part.d)
     z = np.linalg.solve(mats, np.broadcast_to(part.b[:, None], (flat.size, n, 1)).astype(complex))
     return (-(z[:, :, 0] @ part.c_x)).reshape(omega.shape)
 
@@ -169,15 +242,16 @@ def closed_loop_matrix(part, stiffness, damping=0.0):
 
 
 def with_pade(part, order):
-    """The loop with the dead time of its measured signal replaced by a Pade approximant.
+    """The loop with the dead time of its measured signals replaced by Pade approximants.
 
     The approximant of ``order`` (``control.pade``) is realised in the normalised
     time ``t / delay`` and balanced (:func:`scipy.linalg.matrix_balance`), so that
     its entries stay moderate: the companion form in ``t`` has entries up to
     ``delay^-order``.  It is all-pass; at ``w delay = 0.5`` its phase error is 8e-11
     rad for order 4 and below round-off for order 6; above order 8 the
-    realisation loses digits.  This is the one realisation of the dead time that the
-    verdict's poles, the orbits' monodromy and their Floquet multipliers share.
+    realisation loses digits.  Each delayed signal gets one approximant.  This is
+    the one realisation of the dead time that the verdict's poles, the orbits'
+    monodromy and their Floquet multipliers share.
 
     Parameters
     ----------
@@ -188,8 +262,10 @@ def with_pade(part, order):
     Returns
     -------
     LinearPart
-        Without dead time; its states are the loop's, then ``pade_1 .. pade_order``.
-        ``part`` itself when it has no dead time.
+        Without dead time; its states are the loop's, then ``pade_1 .. pade_order``
+        (one delayed signal) or ``pade1_1 .. pade2_order`` (two: the speed's, then the
+        position's); its command, if any, over the new states.  ``part`` itself when
+        it has no dead time.
     """
     if isinstance(order, bool) or int(order) != order or order < 1:
         raise ValueError(f"pade_order must be an integer >= 1, got {order!r}")
@@ -202,19 +278,39 @@ def with_pade(part, order):
     ap, bp, cp, dp = (np.asarray(m, dtype=float) for m in (pade.A, pade.B, pade.C, pade.D))
     ap, (scale, _) = linalg.matrix_balance(ap, permute=False, separate=True)
     ap, bp, cp = ap / part.delay, bp / scale[:, None] / part.delay, cp * scale
-    n, p = part.A.shape[0], ap.shape[0]
-    a_mat = np.zeros((n + p, n + p))
-    a_mat[:n, :n] = part.A + dp[0, 0] * np.outer(part.e_d, part.d)
-    a_mat[:n, n:] = np.outer(part.e_d, cp[0])
-    a_mat[n:, :n] = np.outer(bp[:, 0], part.d)
-    a_mat[n:, n:] = ap
+    n, p, k = part.A.shape[0], ap.shape[0], part.n_delayed
+    size = n + k * p
+    a_mat = np.zeros((size, size))
+    a_mat[:n, :n] = part.A + dp[0, 0] * (part.e_d @ part.d)
+    # u_d_j = cp x_j + dp d_j z: rows of the delayed signals over the new states
+    delayed = np.zeros((k, size))
+    for j in range(k):
+        block = slice(n + j * p, n + (j + 1) * p)
+        delayed[j, :n] = dp[0, 0] * part.d[j]
+        delayed[j, block] = cp[0]
+        a_mat[:n, block] = np.outer(part.e_d[:, j], cp[0])
+        a_mat[block, :n] = np.outer(bp[:, 0], part.d[j])
+        a_mat[block, block] = ap
 
     def pad(row):
-        return np.concatenate([row, np.zeros(p)])
+        return np.concatenate([row, np.zeros(size - n)])
 
-    return LinearPart(A=a_mat, b=pad(part.b), E=np.vstack([part.E, np.zeros((p, part.E.shape[1]))]),
+    m = part.E.shape[1]
+    command = None
+    if part.command is not None:
+        def over_new(row):  # [z, w, u_d] -> [z', w]
+            new = pad(row[:n]) + row[n + m:] @ delayed
+            return np.concatenate([new, row[n:n + m]])
+
+        command = dataclasses.replace(part.command, column=pad(part.command.column), row=over_new(part.command.row),
+                                      error=over_new(part.command.error))
+    names = [f"pade_{i + 1}" for i in range(p)] if k == 1 else \
+        [f"pade{j + 1}_{i + 1}" for j in range(k) for i in range(p)]
+    return LinearPart(A=a_mat, b=pad(part.b), E=np.vstack([part.E, np.zeros((size - n, m))]),
                       c_x=pad(part.c_x), c_v=pad(part.c_v), input_names=part.input_names,
-                      state_names=part.state_names + tuple(f"pade_{i + 1}" for i in range(p)))
+                      state_names=part.state_names + tuple(names), friction=part.friction,
+                      friction_speed=part.friction_speed, f=pad(part.f), e_f=pad(part.e_f),
+                      breakaway=part.breakaway, breakaway_speed=part.breakaway_speed, command=command)
 
 
 def mode_matrices(system, model, law, varying=(), constant=None):
@@ -249,7 +345,7 @@ def mode_matrices(system, model, law, varying=(), constant=None):
     n = system.A.shape[0]
     varying = list(varying)
     constant = np.zeros(system.E.shape[1] - len(varying)) if constant is None else np.asarray(constant, dtype=float)
-    columns = [system.E[:, j] for j in varying] + ([system.e_d] if system.delay > 0.0 else [])
+    columns = [system.E[:, j] for j in varying] + list(system.e_d.T)
     size = n + 2 + 3 * len(columns)
     k, c, alpha = model.stiffness, model.damping, model.half_gap
     fixed = np.delete(system.E, varying, axis=1) @ constant
@@ -269,6 +365,125 @@ def mode_matrices(system, model, law, varying=(), constant=None):
             m_aug[:n, base] = column
             m_aug[base, base + 1] = m_aug[base + 1, base + 2] = 1.0
     return out
+
+
+#: Command modes of a loop with a torque limit, in the order of :func:`command_matrices`' second axis:
+#: 0 linear; +-1 saturated at +-limit with the integrator integrating (``e`` not of the sign of ``u``);
+#: +-2 saturated, the integrator clamped; +-3 sliding on the limit (``u = +-limit`` held).
+COMMAND_MODES = (0, 1, -1, 2, -2, 3, -3)
+
+
+@_jit
+def command_index(mode):
+    """Position of a command mode in :data:`COMMAND_MODES`."""
+    return 0 if mode == 0 else 2 * abs(mode) - 1 + (1 if mode < 0 else 0)
+
+
+def augmented_row(system, row, varying=(), constant=None):
+    """A row over ``[z, w, u_d]`` as a row over the augmented state of :func:`mode_matrices`.
+
+    Constant inputs (values ``constant``) fold into the state ``1``; a varying
+    input and a delayed signal are read from the value state of their chain.
+    """
+    n, m = system.A.shape[0], system.E.shape[1]
+    varying = list(varying)
+    others = [j for j in range(m) if j not in varying]
+    constant = np.zeros(len(others)) if constant is None else np.asarray(constant, dtype=float)
+    size = n + 2 + 3 * (len(varying) + system.n_delayed)
+    out = np.zeros(size)
+    out[:n] = row[:n]
+    out[n + 1] = row[n + np.array(others, dtype=int)] @ constant if others else 0.0
+    for i, j in enumerate(varying):
+        out[n + 2 + 3 * i] = row[n + j]
+    for j in range(system.n_delayed):
+        out[n + 2 + 3 * (len(varying) + j)] = row[n + m + j]
+    return out
+
+
+def command_matrices(system, matrices, varying=(), constant=None):
+    """The per-mode matrices of a loop with a torque limit, and the rows its command modes switch on.
+
+    From the backlash modes' matrices of :func:`mode_matrices` (the command
+    unsaturated), the command modes of :data:`COMMAND_MODES`: saturated, ``u``'s
+    term replaced by ``+-limit``; clamped, the integrator's row zero; sliding, the
+    integrator's row holding ``du/dt = 0``.
+
+    Parameters
+    ----------
+    system : LinearPart
+        With a :class:`Command`.
+    matrices : ndarray, shape (3, N, N)
+        :func:`mode_matrices` of the same ``varying`` and ``constant``.
+
+    Returns
+    -------
+    per_mode : ndarray, shape (3, 7, N, N)
+        Backlash mode (left contact, free, right contact) by command mode.
+    u_row, e_row : ndarray, shape (N,)
+        The command ``u`` and the speed error ``e`` over the augmented state.
+    rates : ndarray, shape (3, 2, 2, N)
+        Per backlash mode and side (``+limit``, ``-limit``): the rows of ``du/dt``
+        with the integrator clamped and with it integrating, saturated.
+    """
+    command = system.command
+    n = system.A.shape[0]
+    u_row = augmented_row(system, command.row, varying, constant)
+    e_row = augmented_row(system, command.error, varying, constant)
+    size = matrices.shape[1]
+    column = np.zeros(size)
+    column[:n] = command.column
+    per_mode = np.zeros((3, len(COMMAND_MODES), size, size))
+    rates = np.zeros((3, 2, 2, size))
+    integrator = command.integrator
+    for b, base in enumerate(matrices):
+        per_mode[b, 0] = base
+        for side in (1, -1):
+            saturated = base - np.outer(column, u_row)
+            saturated[:, n + 1] += column * side * command.limit
+            per_mode[b, command_index(side)] = saturated
+            if integrator < 0:
+                continue
+            clamped = saturated.copy()
+            clamped[integrator] = 0.0
+            sliding = clamped.copy()
+            sliding[integrator] = -(u_row @ clamped) / u_row[integrator]
+            per_mode[b, command_index(2 * side)] = clamped
+            per_mode[b, command_index(3 * side)] = sliding
+            rates[b, 0 if side > 0 else 1] = (u_row @ clamped, u_row @ saturated)
+    return per_mode, u_row, e_row, rates
+
+
+@_jit
+def command_mode_of(mode, u, e, rate_clamped, rate_integrating, limit, clamps):
+    """The command mode of a state reached in ``mode`` (module :data:`COMMAND_MODES`).
+
+    ``u`` and ``e`` are the command and the error there, ``rate_clamped`` and
+    ``rate_integrating`` ``du/dt`` saturated with the integrator clamped and
+    integrating, on the side of ``mode`` (on the side ``u`` crossed from the linear
+    mode); ``clamps``: the loop has a clamped integrator.
+    """
+    if mode == 0:
+        side = 1 if u > limit else (-1 if u < -limit else 0)
+        if side == 0:
+            return 0
+        if not clamps or side * e <= 0.0:
+            return side
+        return 2 * side if side * rate_clamped >= 0.0 else 3 * side
+    side = 1 if mode > 0 else -1
+    kind = abs(mode)
+    if kind == 1:
+        if side * u < limit:
+            return 0
+        return 2 * side if clamps and side * e > 0.0 else mode
+    if kind == 2:
+        if side * e <= 0.0:
+            return side
+        if side * u < limit:
+            return 3 * side if side * rate_integrating > 0.0 else 0
+        return mode
+    if side * rate_clamped > 0.0:
+        return 2 * side
+    return 0 if side * rate_integrating < 0.0 else mode
 
 
 @_jit

@@ -92,10 +92,11 @@ REPORTS = ["LimitCyclePrediction", "LoopAnalysis", "Branch", "DesignMap", "Diagn
 
 
 def _public_result_classes():
-    """Every class in a public module's ``__all__`` that has a ``to_dict`` method."""
+    """Every class in a public module's ``__all__`` that has a ``to_dict`` method (the rig file's are inputs)."""
     names = set()
     for info in pkgutil.walk_packages(bd.__path__, "backlash_df."):
-        if any(part.startswith("_") for part in info.name.split(".")) or info.name.startswith("backlash_df.cli"):
+        if any(part.startswith("_") for part in info.name.split(".")) or info.name.startswith(
+                ("backlash_df.cli", "backlash_df.config")):
             continue
         module = importlib.import_module(info.name)
         for name in getattr(module, "__all__", ()):

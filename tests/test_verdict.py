@@ -55,7 +55,7 @@ def judged(name):
 def exact_characteristic(part, stiffness, damping, s):
     """det(s I - A - b (k c_x + c c_v) - e_d d e^{-s tau}) / prod |s - eig|: the delay kept exact."""
     closed = part.A + np.outer(part.b, stiffness * part.c_x + damping * part.c_v)
-    matrix = s * np.eye(len(part.b)) - closed - np.exp(-s * part.delay) * np.outer(part.e_d, part.d)
+    matrix = s * np.eye(len(part.b)) - closed - np.exp(-s * part.delay) * (part.e_d @ part.d)
     return np.linalg.det(matrix) / np.prod(np.abs(s) + np.abs(np.linalg.eigvals(closed)))
 
 

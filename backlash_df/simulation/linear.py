@@ -15,7 +15,7 @@ from .._json import json_ready
 from ..models import (DAMPED_DEAD_ZONE, DEAD_ZONE, EXACT, PHASE_PLANE, REVISED_DEAD_ZONE, RUBBER, BacklashModel,
                       make_model)
 from ..plotting import ResultPlot, axes_or_new
-from ..system import closed_loop_matrix, exp_ladder, mode_matrices, two_mass_system
+from ..system import closed_loop_matrix, command_matrices, exp_ladder, mode_matrices, two_mass_system
 from ._kernels import LEVELS, run_exact, run_rk4
 
 __all__ = ["SimulationResult", "simulate_linear", "simulate_two_mass", "default_step", "MAX_STEPS"]
@@ -41,10 +41,16 @@ class SimulationResult:
         Contact mode at each sample (0 free, +-1 rubber band or exact contact,
         +-2 steel contact).
     events : int
-        Number of located mode changes.
+        Number of located mode changes (of the backlash and of the command).
     model : BacklashModel
         The torque law simulated.
     state_names : tuple of str
+    command : ndarray or None
+        With a torque limit: the torque command ``clip(u, -limit, limit)`` at each sample (N m).
+    command_mode : ndarray or None
+        With a torque limit: the command's mode at each sample
+        (:data:`~backlash_df.system.COMMAND_MODES`: 0 linear, +-1 saturated,
+        +-2 the integrator clamped, +-3 sliding on the limit).
     """
 
     time: np.ndarray
@@ -57,6 +63,13 @@ class SimulationResult:
     events: int
     model: BacklashModel
     state_names: tuple
+    command: np.ndarray | None = dataclasses.field(default=None, repr=False)
+    command_mode: np.ndarray | None = dataclasses.field(default=None, repr=False)
+
+    @property
+    def saturated(self):
+        """Share of the samples with the torque command on its limit (0 without a limit)."""
+        return 0.0 if self.command_mode is None else float(np.mean(self.command_mode != 0))
 
     def state(self, name):
         """One state's trajectory by name (for example ``"motor_speed"``)."""
@@ -66,8 +79,9 @@ class SimulationResult:
             raise ValueError(f"no state {name!r}; states are: {', '.join(self.state_names)}") from None
 
     def __repr__(self):
+        limit = "" if self.command_mode is None else f", command saturated {100 * self.saturated:.0f} % of the time"
         return (f"<SimulationResult {self.model.name}: {self.time.size} samples, t = {self.time[0]:g} .. "
-                f"{self.time[-1]:g} s, {self.events} mode changes, states {', '.join(self.state_names)}>")
+                f"{self.time[-1]:g} s, {self.events} mode changes, states {', '.join(self.state_names)}{limit}>")
 
     def to_dict(self):
         """JSON-ready: the sampled trajectory (s, rad, rad/s, N m), mode codes and event count.
@@ -85,6 +99,8 @@ class SimulationResult:
             "torque": self.torque.tolist(),
             "theta_b": None if self.model.is_static else self.theta_b.tolist(),
             "mode": self.mode.tolist(),
+            "command": None if self.command is None else self.command.tolist(),
+            "command_mode": None if self.command_mode is None else self.command_mode.tolist(),
         })
 
     def plot(self, ax=None):
@@ -120,21 +136,51 @@ def _piecewise_affine(system, model):
 
 
 
-def _simulate_exactly(system, model, w, z0, theta_b0, dt, n_steps, states, torque, theta_b, modes):
+def _simulate_exactly(system, model, w, z0, theta_b0, dt, n_steps, outputs):
     """Fill the outputs with the exact-discretisation kernel; returns the number of events."""
+    states, torque, theta_b, modes, cmodes = outputs
     law = DEAD_ZONE if model.law == EXACT and model.damping == 0.0 else model.law
     varying = [j for j in range(w.shape[1]) if np.ptp(w[:, j]) > 0.0]
     constant = np.delete(w[0], varying)
     matrices = mode_matrices(system, model, law, varying, constant)
+    size = matrices.shape[1]
+    rows, limit, clamps = (np.zeros(size), np.zeros(size), np.zeros((3, 2, 2, size))), 0.0, False
+    if system.command is not None:
+        per_mode, u_row, e_row, rates = command_matrices(system, matrices, varying, constant)
+        matrices = per_mode.reshape(-1, size, size)
+        rows, limit, clamps = (u_row, e_row, rates), system.command.limit, system.command.integrator >= 0
     ladders = np.stack([exp_ladder(m_aug, dt, LEVELS) for m_aug in matrices])
     events = run_exact(
-        ladders, law, model.params, np.ascontiguousarray(w[:, varying]), z0, theta_b0, float(system.delay),
-        system.d, system.c_x, system.c_v, dt, n_steps, states, torque, theta_b, modes,
+        ladders, rows, float(limit), clamps, law, model.params, np.ascontiguousarray(w[:, varying]), z0, theta_b0,
+        float(system.delay), system.d, system.c_x, system.c_v, dt, n_steps, states, torque, theta_b, modes, cmodes,
     )
     if law != model.law:  # the exact model without damping is the dead-zone (Remark 2)
         modes //= 2
         theta_b[:] = np.clip(states @ system.c_x, -model.half_gap, model.half_gap)
     return events
+
+
+def _command_arrays(system):
+    """The command as the RK4 kernel takes it: ``(column, row, error, limit, integrator)``, limit 0 for none."""
+    command = system.command
+    if command is None:
+        width = system.n_states + system.E.shape[1] + system.n_delayed
+        return np.zeros(system.n_states), np.zeros(width), np.zeros(width), 0.0, -1
+    return command.column, command.row, command.error, float(command.limit), int(command.integrator)
+
+
+def _command_trace(system, time, states, w_grid):
+    """``clip(u, -limit, limit)`` at every sample (N m), the delayed signals interpolated from the record."""
+    command = system.command
+    n, m = system.n_states, system.E.shape[1]
+    with np.errstate(over="ignore", invalid="ignore"):
+        u = states @ command.row[:n] + w_grid @ command.row[n:n + m]
+        if system.n_delayed:
+            signals = states @ system.d.T
+            delayed = np.column_stack([np.interp(time - system.delay, time, signals[:, j])
+                                       for j in range(system.n_delayed)])
+            u = u + delayed @ command.row[n + m:]
+    return np.clip(u, -command.limit, command.limit)
 
 
 #: Most steps of one simulation: every sample is stored (about 80 bytes a step), and the
@@ -207,17 +253,21 @@ def simulate_linear(system, model, t_end, dt, inputs=None, z0=None, theta_b0=0.0
     torque = np.empty(n_steps + 1)
     theta_b = np.empty(n_steps + 1)
     modes = np.empty(n_steps + 1, dtype=np.int64)
+    cmodes = np.zeros(n_steps + 1, dtype=np.int64)
     w = np.ascontiguousarray(w)
     if _piecewise_affine(system, model):
         events = _simulate_exactly(system, model, w, z0, float(theta_b0), float(dt), n_steps,
-                                   states, torque, theta_b, modes)
+                                   (states, torque, theta_b, modes, cmodes))
     else:
-        events = run_rk4(system.kernel_arrays(), model.law, model.params, w, z0,
-                      float(theta_b0), float(dt), n_steps, states, torque, theta_b, modes)
+        events = run_rk4(system.kernel_arrays(), _command_arrays(system), model.law, model.params, w, z0,
+                         float(theta_b0), float(dt), n_steps, states, torque, theta_b, modes, cmodes)
     if model.is_static:
         theta_b[:] = np.nan
     with np.errstate(over="ignore", invalid="ignore"):  # a diverged run is named by measure_limit_cycle
         theta_d, dtheta_d = states @ system.c_x, states @ system.c_v
+    command = None
+    if system.command is not None:
+        command = _command_trace(system, time, states, w[::2] if w.shape[0] == 2 * n_steps + 1 else w)
     return SimulationResult(
         time=time,
         states=states,
@@ -229,6 +279,8 @@ def simulate_linear(system, model, t_end, dt, inputs=None, z0=None, theta_b0=0.0
         events=int(events),
         model=model,
         state_names=system.state_names,
+        command=command,
+        command_mode=None if system.command is None else cmodes,
     )
 
 
