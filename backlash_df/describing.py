@@ -72,6 +72,7 @@ from .plotting import ResultPlot, axes_or_new
 __all__ = [
     "describing_function",
     "dual_input_describing_function",
+    "saturation_describing_function",
     "dc_bias",
     "BiasedDescribing",
     "describing_function_grid",
@@ -781,6 +782,36 @@ def dual_input_describing_function(model, amplitude, omega, bias=0.0, method="au
     (100.0, 20.0)
     """
     return _evaluate(model, amplitude, omega, bias, method)
+
+
+def saturation_describing_function(amplitude, limit):
+    """Describing function of the saturation ``clip(u, -limit, limit)`` of ``u = U sin(w t)``: a real gain.
+
+    ``N_s = 1`` for ``U <= limit``, else ``(2 / pi) (asin r + r sqrt(1 - r^2))``
+    with ``r = limit / U`` (Gelb and Vander Velde, 1968): the torque limit's
+    describing function in a loop that also holds the backlash.
+
+    Parameters
+    ----------
+    amplitude : array_like
+        U, the first-harmonic amplitude of the command, N m (>= 0).
+    limit : float
+        N m, > 0.
+
+    Returns
+    -------
+    ndarray
+        N_s in (0, 1], the shape of ``amplitude``.
+
+    Examples
+    --------
+    >>> round(float(saturation_describing_function(2.0, 1.0)), 6)
+    0.608998
+    """
+    amplitude = np.asarray(amplitude, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.clip(limit / amplitude, 0.0, 1.0)
+        return np.where(amplitude <= limit, 1.0, 2.0 / np.pi * (np.arcsin(r) + r * np.sqrt(1.0 - r * r)))
 
 
 _BIAS_TOL = 1e-11  # relative to the bracket width (alpha + A + |T_l| / k) and to k times it

@@ -36,17 +36,19 @@ import warnings
 import numpy as np
 
 from ._json import json_ready
-from .describing import BiasedDescribing, describing_function
+from .describing import BiasedDescribing, describing_function, saturation_describing_function
 from .loops import DriveLoop, drive_loop, frequency_response_of
 from .models import BacklashModel
 from .plotting import ResultPlot, axes_or_new
 from .report import figure_html, html_page, signed_percent, table_html
 from .simulation import simulated_limit_cycle
+from .system import command_channels
 
 __all__ = [
     "LimitCycle",
     "NearMiss",
     "LimitCyclePrediction",
+    "CommandSlaving",
     "solve_harmonic_balance",
     "default_ranges",
     "predict_limit_cycles",
@@ -83,6 +85,11 @@ class LimitCycle:
     bias : float
         Mean of theta_d, rad: 0 without load, set by the DC balance under a load
         torque (:func:`~backlash_df.describing.dc_bias`).
+    command_amplitude : float
+        With a torque limit: U, the first-harmonic amplitude of the controller's
+        command u (N m) on the cycle; NaN without a limit.
+    saturated : bool
+        True where ``U`` exceeds the torque limit: the cycle's command saturates.
     """
 
     amplitude: float
@@ -92,6 +99,8 @@ class LimitCycle:
     residual: float
     simulated: object = None
     bias: float = 0.0
+    command_amplitude: float = math.nan
+    saturated: bool = False
 
     @property
     def amplitude_error(self):
@@ -115,11 +124,15 @@ class LimitCycle:
             "bias": float(self.bias),
             "stable": bool(self.stable),
             "simulated": None if self.simulated is None else self.simulated.cycle_dict(),
+            "command_amplitude": None if math.isnan(self.command_amplitude) else float(self.command_amplitude),
+            "saturated": bool(self.saturated),
         }
 
     def __repr__(self):
         kind = "stable" if self.stable else "unstable"
         text = f"LimitCycle(A={self.amplitude:.6g} rad, omega={self.omega:.6g} rad/s, {kind}"
+        if not math.isnan(self.command_amplitude):
+            text += f", command U={self.command_amplitude:.4g} N m{' saturated' if self.saturated else ''}"
         if self.simulated is not None:
             text += f", simulated={self.simulated!r}"
         return text + ")"
@@ -177,6 +190,10 @@ class LimitCyclePrediction:
         ``N(A, w)`` used, for plots.
     half_gap : float
         alpha, rad.
+    note : str
+        Why the describing function could not be applied to this loop (then
+        ``cycles`` and ``near_misses`` are empty and the verdict rests on the
+        simulations); ``""`` otherwise.
     """
 
     model: str
@@ -189,6 +206,7 @@ class LimitCyclePrediction:
     linear: object = dataclasses.field(repr=False, default=None)
     describing: object = dataclasses.field(repr=False, default=None)
     half_gap: float = dataclasses.field(repr=False, default=0.0)
+    note: str = ""
 
     @property
     def stable_cycles(self):
@@ -197,7 +215,7 @@ class LimitCyclePrediction:
 
     def __repr__(self):
         cycles = ", ".join(f"{'stable' if c.stable else 'unstable'} A={c.amplitude:.4g} rad w={c.omega:.4g} rad/s"
-                           for c in self.cycles) or "no cycle"
+                           for c in self.cycles) or (f"no DF: {self.note}" if self.note else "no cycle")
         miss = f"; closest miss {100 * self.near_misses[0].distance:.2f} %" if self.near_misses else ""
         sim = "" if self.simulation is None else f"; simulated: {self.simulation.verdict}"
         return f"<LimitCyclePrediction {self.model}: {cycles}{miss}{sim}>"
@@ -221,6 +239,7 @@ class LimitCyclePrediction:
             "simulated": None if self.simulation is None else self.simulation.cycle_dict(),
             "amplitude_range": list(self.amplitude_range),
             "omega_range": list(self.omega_range),
+            "note": self.note or None,
         })
 
     def plot(self, ax=None, **kwargs):
@@ -236,17 +255,23 @@ class LimitCyclePrediction:
 
 
 class _Problem:
-    """F(A, w) = 1 + G(jw) N(A, w) in the variables p = log(A - alpha), q = log w."""
+    """F(A, w) = 1 + G(jw) N(A, w) in the variables p = log(A - alpha), q = log w.
 
-    def __init__(self, g_of_w, n_of, half_gap):
+    ``g_of_w(omega)``, or ``g_of_w(omega, amplitude)`` where the linear part depends
+    on the amplitude through a second nonlinearity (``amplitude_dependent``).
+    """
+
+    def __init__(self, g_of_w, n_of, half_gap, amplitude_dependent=False):
         self.g_of_w, self.n_of, self.half_gap = g_of_w, n_of, half_gap
+        self.amplitude_dependent = amplitude_dependent
 
     def to_aw(self, p, q):
         return self.half_gap + np.exp(p), np.exp(q)
 
     def residual(self, p, q):
         amplitude, omega = self.to_aw(np.asarray(p, dtype=float), np.asarray(q, dtype=float))
-        return 1.0 + self.g_of_w(omega) * self.n_of(amplitude, omega)
+        g = self.g_of_w(omega, amplitude) if self.amplitude_dependent else self.g_of_w(omega)
+        return 1.0 + g * self.n_of(amplitude, omega)
 
     def jacobian(self, p, q):
         """d(Re F, Im F)/d(p, q) by central differences."""
@@ -325,13 +350,15 @@ def _local_minima(magnitude):
 
 
 def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range, grid=(60, 80),
-                           near_miss_cutoff=0.5):
+                           near_miss_cutoff=0.5, amplitude_dependent=False):
     """All roots of ``1 + G(jw) N(A, w) = 0`` in a box, their stability and the near misses.
 
     Parameters
     ----------
     g_of_w : callable
-        ``omega -> G(j omega)`` (complex, vectorised).
+        ``omega -> G(j omega)`` (complex, vectorised); with ``amplitude_dependent``,
+        ``(omega, A) -> G``: a linear part holding a second nonlinearity by its
+        describing function slaved to A (the torque limit, :class:`CommandSlaving`).
     n_of : callable
         ``(A, omega) -> N`` (complex, broadcasting), zero for ``A <= half_gap``.
     half_gap : float
@@ -342,6 +369,8 @@ def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range,
         Scan points in A and w (log-spaced in ``A - alpha`` and ``w``).
     near_miss_cutoff : float
         Largest ``|1 + G N|`` reported as a near miss.
+    amplitude_dependent : bool
+        ``g_of_w`` takes the amplitude too.
 
     Returns
     -------
@@ -369,7 +398,7 @@ def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range,
             f"search box must have half_gap = {half_gap!r} < A_min < A_max and 0 < w_min < w_max; "
             f"got A in {amplitude_range!r}, w in {omega_range!r}"
         )
-    problem = _Problem(g_of_w, n_of, half_gap)
+    problem = _Problem(g_of_w, n_of, half_gap, amplitude_dependent)
     box = ((math.log(lo_a - half_gap), math.log(hi_a - half_gap)), (math.log(lo_w), math.log(hi_w)))
     ps = np.linspace(*box[0], grid[0])
     qs = np.linspace(*box[1], grid[1])
@@ -458,6 +487,15 @@ def predict_limit_cycles(rig, model=None, linear=None, amplitude_range=None, ome
     Returns
     -------
     LimitCyclePrediction
+
+    Notes
+    -----
+    With a torque limit the loop holds two nonlinearities; both are replaced by
+    their describing functions (Gelb and Vander Velde's multiple-nonlinearity
+    method): the saturation's real gain ``N_s(U)`` of the command's first harmonic
+    ``U`` is slaved to the amplitude (:class:`CommandSlaving`), and each cycle
+    reports ``U`` and whether it exceeds the limit.  Under a load torque the
+    saturation's DC balance is not solved: the prediction says so in ``note``.
     """
     if not isinstance(model, BacklashModel):
         model = rig.make_model(model)
@@ -472,16 +510,88 @@ def predict_limit_cycles(rig, model=None, linear=None, amplitude_range=None, ome
         half_gap = model.half_gap
     amplitude_range = default_a if amplitude_range is None else tuple(amplitude_range)
     omega_range = default_w if omega_range is None else tuple(omega_range)
+    part = linear.linear_part() if isinstance(linear, DriveLoop) else None
+    limited = part is not None and part.command is not None
+    if limited and balanced:
+        return LimitCyclePrediction(
+            model=model.name, cycles=(), near_misses=(), amplitude_range=amplitude_range, omega_range=omega_range,
+            linear=linear, describing=n_of, half_gap=half_gap,
+            note="the describing function of a torque-limited loop under a load torque (the saturation's DC balance) "
+                 "is not implemented; the simulations decide",
+        )
+    g_of_w = CommandSlaving(part) if limited else functools.partial(frequency_response_of, linear)
     cycles, near = solve_harmonic_balance(
-        lambda omega: frequency_response_of(linear, omega), n_of, half_gap,
-        amplitude_range, omega_range, grid=grid, near_miss_cutoff=near_miss_cutoff,
+        g_of_w, n_of, half_gap, amplitude_range, omega_range, grid=grid, near_miss_cutoff=near_miss_cutoff,
+        amplitude_dependent=limited,
     )
     if balanced:
         cycles = [dataclasses.replace(c, bias=float(n_of.bias(c.amplitude, c.omega))) for c in cycles]
+    if limited:
+        cycles = [dataclasses.replace(c, command_amplitude=u, saturated=bool(u > part.command.limit))
+                  for c, u in ((c, float(g_of_w.command_amplitude(c.amplitude, c.omega))) for c in cycles)]
     return LimitCyclePrediction(
         model=model.name, cycles=tuple(cycles), near_misses=tuple(near), amplitude_range=amplitude_range,
-        omega_range=omega_range, linear=linear, describing=n_of, half_gap=half_gap,
+        omega_range=omega_range, linear=g_of_w if limited else linear, describing=n_of, half_gap=half_gap,
     )
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class CommandSlaving:
+    """A torque-limited loop's linear part with the saturation by its describing function, slaved to A.
+
+    For ``theta_d = A sin(w t)`` the command's first harmonic is
+    ``U = A |u / theta_d|`` of the loop whose command gain is the saturation's
+    describing function ``N_s(U)`` (:func:`~backlash_df.describing.saturation_describing_function`);
+    :meth:`gain` solves that fixed point (bisection on ``N_s`` in (0, 1]: ``N_s -
+    N_sat(U(N_s))`` is negative as ``N_s -> 0`` and >= 0 at 1), and calling the
+    object gives ``G(jw)`` of the loop with that gain, from the loop's responses with
+    the command cut (:func:`~backlash_df.system.command_channels`: linear-fractional in
+    the gain).
+
+    Attributes
+    ----------
+    part : LinearPart
+        The loop, with its :class:`~backlash_df.system.Command`.
+    """
+
+    part: object
+
+    _BISECTIONS = 60
+
+    def _closed(self, omega, gain):
+        """(G, u / theta_d) of the loop with the command through ``gain``."""
+        a, b, c, d = command_channels(self.part, omega)
+        theta = a * (1.0 - d * gain) + b * c * gain
+        return -theta / (1.0 - d * gain), c / theta
+
+    def gain(self, amplitude, omega):
+        """N_s at (A, w), broadcast: 1 where the command stays inside the limit."""
+        a, w = np.broadcast_arrays(np.asarray(amplitude, dtype=float), np.asarray(omega, dtype=float))
+        channels = command_channels(self.part, w)
+        limit = self.part.command.limit
+
+        def command(gain):
+            theta = channels[0] * (1.0 - channels[3] * gain) + channels[1] * channels[2] * gain
+            return a * np.abs(channels[2] / theta)
+
+        inside = command(1.0) <= limit
+        if np.all(inside):
+            return np.ones(a.shape)
+        lo, hi = np.zeros(a.shape), np.ones(a.shape)
+        for _ in range(self._BISECTIONS):
+            mid = 0.5 * (lo + hi)
+            below = mid < saturation_describing_function(command(mid), limit)
+            lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+        return np.where(inside, 1.0, 0.5 * (lo + hi))
+
+    def command_amplitude(self, amplitude, omega):
+        """U, N m: the first-harmonic amplitude of the command u at (A, w)."""
+        return np.asarray(amplitude) * np.abs(self._closed(omega, self.gain(amplitude, omega))[1])
+
+    def __call__(self, omega, amplitude=None):
+        """G(jw) with the saturation's gain at A (the command unsaturated without ``amplitude``)."""
+        gain = 1.0 if amplitude is None else self.gain(amplitude, omega)
+        return self._closed(omega, gain)[0]
 
 
 # --------------------------------------------------------------------------- verification
@@ -670,33 +780,40 @@ def _zoom(ax, predictions, points):
 def prediction_rows(predictions):
     """One row per predicted cycle (or per model without one): predicted next to simulated.
 
+    With a torque limit, the command's first-harmonic amplitude U of each cycle
+    and whether it saturates.
+
     Returns
     -------
     header : list of str
     rows : list of list of str
     """
     header = ["model", "A pred (rad)", "w pred (rad/s)", "Loeb", "A sim (rad)", "w sim (rad/s)",
-              "A error", "w error", "closest miss"]
+              "A error", "w error", "closest miss", "command U (N m)"]
     rows = []
     for prediction in predictions:
         miss = f"{100 * prediction.near_misses[0].distance:.2f} %" if prediction.near_misses else ""
         for cycle in prediction.cycles:
             sim = cycle.simulated
             found = sim is not None and sim.found
+            command = "" if math.isnan(cycle.command_amplitude) else (
+                f"{cycle.command_amplitude:.4g}" + (" (saturated)" if cycle.saturated else ""))
             rows.append([
                 prediction.model, f"{cycle.amplitude:.5g}", f"{cycle.omega:.5g}",
                 "stable" if cycle.stable else "unstable",
                 f"{sim.amplitude:.5g}" if found else ("" if sim is None else sim.verdict),
                 f"{sim.omega:.5g}" if found else "",
-                signed_percent(cycle.amplitude_error), signed_percent(cycle.omega_error), miss,
+                signed_percent(cycle.amplitude_error), signed_percent(cycle.omega_error), miss, command,
             ])
         if not prediction.stable_cycles:
             sim = prediction.simulation
             found = sim is not None and sim.found
+            said = "no DF (see the verdict)" if prediction.note else ("none" if not prediction.cycles
+                                                                     else "(unstable only)")
             rows.append([
-                prediction.model, "none" if not prediction.cycles else "(unstable only)", "", "",
+                prediction.model, said, "", "",
                 f"{sim.amplitude:.5g}" if found else ("" if sim is None else sim.verdict),
-                f"{sim.omega:.5g}" if found else "", "", "", miss,
+                f"{sim.omega:.5g}" if found else "", "", "", miss, "",
             ])
     return header, rows
 

@@ -43,6 +43,7 @@ from .models import DEAD_ZONE, EXACT
 __all__ = [
     "LinearPart",
     "frequency_response",
+    "command_channels",
     "closed_loop_matrix",
     "with_pade",
     "mode_matrices",
@@ -219,6 +220,45 @@ def frequency_response(part, omega):
     mats = jw * np.eye(n) - part.A - np.exp(-jw * part.delay) * (part.e_d @ part.d)
     z = np.linalg.solve(mats, np.broadcast_to(part.b[:, None], (flat.size, n, 1)).astype(complex))
     return (-(z[:, :, 0] @ part.c_x)).reshape(omega.shape)
+
+
+def command_channels(part, omega):
+    """The loop's responses with its torque command cut: from ``T`` and from the applied command to theta_d and u.
+
+    With the command ``u`` cut from where it enters ``dz/dt`` (``column``) and an
+    applied command ``T_c`` entering there instead, the loop is linear in ``(T, T_c)``:
+    ``theta_d = a T + b T_c`` and ``u = c T + d T_c`` (phasors at ``jw``, the dead time
+    exact).  Closing the command through a real gain ``N`` (the saturation's
+    describing function, ``T_c = N u``) gives ``u / theta_d = c / (a (1 - d N) + b c N)``
+    and ``G = -(a (1 - d N) + b c N) / (1 - d N)``: a linear-fractional function of N,
+    evaluated for every N from these four numbers.
+
+    Parameters
+    ----------
+    part : LinearPart
+        With a :class:`Command`.
+    omega : array_like
+        Frequencies, rad/s (> 0), any shape.
+
+    Returns
+    -------
+    a, b, c, d : ndarray of complex
+        The shape of ``omega``; rad/(N m), rad/(N m), dimensionless and dimensionless.
+    """
+    command = part.command
+    n, m = part.n_states, part.E.shape[1]
+    omega = np.asarray(omega, dtype=float)
+    jw = 1j * omega.reshape(-1)[:, None, None]
+    row_z, row_d = command.row[:n], command.row[n + m:]
+    delayed = np.exp(-jw * part.delay)
+    mats = (jw * np.eye(n) - part.A + np.outer(command.column, row_z)
+            - delayed * ((part.e_d - np.outer(command.column, row_d)) @ part.d))
+    sources = np.broadcast_to(np.column_stack([part.b, command.column]), (jw.shape[0], n, 2)).astype(complex)
+    response = np.linalg.solve(mats, sources)  # (points, n, 2): from T and from T_c
+    theta = np.einsum("j,pjs->ps", part.c_x, response)
+    u = np.einsum("j,pjs->ps", row_z, response) + delayed[:, 0, :] * np.einsum(
+        "j,kj,pks->ps", row_d, part.d, response) if part.n_delayed else np.einsum("j,pjs->ps", row_z, response)
+    return tuple(values.reshape(omega.shape) for values in (theta[:, 0], theta[:, 1], u[:, 0], u[:, 1]))
 
 
 def closed_loop_matrix(part, stiffness, damping=0.0):

@@ -262,6 +262,9 @@ class LoopVerdict:
     orbit_note : str
         Why there are no exact orbits when they were asked for (unsupported law,
         shooting failed); ``""`` otherwise.
+    saturated : bool
+        The stable cycle the simulations reached has its torque command on the
+        limit: with a contact loop that is unstable, the limit is what caps the growth.
     prediction : LimitCyclePrediction or None
         The (verified) DF prediction the verdict weighed.
     """
@@ -279,6 +282,7 @@ class LoopVerdict:
     df_agrees: bool = None
     orbits: tuple = ()
     orbit_note: str = ""
+    saturated: bool = False
     prediction: object = dataclasses.field(default=None, repr=False, compare=False)
 
     def __repr__(self):
@@ -296,6 +300,7 @@ class LoopVerdict:
             "settles_up_to": self.settles_up_to,
             "simulated_cycle": None if self.cycle is None else self.cycle.cycle_dict(),
             "df_agrees": self.df_agrees,
+            "saturated": bool(self.saturated),
             "probes": [probe.to_dict() for probe in self.probes],
             "exact_orbits": [orbit.to_dict() for orbit in self.orbits],
         }
@@ -377,6 +382,8 @@ def _separating(prediction, orbits, rests, cycles):
 
 
 def _df_words(prediction):
+    if prediction.note:
+        return f"no DF prediction ({prediction.note})"
     stable = prediction.stable_cycles
     if stable:
         return "the DF predicts a stable cycle at " + ", ".join(
@@ -425,12 +432,16 @@ def _decide(prediction, contact, probes, orbits=()):
             {"settles_up_to": largest, "df_agrees": True}
     cycle = min((p.measured for p in cycles), key=lambda m: m.amplitude)
     agrees = _matching_df_cycle(prediction, cycle) is not None
-    fields = {"cycle": cycle, "df_agrees": agrees}
+    fields = {"cycle": cycle, "df_agrees": agrees, "saturated": cycle.saturated}
     confirmed = "; the exact orbit confirms it" if _exact_match(orbits, cycle) is not None else ""
     agrees = "DF agrees" if agrees else f"DF UNRELIABLE here: {_df_words(prediction)}"
     agrees += confirmed
     runaway = (f"; kicks from {min(p.disturbance for p in diverged):.3g} rad diverge (contact loop "
                f"{contact.describe()})" if diverged else "")
+    if cycle.saturated:
+        runaway += (f"; the torque command is on its limit {100 * cycle.saturation:.0f} % of the cycle"
+                    + (f" and caps the growth of the loop in contact, {contact.describe()}"
+                       if runaway_in_contact else ""))
     distinct = [p.measured for p in cycles if abs(p.measured.amplitude / cycle.amplitude - 1.0) > _SAME_CYCLE]
     others = f"; another cycle at A = {distinct[0].amplitude:.4g} rad" if distinct else ""
     what = f"a stable cycle A = {cycle.amplitude:.4g} rad, w = {cycle.omega:.4g} rad/s (simulated; {agrees})"
@@ -520,13 +531,15 @@ def verdict_rows(verdicts):
     header : list of str
     rows : list of list of str
     """
-    header = ["model", "verdict", "contact loop (k + c s)", "open loop (T = 0)", "hunts beyond (rad)"]
+    header = ["model", "verdict", "contact loop (k + c s)", "open loop (T = 0)", "hunts beyond (rad)",
+              "torque command"]
     rows = []
     for verdict in verdicts:
         start = "" if verdict.disturbance_to_start is None else (
             f"{verdict.disturbance_to_start:.4g} ({verdict.disturbance_source})")
+        limit = f"saturated {100 * verdict.cycle.saturation:.0f} % of the cycle" if verdict.saturated else ""
         rows.append([verdict.model, verdict.verdict, verdict.contact_loop.describe(),
-                     verdict.open_loop.describe(), start])
+                     verdict.open_loop.describe(), start, limit])
     return header, rows
 
 

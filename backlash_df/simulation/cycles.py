@@ -35,6 +35,9 @@ class MeasuredCycle:
         or ``"diverged"`` (overflow, NaN, or theta_d beyond the bound of :func:`measure_limit_cycle`).
     periods : int
         Number of periods averaged.
+    saturation : float
+        With a torque limit: the share of the measured periods with the torque
+        command on its limit (0 .. 1); NaN without a limit or without a cycle.
     """
 
     found: bool
@@ -45,6 +48,7 @@ class MeasuredCycle:
     settled: bool
     verdict: str
     periods: int = 0
+    saturation: float = math.nan
 
     def __repr__(self):
         if not self.found:
@@ -58,20 +62,32 @@ class MeasuredCycle:
         """What a report prints: ``limit cycle: A = 0.151 rad, w = 95.9 rad/s (...)`` or the verdict."""
         if not self.found:
             return self.verdict
+        limit = "" if math.isnan(self.saturation) else f", command on its limit {100 * self.saturation:.0f} % of the time"
         return (f"limit cycle: A = {self.amplitude:.4g} rad, w = {self.omega:.4g} rad/s "
-                f"(peak {self.peak:.4g} rad, bias {self.bias:.3g} rad, {self.periods} periods averaged)")
+                f"(peak {self.peak:.4g} rad, bias {self.bias:.3g} rad, {self.periods} periods averaged{limit})")
 
     def to_dict(self):
         """JSON-ready: verdict, settled, and the cycle (rad, rad/s; null where none was found)."""
         return json_ready({"verdict": self.verdict, "found": self.found, "settled": self.settled,
                            "amplitude": self.amplitude, "peak": self.peak, "omega": self.omega,
-                           "bias": self.bias, "periods": self.periods})
+                           "bias": self.bias, "periods": self.periods, "saturation": self.saturation})
+
+    @property
+    def saturated(self):
+        """True for a cycle whose torque command reaches its limit."""
+        return self.found and self.saturation > 0.0
 
     def cycle_dict(self):
-        """``{"amplitude", "omega"}`` (rad, rad/s) as in the ``predict`` JSON's ``simulated``, or ``None``."""
+        """``{"amplitude", "omega"}`` (rad, rad/s) as in the ``predict`` JSON's ``simulated``, or ``None``.
+
+        With a torque limit also ``saturation``, the share of the cycle with the command on its limit.
+        """
         if not self.found:
             return None
-        return {"amplitude": float(self.amplitude), "omega": float(self.omega)}
+        out = {"amplitude": float(self.amplitude), "omega": float(self.omega)}
+        if not math.isnan(self.saturation):
+            out["saturation"] = float(self.saturation)
+        return out
 
 
 def upward_crossings(time, signal):
@@ -155,5 +171,9 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None):
     if not settled:
         verdict = "decaying" if peaks[-1] < peaks[0] else "growing" if peaks[-1] > peaks[0] else "irregular"
         return MeasuredCycle(False, math.nan, math.nan, math.nan, math.nan, False, verdict)
-    return MeasuredCycle(True, float(abs(c1)), float(peaks.mean()), float(omega), float(bias), True, "limit cycle", periods)
+    saturation = math.nan
+    if result.command_mode is not None:
+        saturation = float(np.mean(result.command_mode[(time >= edges[0]) & (time <= edges[-1])] != 0))
+    return MeasuredCycle(True, float(abs(c1)), float(peaks.mean()), float(omega), float(bias), True, "limit cycle",
+                         periods, saturation)
 
