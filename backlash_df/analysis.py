@@ -100,7 +100,8 @@ class LoopAnalysis:
                          VERDICT_NOTE + table_html(header, rows, text_columns=(0, 1, 2, 3, 4))))
         header, rows = orbit_rows(self.verdicts)
         if rows:
-            sections.append(("Exact periodic orbits", ORBIT_NOTE + table_html(header, rows, text_columns=(0, 5))))
+            sections.append(("Exact periodic orbits",
+                             ORBIT_NOTE + table_html(header, rows, text_columns=("model", "Floquet"))))
         return html_page(title or f"Limit cycles: {self.source}", sections)
 
 

@@ -40,7 +40,7 @@ from .describing import BiasedDescribing, describing_function, saturation_descri
 from .loops import DriveLoop, drive_loop, frequency_response_of
 from .models import BacklashModel
 from .plotting import ResultPlot, axes_or_new
-from .report import figure_html, html_page, signed_percent, table_html
+from .report import figure_html, html_page, roundoff_zero, signed_percent, table_html, text_table
 from .simulation import simulated_limit_cycle
 from .system import command_channels
 
@@ -778,7 +778,13 @@ def _zoom(ax, predictions, points):
 
 
 def prediction_rows(predictions):
-    """One row per predicted cycle (or per model without one): predicted next to simulated.
+    """One row per predicted cycle (or per model without a stable one): predicted next to simulated.
+
+    A model without a stable cycle gets a row ``none`` (or ``(unstable only)``)
+    holding what its simulation settled to.  The bias column is shown where the
+    DF solved the DC balance under a load torque (round-off printed as 0,
+    :func:`~backlash_df.report.roundoff_zero`); columns empty in every row
+    (no simulation, no near miss) are left out.
 
     With a torque limit, the command's first-harmonic amplitude U of each cycle
     and whether it saturates.
@@ -788,34 +794,37 @@ def prediction_rows(predictions):
     header : list of str
     rows : list of list of str
     """
-    header = ["model", "A pred (rad)", "w pred (rad/s)", "Loeb", "A sim (rad)", "w sim (rad/s)",
+    header = ["model", "A pred (rad)", "w pred (rad/s)", "bias pred (rad)", "Loeb", "A sim (rad)", "w sim (rad/s)",
               "A error", "w error", "closest miss", "command U (N m)"]
     rows = []
     for prediction in predictions:
         miss = f"{100 * prediction.near_misses[0].distance:.2f} %" if prediction.near_misses else ""
+        balanced = isinstance(prediction.describing, BiasedDescribing)
         for cycle in prediction.cycles:
-            sim = cycle.simulated
-            found = sim is not None and sim.found
             command = "" if math.isnan(cycle.command_amplitude) else (
                 f"{cycle.command_amplitude:.4g}" + (" (saturated)" if cycle.saturated else ""))
-            rows.append([
-                prediction.model, f"{cycle.amplitude:.5g}", f"{cycle.omega:.5g}",
-                "stable" if cycle.stable else "unstable",
-                f"{sim.amplitude:.5g}" if found else ("" if sim is None else sim.verdict),
-                f"{sim.omega:.5g}" if found else "",
-                signed_percent(cycle.amplitude_error), signed_percent(cycle.omega_error), miss, command,
-            ])
+            rows.append({
+                "model": prediction.model, "A pred (rad)": f"{cycle.amplitude:.5g}",
+                "w pred (rad/s)": f"{cycle.omega:.5g}",
+                "bias pred (rad)": f"{roundoff_zero(cycle.bias, cycle.amplitude):.4g}" if balanced else "",
+                "Loeb": "stable" if cycle.stable else "unstable", **_simulated_cells(cycle.simulated),
+                "A error": signed_percent(cycle.amplitude_error), "w error": signed_percent(cycle.omega_error),
+                "closest miss": miss, "command U (N m)": command,
+            })
         if not prediction.stable_cycles:
-            sim = prediction.simulation
-            found = sim is not None and sim.found
-            said = "no DF (see the verdict)" if prediction.note else ("none" if not prediction.cycles
-                                                                     else "(unstable only)")
-            rows.append([
-                prediction.model, said, "", "",
-                f"{sim.amplitude:.5g}" if found else ("" if sim is None else sim.verdict),
-                f"{sim.omega:.5g}" if found else "", "", "", miss, "",
-            ])
-    return header, rows
+            said = "no DF (see the verdict)" if prediction.note else ("(unstable only)" if prediction.cycles else "none")
+            rows.append({"model": prediction.model, "A pred (rad)": said, **_simulated_cells(prediction.simulation),
+                         "closest miss": miss})
+    return text_table(header, rows)
+
+
+def _simulated_cells(simulated):
+    """The simulation's cells of a prediction row: its cycle, or its verdict where it found none."""
+    if simulated is None:
+        return {}
+    if not simulated.found:
+        return {"A sim (rad)": simulated.verdict}
+    return {"A sim (rad)": f"{simulated.amplitude:.5g}", "w sim (rad/s)": f"{simulated.omega:.5g}"}
 
 
 def prediction_sections(predictions, rig_text="", notes=None):
@@ -850,7 +859,8 @@ def prediction_sections(predictions, rig_text="", notes=None):
     sections += [
         ("Nyquist overlay", figure_html(figure, "G(jw) (black) and -1/N(A, w) per model at several frequencies; "
                                         "o stable cycle, x unstable, diamond near miss")),
-        ("Predicted and simulated limit cycles", table_html(header, rows, text_columns=(0, 3, 4))),
+        ("Predicted and simulated limit cycles",
+         table_html(header, rows, text_columns=("model", "Loeb", "A sim (rad)"))),
     ]
     return sections
 

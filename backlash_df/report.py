@@ -9,7 +9,11 @@ import html
 import io
 import math
 
-__all__ = ["figure_png", "figure_html", "table_html", "html_page", "signed_percent"]
+__all__ = ["figure_png", "figure_html", "table_html", "html_page", "signed_percent", "ROUNDOFF", "roundoff_zero",
+           "text_table"]
+
+#: Relative size below which a computed value is round-off: printed as 0 (the JSON keeps the value).
+ROUNDOFF = 1e-12
 
 _STYLE = """
 body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 60em; color: #222; }
@@ -42,9 +46,12 @@ def figure_html(fig, caption="", dpi=110):
 
 
 def table_html(header, rows, text_columns=(0,)):
-    """An HTML table; ``rows`` are sequences of already formatted cells."""
+    """An HTML table; ``rows`` are sequences of already formatted cells.
+
+    ``text_columns``: indices or header names of the columns aligned left (words).
+    """
     def cell(tag, index, value):
-        cls = ' class="text"' if index in text_columns else ""
+        cls = ' class="text"' if index in text_columns or header[index] in text_columns else ""
         return f"<{tag}{cls}>{html.escape(str(value))}</{tag}>"
 
     head = "".join(cell("th", i, value) for i, value in enumerate(header))
@@ -65,3 +72,52 @@ def html_page(title, sections):
 def signed_percent(value):
     """A relative value as ``+1.23 %``; ``""`` where it is not finite (no value to show)."""
     return "" if not math.isfinite(value) else f"{100.0 * value:+.2f} %"
+
+
+def roundoff_zero(value, scale):
+    """``value``, or 0.0 where it is round-off: ``|value| <= ROUNDOFF |scale|`` (for the text only).
+
+    Parameters
+    ----------
+    value : float
+        A computed value that is zero in exact arithmetic in some cases (the bias
+        of an unloaded cycle, the phase of a static law).
+    scale : float
+        The size it is computed from, same unit (the cycle's amplitude, say).
+
+    Examples
+    --------
+    >>> roundoff_zero(-5.9e-16, 0.15), roundoff_zero(-0.0208, 0.147), roundoff_zero(-0.0, 1.0)
+    (0.0, -0.0208, 0.0)
+    """
+    return 0.0 if abs(value) <= ROUNDOFF * abs(scale) else float(value)
+
+
+def text_table(header, rows):
+    """A table of formatted cells from rows given as ``{column: cell}``, without the columns empty in every row.
+
+    A cell a row does not give is ``""``; a column whose cells are all ``""`` is
+    left out, except the first (the row's name).  Every row has one cell per
+    column of the header returned.
+
+    Parameters
+    ----------
+    header : list of str
+    rows : list of dict of str to str
+        Keys from ``header``.
+
+    Returns
+    -------
+    header : list of str
+    rows : list of list of str
+
+    Examples
+    --------
+    >>> text_table(["model", "A (rad)", "miss"], [{"model": "exact", "A (rad)": "0.15"}, {"model": "rubber"}])
+    (['model', 'A (rad)'], [['exact', '0.15'], ['rubber', '']])
+    """
+    unknown = {key for row in rows for key in row} - set(header)
+    if unknown:
+        raise ValueError(f"cells for columns not in the header: {', '.join(sorted(unknown))}")
+    kept = [name for index, name in enumerate(header) if index == 0 or any(row.get(name, "") for row in rows)]
+    return kept, [[row.get(name, "") for name in kept] for row in rows]

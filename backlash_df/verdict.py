@@ -46,7 +46,7 @@ from .limit_cycles import default_ranges
 from .loops import DriveLoop, drive_loop
 from .orbits import exact_orbits
 from .plotting import ResultPlot, axes_or_new
-from .report import signed_percent
+from .report import roundoff_zero, signed_percent, text_table
 from .simulation import simulated_limit_cycle
 from .system import closed_loop_matrix, lti_linear_part, with_pade
 
@@ -526,6 +526,9 @@ def judge(rig, prediction, **kwargs):
 def verdict_rows(verdicts):
     """One row per verdict: the verdict, linear stability in contact and open, disturbance that starts hunting.
 
+    The column ``hunts beyond (rad)`` is left out where no verdict has such a
+    disturbance.
+
     Returns
     -------
     header : list of str
@@ -538,38 +541,45 @@ def verdict_rows(verdicts):
         start = "" if verdict.disturbance_to_start is None else (
             f"{verdict.disturbance_to_start:.4g} ({verdict.disturbance_source})")
         limit = f"saturated {100 * verdict.cycle.saturation:.0f} % of the cycle" if verdict.saturated else ""
-        rows.append([verdict.model, verdict.verdict, verdict.contact_loop.describe(),
-                     verdict.open_loop.describe(), start, limit])
-    return header, rows
+        rows.append({"model": verdict.model, "verdict": verdict.verdict,
+                     "contact loop (k + c s)": verdict.contact_loop.describe(),
+                     "open loop (T = 0)": verdict.open_loop.describe(), "hunts beyond (rad)": start,
+                     "torque command": limit})
+    return text_table(header, rows)
 
 
 def orbit_rows(verdicts):
     """One row per exact periodic orbit (:mod:`backlash_df.orbits`) next to the DF cycle it continues.
 
     The DF error compares the orbit with the predicted cycle of the same
-    stability nearest in amplitude.
+    stability nearest in amplitude; the DF columns are left out where no orbit
+    has such a cycle.  The bias is the orbit's mean of theta_d, round-off
+    printed as 0 (:func:`~backlash_df.report.roundoff_zero`): 0 by symmetry
+    without a load torque.
 
     Returns
     -------
     header : list of str
     rows : list of list of str
     """
-    header = ["model", "A exact (rad)", "peak (rad)", "period (s)", "w (rad/s)", "Floquet", "|mu| max",
-              "A DF (rad)", "A DF error", "w DF error"]
+    header = ["model", "A exact (rad)", "peak (rad)", "bias (rad)", "period (s)", "w (rad/s)", "Floquet",
+              "|mu| max", "A DF (rad)", "A DF error", "w DF error"]
     rows = []
     for verdict in verdicts:
         cycles = verdict.prediction.cycles if verdict.prediction is not None else ()
         for orbit in verdict.orbits:
             same = [c for c in cycles if c.stable == orbit.stable]
             df = min(same, key=lambda c: abs(math.log(c.amplitude / orbit.amplitude)), default=None)
-            rows.append([
-                verdict.model, f"{orbit.amplitude:.6g}", f"{orbit.peak:.6g}", f"{orbit.period:.6g}",
-                f"{orbit.omega:.6g}", "stable" if orbit.stable else "unstable", f"{orbit.max_multiplier:.4f}",
-                "" if df is None else f"{df.amplitude:.5g}",
-                "" if df is None else signed_percent(df.amplitude / orbit.amplitude - 1.0),
-                "" if df is None else signed_percent(df.omega / orbit.omega - 1.0),
-            ])
-    return header, rows
+            row = {"model": verdict.model, "A exact (rad)": f"{orbit.amplitude:.6g}",
+                   "peak (rad)": f"{orbit.peak:.6g}", "bias (rad)": f"{roundoff_zero(orbit.bias, orbit.amplitude):.4g}",
+                   "period (s)": f"{orbit.period:.6g}", "w (rad/s)": f"{orbit.omega:.6g}",
+                   "Floquet": "stable" if orbit.stable else "unstable", "|mu| max": f"{orbit.max_multiplier:.4f}"}
+            if df is not None:
+                row.update({"A DF (rad)": f"{df.amplitude:.5g}",
+                            "A DF error": signed_percent(df.amplitude / orbit.amplitude - 1.0),
+                            "w DF error": signed_percent(df.omega / orbit.omega - 1.0)})
+            rows.append(row)
+    return text_table(header, rows)
 
 
 #: What the verdict table of a report holds (HTML).

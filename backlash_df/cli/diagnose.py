@@ -21,11 +21,34 @@ __all__ = ["diagnose_command"]
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="Write the diagnosis as JSON.")
 @click.option("--report", "report_out", type=click.Path(dir_okay=False), default=None,
               help="Write a self-contained HTML report.")
-def diagnose_command(data, rig_file, json_out, report_out):
-    """Name the physical cause of what the rig's model gets wrong in a measurement CSV."""
+@click.option("--strict", is_flag=True, help="Refuse a CSV whose header names a column not listed above.")
+def diagnose_command(data, rig_file, json_out, report_out, strict):
+    """Name the physical cause of what the rig's model gets wrong in the measurement CSV DATA.
+
+    DATA: UTF-8, comma-separated with a decimal point, one header row naming the
+    columns in any order, SI units, uniformly sampled, at least 200 rows:
+
+    \b
+    time:          s, required; sample instants, increasing, uniform
+    motor_torque:  N m, motor side, required; torque commanded to the motor
+    motor_speed:   rad/s, motor side, required; measured motor speed
+    load_speed:    rad/s, load side; measured load speed
+    load_torque:   N m, load side; known torque on the load (else 0)
+    motor_angle:   rad, motor side; motor encoder angle
+    load_angle:    rad, load side; load (secondary) encoder angle
+
+    Sides: the motor columns are reflected to the load side through the rig's
+    [plant] gear_ratio n (torque times n, speed and angle divided by n).  Signs:
+    a positive motor_torque drives the motor forward, a positive load_torque
+    drives the load forward, each speed is the derivative of its angle, and the
+    twist is theta_d = motor_angle / n - load_angle.  A header name not in this
+    list is not read: a note names it with the closest known column
+    (load_trq: not a known column; did you mean load_torque?); --strict refuses
+    the file instead.
+    """
     outputs = Outputs({"--json": json_out, "--report": report_out})
     rig = load_rig(rig_file)
-    measurements = load_measurements(data, gear_ratio=rig.plant.gear_ratio)
+    measurements = load_measurements(data, gear_ratio=rig.plant.gear_ratio, strict=strict)
     for note in measurements.notes:
         click.echo(f"note: {note}", err=True)
     with tqdm(desc="diagnose: fits", unit="fit", file=sys.stderr, leave=False) as bar:

@@ -42,7 +42,8 @@ def predict_command(rig_file, models, json_out, report_out, exact):
 
         analysis = analyse_loop(rig, models, exact=exact, progress=progress)
     for header, rows in analysis.tables():
-        echo_table(header, rows)
+        if rows:  # no exact orbit: the sentences say why
+            echo_table(header, rows)
     for line in analysis.sentences():
         click.echo(line)
     texts = {}
