@@ -219,6 +219,37 @@ class DriveLoop:
         """
         return _Builder(self.plant, self.controller).linear_part()
 
+    def reference_response(self, omega, stiffness, damping=0.0):
+        """The closed loop with the gear in contact, from the reference to the load: complex, dead time exact.
+
+        The shaft is the spring-damper ``T = k theta_d + c dtheta_d``; the
+        response is from the speed reference to the load speed (a speed loop) or
+        from the position reference to the load angle (a cascade): what the process
+        sees, the measured motor speed of a two-mass drive having a notch at the
+        anti-resonance ``sqrt(k / J_l)``.  The command unsaturated.
+
+        Parameters
+        ----------
+        omega : array_like
+            Frequencies, rad/s (> 0); any shape.
+        stiffness, damping : float
+            k (N m/rad) and c (N m s/rad).
+
+        Returns
+        -------
+        ndarray of complex
+            The shape of ``omega``; dimensionless (rad/s per rad/s, or rad per rad).
+        """
+        part = self.linear_part()
+        omega = np.asarray(omega, dtype=float)
+        n = part.n_states
+        jw = 1j * omega.reshape(-1)[:, None, None]
+        mats = jw * np.eye(n) - closed_loop_matrix(part, stiffness, damping) - np.exp(-jw * part.delay) * (
+            part.e_d @ part.d)
+        source = np.broadcast_to(part.E[:, 0][:, None], (jw.shape[0], n, 1)).astype(complex)
+        output = part.state_names.index("load_angle" if self.controller.cascade else "load_speed")
+        return np.linalg.solve(mats, source)[:, output, 0].reshape(omega.shape)
+
     def linear_poles(self, stiffness, damping=0.0):
         """Closed-loop poles with the backlash replaced by the spring ``T = k theta_d + c dtheta_d``.
 
