@@ -46,7 +46,7 @@ import dataclasses
 
 import numpy as np
 
-from .system import Command, LinearPart, closed_loop_matrix, frequency_response
+from .system import Command, LinearPart, closed_loop_matrix, closed_loop_response, frequency_response
 
 __all__ = ["DriveLoop", "drive_loop", "frequency_response_of"]
 
@@ -241,14 +241,8 @@ class DriveLoop:
             The shape of ``omega``; dimensionless (rad/s per rad/s, or rad per rad).
         """
         part = self.linear_part()
-        omega = np.asarray(omega, dtype=float)
-        n = part.n_states
-        jw = 1j * omega.reshape(-1)[:, None, None]
-        mats = jw * np.eye(n) - closed_loop_matrix(part, stiffness, damping) - np.exp(-jw * part.delay) * (
-            part.e_d @ part.d)
-        source = np.broadcast_to(part.E[:, 0][:, None], (jw.shape[0], n, 1)).astype(complex)
         output = part.state_names.index("load_angle" if self.controller.cascade else "load_speed")
-        return np.linalg.solve(mats, source)[:, output, 0].reshape(omega.shape)
+        return closed_loop_response(part, omega, stiffness, damping, output)
 
     def linear_poles(self, stiffness, damping=0.0):
         """Closed-loop poles with the backlash replaced by the spring ``T = k theta_d + c dtheta_d``.

@@ -45,6 +45,7 @@ __all__ = [
     "frequency_response",
     "command_channels",
     "closed_loop_matrix",
+    "closed_loop_response",
     "with_pade",
     "mode_matrices",
     "COMMAND_MODES",
@@ -279,6 +280,38 @@ def closed_loop_matrix(part, stiffness, damping=0.0):
     ndarray, shape (n, n)
     """
     return part.A + np.outer(part.b, stiffness * part.c_x + damping * part.c_v)
+
+
+def closed_loop_response(part, omega, stiffness, damping, output, channel=0):
+    """Response of the loop closed through the linear shaft, from input ``channel`` to state ``output``.
+
+    ``(jw I - A - b (k c_x + c c_v) - e_d d e^{-jw delay})^{-1} E[:, channel]``, the
+    dead time exact, the command unsaturated.
+
+    Parameters
+    ----------
+    part : LinearPart
+    omega : array_like
+        Frequencies, rad/s (> 0); any shape.
+    stiffness, damping : float
+        k (N m/rad) and c (N m s/rad).
+    output : int
+        Index of the state read.
+    channel : int
+        Input channel (0: the reference).
+
+    Returns
+    -------
+    ndarray of complex
+        The shape of ``omega``.
+    """
+    omega = np.asarray(omega, dtype=float)
+    n = part.n_states
+    jw = 1j * omega.reshape(-1)[:, None, None]
+    mats = jw * np.eye(n) - closed_loop_matrix(part, stiffness, damping) - np.exp(-jw * part.delay) * (
+        part.e_d @ part.d)
+    source = np.broadcast_to(part.E[:, channel][:, None], (jw.shape[0], n, 1)).astype(complex)
+    return np.linalg.solve(mats, source)[:, output, 0].reshape(omega.shape)
 
 
 def with_pade(part, order):
