@@ -62,7 +62,7 @@ import warnings
 import numpy as np
 
 from .._json import json_ready
-from ..plotting import ResultPlot, axes_or_new
+from ..plotting import ResultPlot, axes_or_new, legend_beside
 from ..report import figure_html, html_page, table_html
 from .calibrate import (DEFAULT_HORIZON, PLANT_PARAMETERS, calibrate, data_states, predict, refine, segment_bounds,
                         single_threaded_blas, speed_noise)
@@ -317,9 +317,10 @@ class Diagnosis:
         Returns
         -------
         ResultPlot
+            One panel per speed; the legend beside the first.
         """
         names = self.measurements.speed_names
-        figure, axes = axes_or_new(ax, (len(names), 1), sharex=True, figsize=(9, 2.4 * len(names)),
+        figure, axes = axes_or_new(ax, (len(names), 1), sharex=True, figsize=(9.5, 2.4 * len(names)),
                                    layout="constrained")
         base, ext = self.baseline.prediction, self.extended.prediction
         for j, name in enumerate(names):
@@ -329,7 +330,7 @@ class Diagnosis:
                 axes[j].plot(ext.time, ext.simulated[:, j], lw=1.0, ls="--",
                              label=f"extended ({' + '.join(self.extended.effects)})")
             axes[j].set_ylabel(f"{name} (rad/s)")
-            axes[j].legend(loc="upper right", fontsize="small")
+        legend_beside(axes[0])
         axes[-1].set_xlabel(f"time (s), validation part, {base.mode}")
         return ResultPlot(figure, axes)
 
@@ -347,8 +348,7 @@ class Diagnosis:
                                                   "before (baseline) and after (extended) the extension.")
         residual_figures = []
         for label, analysis in (("baseline", self.residuals_baseline), ("extended", self.residuals_extended)):
-            fig = analysis.plot().figure
-            fig.suptitle(f"Residuals of the {label} model")
+            fig = analysis.plot(title=f"Residuals of the {label} model").figure
             residual_figures.append(figure_html(
                 fig, f"{label}: residual over time, against theta_d and shaft torque, spectrum, "
                      f"autocorrelation and cross-correlation with the motor torque (99 % band grey)."))
