@@ -168,7 +168,7 @@ def label_contours(ax, contours, fmt="%.3g", fontsize=7, step=0.01):
         candidates = _along(line, step)
         margin = np.min(np.column_stack([candidates, 1.0 - candidates]), axis=1)
         if placed:
-            apart = np.min(np.hypot(*(candidates[:, None, :] - np.array(placed)[None, :, :]).transpose(2, 0, 1)), axis=1)
+            apart = np.min(np.linalg.norm(candidates[:, None, :] - np.array(placed)[None, :, :], axis=2), axis=1)
             margin = np.minimum(margin, 0.5 * apart)
         best = candidates[np.argmax(margin)]
         if np.max(margin) < least:
