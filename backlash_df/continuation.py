@@ -65,7 +65,7 @@ import numpy as np
 from .limit_cycles import predict_limit_cycles
 from .loops import drive_loop
 from .orbits import OrbitNotFound, orbit_residual, periodic_orbit
-from .plotting import ResultPlot, axes_or_new, legend_beside
+from .plotting import ResultPlot, axes_or_new, legend_beside, log_scale
 from .report import figure_html, html_page, table_html
 from .simulation import simulated_limit_cycle
 from .sweeps import rig_with, run_cells, value_label
@@ -244,7 +244,7 @@ def branch_plot(branch, ax=None):
     legend = legend_beside(axes[0], fontsize=8)
     axes[0].set_ylabel("A (rad)")
     if branch.amplitude.max() > 20.0 * branch.amplitude.min():
-        axes[0].set_yscale("log")
+        log_scale(axes[0].yaxis, branch.amplitude.min(), branch.amplitude.max())
     axes[1].set_ylabel("w (rad/s)")
     axes[1].set_xlabel(value_label(branch.parameter))
     axes[0].set_title(f"{branch.model}: limit cycles against {branch.parameter}", fontsize="medium")

@@ -67,7 +67,7 @@ from .models import (
     static_mode,
     theta_star_kernel,
 )
-from .plotting import ResultPlot, axes_or_new, label_contours, legend_beside
+from .plotting import ResultPlot, axes_or_new, label_contours, legend_beside, log_scale
 
 __all__ = [
     "describing_function",
@@ -939,8 +939,9 @@ class DescribingFunctionResult:
             label = f"c w / k = {rate:.3g}"
             axes[0].plot(ratio, self.gain[:, j] / self.model.stiffness, label=label)
             axes[1].plot(ratio, self.phase_deg[:, j], label=label)
-        for panel in axes:  # log over a decade or more; below one, a log axis labels only its crowded minor ticks
-            panel.set_xscale("log" if ratio.max() > 10.0 * ratio.min() else "linear")
+        for panel in axes:  # log over a decade or more
+            if ratio.max() > 10.0 * ratio.min():
+                log_scale(panel.xaxis, ratio.min(), ratio.max())
         axes[0].set_ylabel("|N| / k")
         axes[1].set_ylabel("phase of N (deg)")
         axes[1].set_xlabel("A / alpha")
@@ -1033,8 +1034,8 @@ class ValidityMap:
         if np.any(self.early_contact):
             ax.contourf(self.rate, self.amplitude_ratio, self.early_contact.astype(float), levels=[0.5, 1.5],
                         colors="none", hatches=["//"])
-        ax.set_xscale("log")
-        ax.set_yscale("log")
+        log_scale(ax.xaxis, self.rate.min(), self.rate.max())
+        log_scale(ax.yaxis, self.amplitude_ratio.min(), self.amplitude_ratio.max())
         ax.set_xlabel("c w / k")
         ax.set_ylabel("A / alpha")
         ax.set_title("|N_phase-plane - N_exact| / |N_exact|\nhatched: contact although A < alpha", fontsize="medium")

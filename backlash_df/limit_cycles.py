@@ -39,7 +39,7 @@ from ._json import json_ready
 from .describing import BiasedDescribing, describing_function
 from .loops import DriveLoop, drive_loop, frequency_response_of
 from .models import BacklashModel
-from .plotting import ResultPlot, adaptive_curve, axes_or_new, legend_beside
+from .plotting import ResultPlot, adaptive_curve, axes_or_new, legend_below, legend_beside
 from .report import figure_html, html_page, signed_percent, table_html
 from .simulation import simulated_limit_cycle
 
@@ -612,7 +612,7 @@ def limit_cycle_plot(predictions, ax=None, n_loci=7, n_amplitudes=200, g_omega=N
     ax.set_ylabel("imaginary part (rad/(N m))")
     ax.set_title("G(jw) and -1/N(A, w); thin loci labelled with w (rad/s)", fontsize="medium")
     if own_figure:
-        legend = figure.legend(loc="outside lower center", ncols=2, fontsize=8)
+        legend = legend_below(figure, fontsize=8)
     else:
         legend = legend_beside(ax, fontsize=7)
     return ResultPlot(figure, axes, legend)
@@ -640,7 +640,8 @@ def _mark_cycles(ax, prediction, color):
     for miss in prediction.near_misses[:3]:
         at = -1.0 / complex(prediction.describing(miss.amplitude, miss.omega))
         ax.plot(at.real, at.imag, "d", color=color, ms=6, mfc="none", ls="none",
-                label=f"{prediction.model}: near miss {100 * miss.distance:.2f} % at w = {miss.omega:.4g} rad/s")
+                label=f"{prediction.model}: near miss {100 * miss.distance:.2f} % at A = {miss.amplitude:.4g} rad, "
+                      f"w = {miss.omega:.4g} rad/s")
 
 
 def _label_loci(ax, loci, gap=(0.06, 0.025)):

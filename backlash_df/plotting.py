@@ -9,8 +9,9 @@ the results that draw several panels), and returns the figure and its axes::
     drawn.figure.savefig("overlay.png")
     drawn.axes[0].set_xlim(-0.01, 0.0)
 
-What the figures share lives here too: a legend beside the panel it explains
-(:func:`legend_beside`, never over the data), contour labels inside the panel
+What the figures share lives here too: a legend beside the panel it explains or
+below the panels (:func:`legend_beside`, :func:`legend_below`: never over the
+data), log axes whose labels do not crowd (:func:`log_scale`), contour labels inside the panel
 (:func:`label_contours`), the cell edges of a map drawn within
 the values given (:func:`cell_edges`), and a parametric curve sampled densely where
 it turns in the view (:func:`adaptive_curve`, the G(jw) of the Nyquist overlay).
@@ -20,7 +21,8 @@ import warnings
 
 import numpy as np
 
-__all__ = ["ResultPlot", "axes_or_new", "legend_beside", "label_contours", "cell_edges", "adaptive_curve"]
+__all__ = ["ResultPlot", "axes_or_new", "legend_beside", "legend_below", "log_scale", "label_contours", "cell_edges",
+           "adaptive_curve"]
 
 
 class ResultPlot:
@@ -130,6 +132,52 @@ def legend_beside(ax, **kwargs):
                         "fontsize": "small", **kwargs})
 
 
+def legend_below(figure, max_columns=2, **kwargs):
+    """A figure legend below the panels, in as many columns (up to ``max_columns``) as fit its width.
+
+    The figure needs constrained layout, which makes room for the legend.
+
+    Parameters
+    ----------
+    figure : Figure
+    max_columns : int
+    **kwargs
+        Passed to ``Figure.legend`` (``fontsize``).
+
+    Returns
+    -------
+    matplotlib.legend.Legend
+    """
+    renderer = figure.canvas.get_renderer() if hasattr(figure.canvas, "get_renderer") else None
+    for columns in range(max_columns if renderer is not None else 1, 0, -1):
+        legend = figure.legend(loc="outside lower center", ncols=columns, **kwargs)
+        if columns == 1 or legend.get_window_extent(renderer).width <= figure.bbox.width:
+            return legend
+        legend.remove()
+
+
+def log_scale(axis, low, high):
+    """A log scale on ``axis`` whose tick labels do not crowd, for a view from ``low`` to ``high``.
+
+    Labels at the decades, and at 2 and 5 times them where the view spans fewer
+    than two decades; the other minor ticks are left unlabelled (matplotlib's
+    default labels 2, 3, 4 and 6 there, which collide on a narrow panel).
+
+    Parameters
+    ----------
+    axis : matplotlib.axis.Axis
+        ``ax.xaxis`` or ``ax.yaxis``.
+    low, high : float
+        The view's ends, ``0 < low < high``.
+    """
+    from matplotlib.ticker import LogFormatterSciNotation, LogLocator, NullFormatter
+
+    (axis.axes.set_xscale if axis is axis.axes.xaxis else axis.axes.set_yscale)("log")
+    axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0) if high < 100.0 * low else (1.0,)))
+    axis.set_major_formatter(LogFormatterSciNotation(labelOnlyBase=False, minor_thresholds=(np.inf, np.inf)))
+    axis.set_minor_formatter(NullFormatter())
+
+
 def label_contours(ax, contours, fmt="%.3g", fontsize=7, step=0.01):
     """Label every level of ``contours`` once, well inside the panel and apart from each other.
 
@@ -156,6 +204,7 @@ def label_contours(ax, contours, fmt="%.3g", fontsize=7, step=0.01):
     """
     from matplotlib.font_manager import FontProperties
 
+    ax.get_xlim(), ax.get_ylim()  # settle a pending autoscale: the positions are chosen in the final view
     to_axes = ax.transData + ax.transAxes.inverted()
     height = FontProperties(size=fontsize).get_size_in_points() * ax.figure.dpi / 72.0
     least = height / max(min(ax.bbox.width, ax.bbox.height), 1.0)  # a label's height, axes fraction

@@ -37,7 +37,7 @@ from ._json import json_ready
 from .config import RANGES, rig_from_dict
 from .limit_cycles import predict_limit_cycles, verify_limit_cycles
 from .loops import drive_loop
-from .plotting import ResultPlot, axes_or_new, cell_edges, label_contours, legend_beside
+from .plotting import ResultPlot, axes_or_new, cell_edges, label_contours, legend_beside, log_scale
 from .report import figure_html, html_page, table_html
 from .verdict import VERDICTS, linear_stability
 
@@ -312,10 +312,11 @@ def design_map_plot(dmap, ax=None, levels=4):
             codes = np.vectorize(VERDICTS.index)(verdicts[name])[np.ix_(x_order, y_order)]
             ax.pcolormesh(x_edges, y_edges, codes.T, cmap=cmap, norm=norm, shading="flat")
             amplitude = np.ma.masked_invalid(amplitudes[name][np.ix_(x_order, y_order)].T)
+            for axis, values in ((ax.xaxis, x), (ax.yaxis, y)):
+                if _scale(values) == "log":
+                    log_scale(axis, values.min(), values.max())
             if amplitude.count() > 3 and np.ptp(amplitude.compressed()) > 0:
                 label_contours(ax, ax.contour(x, y, amplitude, levels=levels, colors="k", linewidths=0.8))
-            ax.set_xscale(_scale(x))
-            ax.set_yscale(_scale(y))
             ax.set_title(f"{name}: {kind}", fontsize="medium")
         axes[row, 0].set_ylabel(value_label(dmap.y_name))
     for ax in axes[-1]:

@@ -45,7 +45,7 @@ import numpy as np
 from .limit_cycles import default_ranges
 from .loops import DriveLoop, drive_loop
 from .orbits import exact_orbits
-from .plotting import ResultPlot, axes_or_new, legend_beside
+from .plotting import ResultPlot, axes_or_new, legend_beside, log_scale
 from .report import signed_percent
 from .simulation import simulated_limit_cycle
 from .system import closed_loop_matrix, lti_linear_part, with_pade
@@ -337,8 +337,8 @@ class LoopVerdict:
         ax.plot([], [], color="C0", label="DF cycle (dashed: unstable)")
         if self.orbits:
             ax.plot([], [], color="C1", lw=1.6, alpha=0.6, label="exact orbit (dashed: unstable)")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
+        log_scale(ax.xaxis, min(sizes, default=low), max(sizes, default=high))
+        log_scale(ax.yaxis, low, high)
         ax.set_ylim(low, high)
         ax.set_xlabel("disturbance: swing of theta_d the kick starts (rad)")
         ax.set_ylabel("amplitude A the run ends on (rad)")
