@@ -384,3 +384,20 @@ def test_adaptive_curve_resolves_a_sharp_resonance():
     assert np.sum(np.abs(w / w0 - 1.0) < 2 * zeta) > 100  # crowded at the resonance
     far, _ = plotting.adaptive_curve(response, 1.0, 1e4, (1e6, 2e6, 1e6, 2e6))
     assert far.size == 256
+
+
+# --------------------------------------------------------------------------- log axes
+
+
+def test_log_scale_labels_decades_and_2_and_5_where_matplotlib_crowds():
+    """A view of 0.017 to 0.55 on a 5 in panel: matplotlib labels 2, 3, 4 and 6 times 10^-2 and 10^-1,
+    which collide; log_scale labels 0.02, 0.05, 0.1, 0.2 and 0.5, apart."""
+    figure, ax = plt.subplots(figsize=(5, 2), layout="constrained")
+    ax.plot([0.017, 0.55], [1.0, 2.0])
+    ax.set_xscale("log")
+    assert any(problem.startswith("text and text") for problem in layout_problems(figure))
+    plotting.log_scale(ax.xaxis, 0.017, 0.55)
+    assert layout_problems(figure) == []
+    shown = sorted(tick.get_loc() for tick in ax.xaxis.get_major_ticks() if 0.017 <= tick.get_loc() <= 0.55)
+    assert np.allclose(shown, [0.02, 0.05, 0.1, 0.2, 0.5])
+    plt.close(figure)
