@@ -65,10 +65,10 @@ import numpy as np
 from .limit_cycles import predict_limit_cycles
 from .loops import drive_loop
 from .orbits import OrbitNotFound, orbit_residual, periodic_orbit
-from .plotting import ResultPlot, axes_or_new
+from .plotting import ResultPlot, axes_or_new, legend_beside, log_scale
 from .report import figure_html, html_page, table_html
 from .simulation import simulated_limit_cycle
-from .sweeps import rig_with, run_cells
+from .sweeps import rig_with, run_cells, value_label
 
 __all__ = ["BranchPoint", "SpecialPoint", "Branch", "continue_limit_cycles", "branch_plot"]
 
@@ -220,9 +220,9 @@ def branch_plot(branch, ax=None):
     Returns
     -------
     ResultPlot
-        Axes ``[amplitude, frequency]``.
+        Axes ``[amplitude, frequency]``; the legend beside the amplitude.
     """
-    figure, axes = axes_or_new(ax, (2, 1), sharex=True, figsize=(7.5, 6), layout="constrained")
+    figure, axes = axes_or_new(ax, (2, 1), sharex=True, figsize=(9, 6), layout="constrained")
     values, stable = branch.values, branch.stable
     for ax, series in zip(axes, (branch.amplitude, branch.omega)):
         start = 0
@@ -241,14 +241,14 @@ def branch_plot(branch, ax=None):
     axes[0].plot([], [], color="C0", label="exact orbits, stable")
     axes[0].plot([], [], color="C0", ls="--", label="exact orbits, unstable")
     axes[0].plot([], [], "o", color="C1", ms=4, label="describing function")
-    axes[0].legend(fontsize=8)
+    legend = legend_beside(axes[0], fontsize=8)
     axes[0].set_ylabel("A (rad)")
     if branch.amplitude.max() > 20.0 * branch.amplitude.min():
-        axes[0].set_yscale("log")
+        log_scale(axes[0].yaxis, branch.amplitude.min(), branch.amplitude.max())
     axes[1].set_ylabel("w (rad/s)")
-    axes[1].set_xlabel(branch.parameter)
-    axes[0].set_title(f"{branch.model}: limit cycles against {branch.parameter}")
-    return ResultPlot(figure, axes)
+    axes[1].set_xlabel(value_label(branch.parameter))
+    axes[0].set_title(f"{branch.model}: limit cycles against {branch.parameter}", fontsize="medium")
+    return ResultPlot(figure, axes, legend)
 
 
 # --------------------------------------------------------------------------- the continuation

@@ -67,7 +67,7 @@ from .models import (
     static_mode,
     theta_star_kernel,
 )
-from .plotting import ResultPlot, axes_or_new
+from .plotting import ResultPlot, axes_or_new, label_contours, legend_beside, log_scale
 
 __all__ = [
     "describing_function",
@@ -962,19 +962,22 @@ class DescribingFunctionResult:
         Returns
         -------
         ResultPlot
-            Axes ``[gain, phase]``.
+            Axes ``[gain, phase]``; the legend (one entry per c w / k) beside the gain.
         """
-        figure, axes = axes_or_new(ax, (2, 1), sharex=True, figsize=(7, 5.5), layout="constrained")
+        figure, axes = axes_or_new(ax, (2, 1), sharex=True, figsize=(8, 5.5), layout="constrained")
         ratio = self.amplitude / self.model.half_gap
         for j, rate in enumerate(self.rate):
             label = f"c w / k = {rate:.3g}"
-            axes[0].semilogx(ratio, self.gain[:, j] / self.model.stiffness, label=label)
-            axes[1].semilogx(ratio, self.phase_deg[:, j], label=label)
+            axes[0].plot(ratio, self.gain[:, j] / self.model.stiffness, label=label)
+            axes[1].plot(ratio, self.phase_deg[:, j], label=label)
+        for panel in axes:  # log over a decade or more
+            if ratio.max() > 10.0 * ratio.min():
+                log_scale(panel.xaxis, ratio.min(), ratio.max())
         axes[0].set_ylabel("|N| / k")
         axes[1].set_ylabel("phase of N (deg)")
         axes[1].set_xlabel("A / alpha")
-        axes[0].set_title(f"describing function: {self.model.name}")
-        axes[0].legend(fontsize="small")
+        axes[0].set_title(f"describing function: {self.model.name}", fontsize="medium")
+        legend_beside(axes[0])
         for panel in axes:
             panel.grid(True, which="both", alpha=0.3)
         return ResultPlot(figure, axes)
@@ -1048,6 +1051,8 @@ class ValidityMap:
         Returns
         -------
         ResultPlot
+            One panel: filled bands between the levels, the contours labelled with
+            their level, the early-contact region hatched; the colour bar beside it.
         """
         figure, axes = axes_or_new(ax, figsize=(7, 4.5), layout="constrained")
         ax = axes[0]
@@ -1055,15 +1060,16 @@ class ValidityMap:
         bounds = [0.0, *levels, max(float(np.nanmax(err, initial=0.0)), 2.0 * levels[-1])]
         colours = ["#f7fbff", "#c6dbef", "#6baed6", "#08519c", "#08306b"][: len(bounds) - 1]
         filled = ax.contourf(self.rate, self.amplitude_ratio, err, levels=bounds, colors=colours)
-        ax.contour(self.rate, self.amplitude_ratio, err, levels=list(levels), colors="k", linewidths=0.8)
+        lines = ax.contour(self.rate, self.amplitude_ratio, err, levels=list(levels), colors="k", linewidths=0.8)
+        label_contours(ax, lines, fmt=lambda level: f"{level:.0%}")
         if np.any(self.early_contact):
             ax.contourf(self.rate, self.amplitude_ratio, self.early_contact.astype(float), levels=[0.5, 1.5],
                         colors="none", hatches=["//"])
-        ax.set_xscale("log")
-        ax.set_yscale("log")
+        log_scale(ax.xaxis, self.rate.min(), self.rate.max())
+        log_scale(ax.yaxis, self.amplitude_ratio.min(), self.amplitude_ratio.max())
         ax.set_xlabel("c w / k")
         ax.set_ylabel("A / alpha")
-        ax.set_title("|N_phase-plane - N_exact| / |N_exact|; hatched: contact although A < alpha", fontsize="medium")
+        ax.set_title("|N_phase-plane - N_exact| / |N_exact|\nhatched: contact although A < alpha", fontsize="medium")
         colorbar = ax.figure.colorbar(filled, ax=ax, spacing="uniform")
         colorbar.set_ticks(bounds)
         colorbar.set_ticklabels(["0", *[f"{level:.0%}" for level in levels], f"{bounds[-1]:.0%}"])

@@ -34,14 +34,14 @@ import math
 import numpy as np
 
 from ._json import json_ready
-from .config import rig_from_dict
+from .config import RANGES, rig_from_dict
 from .limit_cycles import predict_limit_cycles, verify_limit_cycles
 from .loops import drive_loop
-from .plotting import ResultPlot, axes_or_new
+from .plotting import ResultPlot, axes_or_new, cell_edges, label_contours, legend_beside, log_scale
 from .report import figure_html, html_page, table_html
 from .verdict import VERDICTS, linear_stability
 
-__all__ = ["VERDICTS", "rig_with", "DesignMap", "design_map", "design_map_plot", "prediction_verdict",
+__all__ = ["VERDICTS", "rig_with", "value_label", "DesignMap", "design_map", "design_map_plot", "prediction_verdict",
            "simulation_verdict", "run_cells"]
 
 _COLOURS = ("#d9f0d3", "#d6604d", "#f4a582", "#762a83", "#bababa")
@@ -106,6 +106,18 @@ def rig_with(rig, parameter, value):
         return tuned
     users = {name: getattr(rig.controller, name) for name in ("speed_controller", "position_controller")}
     return dataclasses.replace(tuned, controller=dataclasses.replace(tuned.controller, **users))
+
+
+def value_label(parameter):
+    """An axis label for a rig value: its name and its rig-file unit (:data:`~backlash_df.config.RANGES`).
+
+    Examples
+    --------
+    >>> value_label("ti"), value_label("load.torque"), value_label("gear_ratio")
+    ('ti (s)', 'load.torque (N m)', 'gear_ratio')
+    """
+    unit = RANGES.get(parameter.rsplit(".", 1)[-1], (None, None, ""))[2]
+    return f"{parameter} ({unit})" if unit else parameter
 
 
 # --------------------------------------------------------------------------- verdicts
@@ -260,11 +272,15 @@ def _scale(values):
     return "log" if values.size > 2 and np.all(values > 0) and values.max() / values.min() > 20 else "linear"
 
 
-def design_map_plot(dmap, ax=None, levels=6):
+def design_map_plot(dmap, ax=None, levels=4):
     """Draw a design map: one row per model, DF verdicts left, simulation right.
 
-    Colours are the verdict classes (:data:`VERDICTS`), black contours the
-    amplitude A (rad) of the stable cycle.
+    Each cell is coloured by its verdict (:data:`VERDICTS`) and spans halfway to
+    its neighbours (geometric midpoints on a log axis), the outer cells ending at
+    the outer values: the map covers the swept range and no more.  Black
+    contours, labelled, are the amplitude A of theta_d (rad, first harmonic) of
+    the stable cycle; the axes carry the rig values' units
+    (:data:`~backlash_df.config.RANGES`).
 
     Parameters
     ----------
@@ -272,38 +288,44 @@ def design_map_plot(dmap, ax=None, levels=6):
     ax : array of Axes, optional
         Shape (n_models, 2) (or (n_models, 1) without simulation).
     levels : int
-        Number of amplitude contour levels.
+        Number of amplitude contour levels (about: they fall on round values).
 
     Returns
     -------
     ResultPlot
-        Axes of shape (n_models, columns).
+        Axes of shape (n_models, columns); the legend (verdicts and what the
+        contours measure) beside the top right panel.
     """
     from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
     columns = 2 if dmap.sim_verdict else 1
-    figure, axes = axes_or_new(ax, (len(dmap.models), columns), figsize=(4.6 * columns, 3.8 * len(dmap.models)),
+    figure, axes = axes_or_new(ax, (len(dmap.models), columns), figsize=(4.6 * columns + 2.2, 3.8 * len(dmap.models)),
                                sharex=True, sharey=True, layout="constrained")
     axes = np.asarray(axes).reshape(len(dmap.models), columns)
     cmap, norm = ListedColormap(_COLOURS), BoundaryNorm(np.arange(len(VERDICTS) + 1) - 0.5, len(VERDICTS))
+    x_order, y_order = np.argsort(dmap.x), np.argsort(dmap.y)
+    x, y = dmap.x[x_order], dmap.y[y_order]
+    x_edges, y_edges = cell_edges(x, _scale(x)), cell_edges(y, _scale(y))
     for row, name in enumerate(dmap.models):
         panels = [("DF", dmap.df_verdict, dmap.df_amplitude), ("simulation", dmap.sim_verdict, dmap.sim_amplitude)]
         for ax, (kind, verdicts, amplitudes) in zip(axes[row], panels[:columns]):
-            codes = np.vectorize(VERDICTS.index)(verdicts[name])
-            ax.pcolormesh(dmap.x, dmap.y, codes.T, cmap=cmap, norm=norm, shading="nearest")
-            amplitude = np.ma.masked_invalid(amplitudes[name].T)
+            codes = np.vectorize(VERDICTS.index)(verdicts[name])[np.ix_(x_order, y_order)]
+            ax.pcolormesh(x_edges, y_edges, codes.T, cmap=cmap, norm=norm, shading="flat")
+            amplitude = np.ma.masked_invalid(amplitudes[name][np.ix_(x_order, y_order)].T)
+            for axis, values in ((ax.xaxis, x), (ax.yaxis, y)):
+                if _scale(values) == "log":
+                    log_scale(axis, values.min(), values.max())
             if amplitude.count() > 3 and np.ptp(amplitude.compressed()) > 0:
-                drawn = ax.contour(dmap.x, dmap.y, amplitude, levels=levels, colors="k", linewidths=0.8)
-                ax.clabel(drawn, fontsize=7, fmt="%.3g")
-            ax.set_xscale(_scale(dmap.x))
-            ax.set_yscale(_scale(dmap.y))
+                label_contours(ax, ax.contour(x, y, amplitude, levels=levels, colors="k", linewidths=0.8))
             ax.set_title(f"{name}: {kind}", fontsize="medium")
-        axes[row, 0].set_ylabel(dmap.y_name)
+        axes[row, 0].set_ylabel(value_label(dmap.y_name))
     for ax in axes[-1]:
-        ax.set_xlabel(dmap.x_name)
+        ax.set_xlabel(value_label(dmap.x_name))
     handles = [Patch(color=c, label=v) for c, v in zip(_COLOURS, VERDICTS)]
-    legend = axes[0, -1].legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    handles.append(Line2D([], [], color="k", lw=0.8, label="contours: amplitude A\nof theta_d (rad)"))
+    legend = legend_beside(axes[0, -1], handles=handles, fontsize=7)
     return ResultPlot(figure, axes, legend)
 
 

@@ -54,7 +54,7 @@ def test_json_and_plot(short_branch):
     assert data["parameter"] == "kp" and len(data["points"]) == len(short_branch.points)
     assert data["df"][0]["cycles"][0]["stable"] is True
     drawn = short_branch.plot()
-    assert drawn.axes[1].get_xlabel() == "kp"
+    assert drawn.axes[1].get_xlabel() == "kp (N m s/rad)"  # the rig value with its unit
     import matplotlib.pyplot as plt
 
     plt.close(drawn.figure)

@@ -7,7 +7,6 @@ disturbance set); bad input is one line.
 """
 
 import dataclasses
-import json
 import math
 
 import control as ct
