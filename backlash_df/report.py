@@ -9,7 +9,7 @@ import html
 import io
 import math
 
-__all__ = ["figure_png", "figure_html", "table_html", "html_page", "signed_percent"]
+__all__ = ["figure_png", "figure_html", "table_html", "html_page", "signed_percent", "BIAS_ROUND_OFF", "bias_text"]
 
 _STYLE = """
 body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 60em; color: #222; }
@@ -65,3 +65,19 @@ def html_page(title, sections):
 def signed_percent(value):
     """A relative value as ``+1.23 %``; ``""`` where it is not finite (no value to show)."""
     return "" if not math.isfinite(value) else f"{100.0 * value:+.2f} %"
+
+
+#: A bias at most this fraction of the amplitude is round-off of a zero mean (printed as 0).
+BIAS_ROUND_OFF = 1e-12
+
+
+def bias_text(bias, amplitude, digits=4):
+    """A cycle's bias (mean of theta_d, rad) as text; ``0`` where it is round-off.
+
+    A symmetric cycle's computed mean is zero to round-off (``-5.9e-16`` rad on a
+    0.11 rad cycle); a magnitude at most :data:`BIAS_ROUND_OFF` times the
+    amplitude prints as ``0``.  The JSON documents keep the computed value.
+    """
+    if abs(bias) <= BIAS_ROUND_OFF * abs(amplitude):
+        return "0"
+    return f"{bias:.{digits}g}"
