@@ -39,18 +39,21 @@ __all__ = ["Checkpoint", "run_cells", "opened", "describe"]
 _MAGIC = "backlash-df checkpoint"
 
 
-def describe(value):
+def describe(value, omit=()):
     """A JSON-ready description of a run's input: dataclasses by field, small arrays as lists.
 
     Arrays of more than 16 values are described by the SHA-256 of their bytes,
-    objects of other types by that of their pickle.
+    objects of other types by that of their pickle; dataclass fields named in
+    ``omit`` are left out (a rig's ``source``: the same values from another file
+    are the same run).
     """
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {field.name: describe(getattr(value, field.name)) for field in dataclasses.fields(value)}
+        return {field.name: describe(getattr(value, field.name), omit) for field in dataclasses.fields(value)
+                if field.name not in omit}
     if isinstance(value, dict):
-        return {str(key): describe(item) for key, item in value.items()}
+        return {str(key): describe(item, omit) for key, item in value.items()}
     if isinstance(value, (list, tuple)):
-        return [describe(item) for item in value]
+        return [describe(item, omit) for item in value]
     if isinstance(value, np.ndarray):
         if value.size <= 16:
             return describe(value.tolist())
@@ -73,7 +76,7 @@ def _flat(tree, prefix=""):
 def _differences(kept, wanted):
     """Dotted paths where two run descriptions differ, sorted."""
     kept, wanted = _flat(kept), _flat(wanted)
-    return sorted(key for key in kept.keys() | wanted.keys() if kept.get(key, "<absent>") != wanted.get(key, "<absent>"))
+    return sorted(key for key in kept.keys() | wanted.keys() if kept.get(key, ()) != wanted.get(key, ()))
 
 
 def _key(key):
@@ -194,6 +197,8 @@ class Checkpoint:
     def _read(self, header):
         """Load the cells ``self.path`` keeps for the run ``header``; cut a line a killed run left unfinished."""
         data = self.path.read_bytes()
+        if not data:  # created by a run killed before it wrote anything
+            return
         complete = data.split(b"\n")[:-1]  # the last piece: empty, or a line a killed run did not finish
         try:
             kept = json.loads(complete[0]) if complete else None
@@ -211,7 +216,7 @@ class Checkpoint:
             try:
                 record = json.loads(raw)
                 self._cells[_key(record["key"])] = pickle.loads(base64.b64decode(record["value"]))
-            except (ValueError, KeyError, TypeError, pickle.UnpicklingError, EOFError):
+            except Exception:  # a cell that cannot be read back is computed again, and so are those after it
                 break
             good += len(raw) + 1
         if good < len(data):
@@ -232,7 +237,7 @@ class Checkpoint:
         """Write the header (for a new file) and the cells held in memory, and flush."""
         try:
             if self._file is None:
-                self._file = open(self.path, "a" if self.written else "x", encoding="ascii")
+                self._file = open(self.path, "a", encoding="ascii")
                 if not self.written:
                     self._file.write(_line(self._header))
                     self._on_disk = 0
@@ -263,7 +268,8 @@ class Checkpoint:
     def __exit__(self, kind, error, traceback):
         try:
             if kind is not None and self._held:
-                self.write()
+                with contextlib.suppress(ValueError):  # the run's own exception is the one to report
+                    self.write()
         finally:
             self.close()
         return False

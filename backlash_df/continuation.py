@@ -52,7 +52,10 @@ branch of ``examples/loaded_feedback.toml`` with ``ds_max`` = 0.3; the default
 steps jump over it).
 
 The describing function's branch (:func:`~backlash_df.predict_limit_cycles` at
-a set of values) is computed beside it.  Laws and loops the shooting solver
+a set of values) is computed beside it, on an executor if one is given.  A
+checkpoint (:class:`~backlash_df.checkpoint.Checkpoint`) keeps the first orbit,
+each step of the branch and each DF prediction as they are found, so that a
+stopped continuation resumes from its last step, identical to an uninterrupted one.  Laws and loops the shooting solver
 cannot handle (rubber with beta > 0, elasto-backlash) raise its ``ValueError``.
 """
 
@@ -637,9 +640,9 @@ def continue_limit_cycles(rig, parameter, values_or_range, model=None, *, seed=N
     lo, hi = float(values[0]), float(values[-1])
     model = rig.make_model(model).name
     rig_with(rig_with(rig, parameter, lo), parameter, hi)  # names and values checked before any work
-    inputs = describe({"rig": dataclasses.replace(rig, source=""), "parameter": parameter, "range": (lo, hi),
-                       "model": model, "seed": seed, "ds": ds, "ds_max": ds_max, "max_points": max_points,
-                       "max_amplitude": max_amplitude, "df_grid": tuple(df_grid)})
+    inputs = describe({"rig": rig, "parameter": parameter, "range": (lo, hi), "model": model, "seed": seed, "ds": ds,
+                       "ds_max": ds_max, "max_points": max_points, "max_amplitude": max_amplitude,
+                       "df_grid": tuple(df_grid)}, omit={"source"})
     with opened(checkpoint, "continue", inputs) as kept:
         points, special = _branch(rig, parameter, model, (lo, hi), seed, (ds, ds_max, max_points, max_amplitude),
                                   kept)

@@ -6,7 +6,10 @@ those values (:func:`rig_with`) is analysed by the describing function
 biased prediction of the dual-input describing function) and, optionally, simulated in
 closed loop.  The cells run on any :class:`concurrent.futures.Executor` (a
 process pool, or ``dask.distributed.Client.get_executor()``); ``None`` runs
-them one after the other.  The results do not depend on the executor.
+them one after the other.  The results do not depend on the executor.  Each cell
+is kept, as it finishes, in a checkpoint if one is given
+(:class:`~backlash_df.checkpoint.Checkpoint`): a map that is stopped resumes with
+the cells it has, and is identical to an uninterrupted one.
 
 Every cell gets a verdict per model, the classes of ``predict``:
 
@@ -221,7 +224,8 @@ class DesignMap:
         lines = ["  ".join(f"{code} {verdict}" for verdict, code in VERDICT_CODES.items())]
         for name in self.models:
             counts = ", ".join(f"{v} {int((self.df_verdict[name] == v).sum())}" for v in VERDICTS)
-            agree = f"; agrees with simulation on {100 * self.agreement(name):.1f} %" if name in self.sim_verdict else ""
+            agree = (f"; agrees with simulation on {100 * self.agreement(name):.1f} %" if name in self.sim_verdict
+                     else "")
             lines.append(f"{name}: DF {counts}{agree}")
         return lines
 
@@ -430,7 +434,7 @@ def design_map(rig, x_values, y_values, x="kp", y="ti", models=("phase-plane", "
     settings = _Settings(rig, x, y, tuple(models), bool(simulate), tuple(grid), float(t_end), float(max_t_end))
     rig_with(rig_with(rig, x, x_values[0]), y, y_values[0])  # bad names fail here, not in a worker
     points = [(float(a), float(b)) for a in x_values for b in y_values]
-    inputs = describe(dataclasses.replace(settings, rig=dataclasses.replace(rig, source="")))
+    inputs = describe(settings, omit={"source"})
     with opened(checkpoint, "map", inputs) as kept:
         cells = run_cells(functools.partial(_cell, settings), points, executor, kept)
     shape = (x_values.size, y_values.size)

@@ -136,7 +136,7 @@ def test_interrupted_continuation_resumes_to_the_same_branch_and_recomputes_no_f
     # the first orbit takes one DF prediction, each branch point one polished orbit (the step past kp = 35
     # one more: it is polished where it lands, then on the end), then come three DF predictions
     assert whole.predictions == 1 + 3 and whole.orbits == len(short_branch.points) + 1
-    first = _Counted(monkeypatch, orbit_at=5)  # Ctrl-C while polishing the fifth orbit
+    _Counted(monkeypatch, orbit_at=5)  # Ctrl-C while polishing the fifth orbit
     with pytest.raises(KeyboardInterrupt):
         continue_limit_cycles(*args, df_values=3, checkpoint=path)
     second = _Counted(monkeypatch, prediction_at=2)  # resumed at the fifth orbit, Ctrl-C in the second DF cell

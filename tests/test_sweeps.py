@@ -244,7 +244,7 @@ def _cells(path):
 
 
 def _run_until(args, path, cells, work, stop):
-    """Start ``backlash-df ARGS`` in ``work``, send ``stop`` once ``path`` holds ``cells`` cells; (exit code, stderr)."""
+    """Run ``backlash-df ARGS`` in ``work``; send ``stop`` once ``path`` holds ``cells`` cells; (exit code, stderr)."""
     process = subprocess.Popen([sys.executable, "-c", "from backlash_df.cli import main; main()", *args], cwd=work,
                                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                                env={**os.environ, "MPLBACKEND": "Agg"})
