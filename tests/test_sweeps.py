@@ -321,3 +321,24 @@ def test_map_refuses_a_checkpoint_it_cannot_use_before_computing(tmp_path, monke
     assert result.exit_code == 2
     (line,) = result.output.strip().splitlines()
     assert line.startswith(f"backlash-df: error: {words}")
+
+
+def test_ctrl_c_keeps_the_cells_done_beside_the_output_and_resume_finishes_the_map(tmp_path, monkeypatch):
+    reference = design_map(RIG, KP3, TI2, models=("phase-plane",), simulate=False)  # the command's DF grid
+    monkeypatch.chdir(tmp_path)
+    args = ["map", str(EXAMPLES / "load_feedback.toml"), "--x", "kp", "10,30,45", "--y", "ti", "0.1,0.5", "--model",
+            "phase-plane", "--no-simulate", "--json", "m.json"]
+    monkeypatch.setattr(backlash_df.sweeps, "predict_limit_cycles", _Interrupt(at=3))
+    result = CliRunner().invoke(main, args)
+    # a run shorter than a minute holds its cells in memory; Ctrl-C writes them beside the first output
+    assert result.exit_code == 1 and result.output.strip().splitlines() == [
+        "backlash-df: error: interrupted; 2 of 6 cells kept in m.json.checkpoint: run the same command with "
+        "--resume to continue"]
+    assert _cells(tmp_path / "m.json.checkpoint") == 2 and not (tmp_path / "m.json").exists()
+    counting = _Interrupt()
+    monkeypatch.setattr(backlash_df.sweeps, "predict_limit_cycles", counting)
+    result = CliRunner().invoke(main, [*args, "--resume"])
+    assert result.exit_code == 0, result.output
+    assert counting.calls == 4
+    assert json.loads((tmp_path / "m.json").read_text())["models"] == json.loads(_json(reference))["models"]
+    assert not (tmp_path / "m.json.checkpoint").exists()

@@ -11,7 +11,8 @@ Finished cells are kept in a checkpoint (:class:`~backlash_df.checkpoint.Checkpo
 :data:`CHECKPOINT_AFTER` seconds, beside the first output file (``map.json`` ->
 ``map.json.checkpoint``) or, without one, as ``backlash-df-COMMAND.checkpoint`` in the
 working directory.  Ctrl-C, or a worker process pool that breaks, keeps the cells
-done and prints one line saying how to resume (``--resume``); a run that completes
+done and prints one line saying how to resume (``--resume``), and so does a cell
+that killed every Dask worker it ran on (``KilledWorker``); a run that completes
 removes its checkpoint once its outputs are written.
 """
 
@@ -135,7 +136,7 @@ def checkpoint_for(outputs, command, path=None, resume=False):
 
 @contextlib.contextmanager
 def stopped_note(checkpoint, unit="cells", total=None):
-    """Turn Ctrl-C and a broken process pool into one line: what was kept, and how to resume.
+    """Turn Ctrl-C and a lost worker into one line: what was kept, and how to resume.
 
     Parameters
     ----------
@@ -149,8 +150,17 @@ def stopped_note(checkpoint, unit="cells", total=None):
         yield
     except KeyboardInterrupt:
         fail(f"interrupted; {_kept(checkpoint, unit, total)}", 1)
-    except concurrent.futures.BrokenExecutor as error:
+    except _worker_losses() as error:
         fail(f"a worker process died ({error}); {_kept(checkpoint, unit, total)}", 1)
+
+
+def _worker_losses():
+    """The exceptions of a lost worker: a broken process pool, and Dask's cell that killed every worker it ran on."""
+    try:
+        from distributed import KilledWorker
+    except ImportError:
+        return (concurrent.futures.BrokenExecutor,)
+    return (concurrent.futures.BrokenExecutor, KilledWorker)
 
 
 def _kept(checkpoint, unit, total):
