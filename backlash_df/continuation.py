@@ -52,11 +52,14 @@ branch of ``examples/loaded_feedback.toml`` with ``ds_max`` = 0.3; the default
 steps jump over it).
 
 The describing function's branch (:func:`~backlash_df.predict_limit_cycles` at
-a set of values) is computed beside it, on an executor if one is given.  A
-checkpoint (:class:`~backlash_df.checkpoint.Checkpoint`) keeps the first orbit,
-each step of the branch and each DF prediction as they are found, so that a
-stopped continuation resumes from its last step, identical to an uninterrupted one.  Laws and loops the shooting solver
-cannot handle (rubber with beta > 0, elasto-backlash) raise its ``ValueError``.
+a set of values) is computed beside it, on an executor if one is given.  Laws and
+loops the shooting solver cannot handle (rubber with beta > 0, elasto-backlash)
+raise its ``ValueError``.
+
+A checkpoint (:class:`~backlash_df.checkpoint.Checkpoint`) keeps the first orbit,
+each step of the branch (the point, tangent, step size and state scale after it)
+and each DF prediction as they are found, so that a stopped continuation resumes
+from its last step, identical to an uninterrupted one.
 """
 
 import dataclasses
