@@ -6,7 +6,10 @@ those values (:func:`rig_with`) is analysed by the describing function
 biased prediction of the dual-input describing function) and, optionally, simulated in
 closed loop.  The cells run on any :class:`concurrent.futures.Executor` (a
 process pool, or ``dask.distributed.Client.get_executor()``); ``None`` runs
-them one after the other.  The results do not depend on the executor.
+them one after the other.  The results do not depend on the executor.  Each cell
+is kept, as it finishes, in a checkpoint if one is given
+(:class:`~backlash_df.checkpoint.Checkpoint`): a map that is stopped resumes with
+the cells it has, and is identical to an uninterrupted one.
 
 Every cell gets a verdict per model, the classes of ``predict``:
 
@@ -34,6 +37,7 @@ import math
 import numpy as np
 
 from ._json import json_ready
+from .checkpoint import describe, opened, run_cells
 from .config import RANGES, rig_from_dict
 from .limit_cycles import predict_limit_cycles, verify_limit_cycles
 from .loops import drive_loop
@@ -41,10 +45,13 @@ from .plotting import ResultPlot, axes_or_new, cell_edges, label_contours, legen
 from .report import figure_html, html_page, table_html
 from .verdict import VERDICTS, linear_stability
 
-__all__ = ["VERDICTS", "rig_with", "value_label", "DesignMap", "design_map", "design_map_plot", "prediction_verdict",
-           "simulation_verdict", "run_cells"]
+__all__ = ["VERDICTS", "VERDICT_CODES", "rig_with", "value_label", "DesignMap", "design_map", "design_map_plot",
+           "prediction_verdict", "simulation_verdict", "run_cells"]
 
 _COLOURS = ("#d9f0d3", "#d6604d", "#f4a582", "#762a83", "#bababa")
+
+#: One character per verdict in the text grids of :meth:`DesignMap.tables`.
+VERDICT_CODES = {"no oscillation": ".", "limit cycle": "C", "bistable": "B", "unstable": "U", "undetermined": "?"}
 
 
 # --------------------------------------------------------------------------- rig values
@@ -211,6 +218,31 @@ class DesignMap:
         """Fraction of cells where the DF and the simulation agree on whether there is a cycle."""
         return float(np.mean(self.predicted[name] == self.simulated[name]))
 
+    def tables(self):
+        """The terminal's verdict grids: ``[(title, header, rows), ...]``, per law the DF's and the simulation's.
+
+        A row per ``x`` value, a column per ``y`` value (labelled with the values),
+        each cell one character of :data:`VERDICT_CODES`; :meth:`sentences` holds the key.
+        """
+        xs, ys = _labels(self.x), _labels(self.y)
+        tables = []
+        for name in self.models:
+            for kind, verdicts in (("DF", self.df_verdict), ("simulation", self.sim_verdict)):
+                if name in verdicts:
+                    rows = [[x, *(VERDICT_CODES[v] for v in row)] for x, row in zip(xs, verdicts[name])]
+                    tables.append((f"{name}, {kind} verdicts:", [f"{self.x_name} \\ {self.y_name}", *ys], rows))
+        return tables
+
+    def sentences(self):
+        """The key of the grids' characters, then per law the DF's cells per verdict and the agreement."""
+        lines = ["  ".join(f"{code} {verdict}" for verdict, code in VERDICT_CODES.items())]
+        for name in self.models:
+            counts = ", ".join(f"{v} {int((self.df_verdict[name] == v).sum())}" for v in VERDICTS)
+            agree = (f"; agrees with simulation on {100 * self.agreement(name):.1f} %" if name in self.sim_verdict
+                     else "")
+            lines.append(f"{name}: DF {counts}{agree}")
+        return lines
+
     def __repr__(self):
         sims = "with simulation" if self.sim_verdict else "DF only"
         return (f"<DesignMap {self.x_name} ({self.x.size}) x {self.y_name} ({self.y.size}), "
@@ -265,6 +297,15 @@ class DesignMap:
                      ("DF verdicts (cells) and agreement with simulation",
                       table_html(["model", *VERDICTS, "agreement"], rows))]
         return html_page(title or "Design map", sections)
+
+
+def _labels(values):
+    """Grid values as labels: 4 significant digits, more where two values would read the same."""
+    for digits in range(4, 18):
+        labels = [f"{value:.{digits}g}" for value in values]
+        if len(set(labels)) == len(labels):
+            return labels
+    return [repr(float(value)) for value in values]
 
 
 def _scale(values):
@@ -369,28 +410,8 @@ def _cell(settings, point):
     return out
 
 
-def run_cells(function, items, executor=None):
-    """``[function(item) for item in items]``, on ``executor`` if given (order kept).
-
-    Parameters
-    ----------
-    function : callable
-        A picklable function (module level, or a :func:`functools.partial` of one).
-    items : iterable
-    executor : concurrent.futures.Executor, optional
-        ``None`` runs serially in this process.
-
-    Returns
-    -------
-    list
-    """
-    if executor is None:
-        return [function(item) for item in items]
-    return list(executor.map(function, items))
-
-
 def design_map(rig, x_values, y_values, x="kp", y="ti", models=("phase-plane", "damped-dead-zone"), simulate=True,
-               grid=(30, 40), t_end=10.0, max_t_end=40.0, executor=None):
+               grid=(30, 40), t_end=10.0, max_t_end=40.0, executor=None, checkpoint=None):
     """Scan two rig values: DF verdicts and amplitudes of each model and, optionally, time simulation.
 
     Parameters
@@ -412,18 +433,34 @@ def design_map(rig, x_values, y_values, x="kp", y="ti", models=("phase-plane", "
         Simulated times, s.
     executor : concurrent.futures.Executor, optional
         Runs the cells (a ``ProcessPoolExecutor``, or a Dask client's
-        ``get_executor()``); ``None``: serially.  Results are identical.
+        ``get_executor()``, which runs a cell whose worker dies again on
+        another worker); ``None``: serially.  Results are identical.
+    checkpoint : str, Path or Checkpoint, optional
+        Keeps each finished cell, keyed by its two values, in this file
+        (:class:`~backlash_df.checkpoint.Checkpoint`; a path: a new file).
+        ``Checkpoint(path, resume=True)`` continues a stopped map: the cells kept
+        are not computed again and the map is identical to an uninterrupted one.
+        The file stays when the map is done.
 
     Returns
     -------
     DesignMap
+
+    Raises
+    ------
+    ValueError
+        A bad rig value name or value (before any cell runs); a checkpoint that
+        exists without ``resume`` or that belongs to another map (one line naming
+        the inputs that differ).
     """
     x_values = np.atleast_1d(np.asarray(x_values, dtype=float))
     y_values = np.atleast_1d(np.asarray(y_values, dtype=float))
     settings = _Settings(rig, x, y, tuple(models), bool(simulate), tuple(grid), float(t_end), float(max_t_end))
     rig_with(rig_with(rig, x, x_values[0]), y, y_values[0])  # bad names fail here, not in a worker
     points = [(float(a), float(b)) for a in x_values for b in y_values]
-    cells = run_cells(functools.partial(_cell, settings), points, executor)
+    inputs = describe(settings, omit={"source"})
+    with opened(checkpoint, "map", inputs) as kept:
+        cells = run_cells(functools.partial(_cell, settings), points, executor, kept)
     shape = (x_values.size, y_values.size)
     fields = [{}, {}, {}, {}, {}, {}]
     for m, name in enumerate(settings.models):

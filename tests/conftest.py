@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 import backlash_df as bd
+from backlash_df.disturbances import standard_disturbances
 from backlash_df.continuation import continue_limit_cycles
 from backlash_df.identify import predict, replay
 from backlash_df.loaded import load_limit
@@ -117,6 +118,7 @@ def results():
         "Tuning": tuning,
         "Certificate": tuning.best,
         "Candidate": tuning.screen[0],
+        "Disturbance": standard_disturbances(rig)[0],
     }
 
 
