@@ -96,6 +96,7 @@ from .system import (
     command_matrices,
     command_mode_of,
     exp_ladder,
+    initial_command_mode,
     mode_matrices,
     with_pade,
 )
@@ -119,6 +120,7 @@ _RELAX_PERIODS = 40  # seed periods simulated to relax a seed
 _COLLAPSED = 1e-6  # an orbit whose peak is below this fraction of alpha has collapsed (rest)
 _LEVELS = 53  # dyadic rungs step 2^-j: events located to 2^-52 of a sample step
 _SIDES = (-1, 0, 1)  # backlash modes in the order of mode_matrices: left contact, free, right contact
+_ON_LIMIT = {0: (True, True), 1: (True, False), 2: (False, True), 3: (False, False)}  # exits on u = +-limit, by |c|
 
 
 class OrbitNotFound(ValueError):
@@ -238,7 +240,6 @@ class _Loop:
                     for b, side in enumerate(_SIDES) for c in (COMMAND_MODES if self.clamps else COMMAND_MODES[:3])}
         self.u_row, self.e_row = u_row[keep], e_row[keep]
         self.rates = {(side, s): rates[b, 0 if s > 0 else 1][:, keep] for b, side in enumerate(_SIDES) for s in (1, -1)}
-        self.command_exits = {mode: self._command_exit_rows(*mode) for mode in self.aug}
         self.fast = max(self.fast, *(np.abs(np.linalg.eigvals(m_aug[:-1, :-1])).max() for m_aug in self.aug.values()))
 
     # ------------------------------------------------------------------ modes and boundaries
@@ -264,28 +265,31 @@ class _Loop:
         row[-1] = math.copysign(self.limit, mode[1])
         return row
 
-    def _command_exit_rows(self, side, command):
-        """Rows over ``[q, 1]`` of the command's exit functions in mode ``(side, command)``, and which are on the limit.
+    def _command_exits(self, mode, q):
+        """``[(value, gradient)]`` of the command's exit functions in ``mode`` (a value > 0: the mode is left).
 
-        Linear: ``+-u - limit``; saturated: ``limit - s u`` (and ``s e``: the clamp
-        engages); clamped: ``-s e`` (released), ``limit - s u``; sliding: ``s du/dt``
-        with the integrator clamped (pushed off the limit, clamped) and ``-s du/dt``
-        integrating (pulled back inside); ``s`` the side of the limit.  Exactly the
-        conditions of :func:`~backlash_df.system.command_mode_of`.
+        Linear: ``u - limit``, ``-u - limit``; saturated on the side ``s``: ``limit -
+        s u`` (and ``s e``: the clamp engages); clamped: ``-s e`` (released), ``limit -
+        s u``; sliding: ``s du/dt`` with the integrator clamped (pushed off the limit:
+        clamped) and ``-s du/dt`` integrating (pulled back inside: linear).  The
+        values are formed from ``u``, ``e`` and the rates as
+        :func:`~backlash_df.system.command_mode_of` compares them, so that a value
+        past zero and its test there agree to the last bit.
         """
-        one = np.zeros(self.size + 1)
-        one[-1] = self.limit
-        u, e = self.u_row, self.e_row
+        side, command = mode
+        limit, du, de = self.limit, self.u_row[:-1], self.e_row[:-1]
+        u = du @ q + self.u_row[-1]
         if command == 0:
-            return np.array([u - one, -u - one]), (True, True)
-        s = 1.0 if command > 0 else -1.0
+            return [(u - limit, du), (-u - limit, -du)]
+        s = 1 if command > 0 else -1
+        e = de @ q + self.e_row[-1]
         if abs(command) == 1:
-            rows = [one - s * u] + ([s * e] if self.clamps else [])
-            return np.array(rows), (True, False)[:len(rows)]
+            return [(limit - s * u, -s * du)] + ([(s * e, s * de)] if self.clamps else [])
         if abs(command) == 2:
-            return np.array([-s * e, one - s * u]), (False, True)
-        clamped, integrating = self.rates[(side, int(s))]
-        return np.array([s * clamped, -s * integrating]), (False, False)
+            return [(-s * e, -s * de), (limit - s * u, -s * du)]
+        rates = self.rates[(side, s)]
+        clamped, integrating = rates @ np.append(q, 1.0)
+        return [(s * clamped, s * rates[0, :-1]), (-s * integrating, -s * rates[1, :-1])]
 
     def exits(self, mode, q):
         """``[(label, value, gradient in q)]``: the mode is left where a value turns > 0.
@@ -303,8 +307,7 @@ class _Loop:
             value, grad = _release_right(*args) if side > 0 else _mirrored(_release_right, *args)
             out = [(0, -value, -(np.asarray(grad) @ self.rows))]
         if self.limit:
-            rows = self.command_exits[mode][0]
-            out += [(None, value, row[:-1]) for value, row in zip(rows[:, :-1] @ q + rows[:, -1], rows)]
+            out += [(None, value, grad) for value, grad in self._command_exits(mode, q)]
         return out
 
     def on_limit(self, before, after):
@@ -313,13 +316,13 @@ class _Loop:
         if not self.limit or abs(before[1]) != 3 or abs(after[1]) == 3:
             return frozenset()
         first = 2 if after[0] == 0 else 1  # the backlash exits come first
-        return frozenset(first + i for i, flag in enumerate(self.command_exits[after][1]) if flag)
+        return frozenset(first + i for i, flag in enumerate(_ON_LIMIT[abs(after[1])]) if flag)
 
     def command_mode(self, side, command, q):
         """Command mode at ``q`` reached in ``command`` with the backlash in ``side``, by
         :func:`~backlash_df.system.command_mode_of` (as the simulation kernels decide it)."""
         u = self.u_row[:-1] @ q + self.u_row[-1]
-        limit_side = (1 if command > 0 else -1) if command else (1 if u > self.limit else -1 if u < -self.limit else 0)
+        limit_side = (1 if command > 0 else -1) if command else (1 if u > self.limit else (-1 if u < -self.limit else 0))
         if limit_side == 0:
             return 0
         clamped, integrating = self.rates[(side, limit_side)] @ np.append(q, 1.0)
@@ -340,9 +343,8 @@ class _Loop:
         """Mode at a section point.
 
         Backlash: contact where both the contact and the holding function allow it.
-        Command: saturated where ``|u| > limit``, the integrator clamped where ``e``
-        has the sign of ``u`` (a slide along the limit begins at the event that
-        reaches it).
+        Command: :func:`~backlash_df.system.initial_command_mode`, as the simulation
+        kernels start a run.
         """
         x, v, tb = self.rows @ q
         args = (self.law, self.k, self.c, self.alpha, x, v, tb)
@@ -354,10 +356,7 @@ class _Loop:
         if not self.limit:
             return side, 0
         u, e = self.u_row[:-1] @ q + self.u_row[-1], self.e_row[:-1] @ q + self.e_row[-1]
-        if abs(u) <= self.limit:
-            return side, 0
-        saturated = 1 if u > 0.0 else -1
-        return side, 2 * saturated if self.clamps and saturated * e > 0.0 else saturated
+        return side, int(initial_command_mode(u, e, self.limit, self.clamps))
 
     def after_event(self, before, target, q, monodromy):
         """State and monodromy continued into ``target``: the exact model's theta_b set on its stop (14).
