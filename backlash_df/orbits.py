@@ -212,13 +212,12 @@ class _Loop:
         self.model, self.exact = model, self.law == EXACT
         self.k, self.c, self.alpha = model.stiffness, model.damping, model.half_gap
         part = drive_loop(rig).linear_part()
-        contact = closed_loop_matrix(part, self.k, self.c)
-        self.fast = max(np.abs(np.linalg.eigvals(contact)).max(), 1e-3, 1.0 / part.delay if part.delay else 0.0)
+        constant = np.array([0.0, rig.load.torque])  # reference 0, the load torque
+        self.fast = _fastest_rate(part, model, self.law, constant)
         self.pade_order = int(pade_order) if part.delay > 0.0 else 0
         self.part = with_pade(part, pade_order) if part.delay > 0.0 else part
         n = self.part.A.shape[0]
         keep = list(range(n)) + ([n] if self.exact else []) + [n + 1]  # q = [z, (theta_b)], then 1
-        constant = np.array([0.0, rig.load.torque])
         matrices = mode_matrices(self.part, model, self.law, [], constant)
         self.size = len(keep) - 1
         self.names = self.part.state_names + (("theta_b",) if self.exact else ())
@@ -240,7 +239,6 @@ class _Loop:
                     for b, side in enumerate(_SIDES) for c in (COMMAND_MODES if self.clamps else COMMAND_MODES[:3])}
         self.u_row, self.e_row = u_row[keep], e_row[keep]
         self.rates = {(side, s): rates[b, 0 if s > 0 else 1][:, keep] for b, side in enumerate(_SIDES) for s in (1, -1)}
-        self.fast = max(self.fast, *(np.abs(np.linalg.eigvals(m_aug[:-1, :-1])).max() for m_aug in self.aug.values()))
 
     # ------------------------------------------------------------------ modes and boundaries
 
@@ -573,6 +571,18 @@ class _Loop:
         if self.exact:
             q = np.append(q, math.copysign(self.alpha, amplitude))
         return q
+
+
+def _fastest_rate(part, model, law, constant):
+    """Largest eigenvalue modulus (1/s) of the loop in contact, and of the torque command's modes in contact,
+    the dead time's term left out (:func:`~backlash_df.system.closed_loop_matrix`); at least ``1 / delay``."""
+    rates = [np.abs(np.linalg.eigvals(closed_loop_matrix(part, model.stiffness, model.damping))).max(), 1e-3,
+             1.0 / part.delay if part.delay else 0.0]
+    if part.command is not None:
+        n = part.A.shape[0]
+        contact = command_matrices(part, mode_matrices(part, model, law, [], constant), [], constant)[0][2]
+        rates += [np.abs(np.linalg.eigvals(m_aug[:n, :n])).max() for m_aug in contact]
+    return max(rates)
 
 
 @functools.lru_cache(maxsize=32)
