@@ -320,7 +320,10 @@ class _Loop:
         """Command mode at ``q`` reached in ``command`` with the backlash in ``side``, by
         :func:`~backlash_df.system.command_mode_of` (as the simulation kernels decide it)."""
         u = self.u_row[:-1] @ q + self.u_row[-1]
-        limit_side = (1 if command > 0 else -1) if command else (1 if u > self.limit else (-1 if u < -self.limit else 0))
+        if command:
+            limit_side = 1 if command > 0 else -1
+        else:
+            limit_side = 1 if u > self.limit else (-1 if u < -self.limit else 0)
         if limit_side == 0:
             return 0
         clamped, integrating = self.rates[(side, limit_side)] @ np.append(q, 1.0)
@@ -783,7 +786,8 @@ def orbit_state_names(rig, model=None, *, pade_order=DEFAULT_PADE_ORDER):
     Returns
     -------
     tuple of str
-        The loop's states, then ``pade_1 ..`` (dead time), then ``theta_b`` (exact model).
+        The loop's states, then ``pade_1 ..`` (dead time; ``pade1_1 .. pade2_p`` for
+        the two measured signals of a cascade), then ``theta_b`` (exact model).
     """
     return _loop(rig, _resolve_model(rig, model), pade_order).names
 
@@ -1055,13 +1059,13 @@ def _orbit(loop, unknowns, norm, monodromy, events):
     multipliers = _sorted_multipliers(monodromy, loop.field(loop.initial_mode(q0), q0), scale)
     command = {}
     if loop.limit:
-        command = dict(
-            torque_limit=float(loop.limit), command_amplitude=float(abs(first[1])),
-            saturated_time=float(sum(duration for _, mode, _, duration in segments if mode[1] != 0)),
-            clamped_time=float(sum(duration for _, mode, _, duration in segments if abs(mode[1]) >= 2)),
-            command_events=tuple((float(t), int(a[1]), int(b[1])) for t, a, b in events if a[1] != b[1]),
-            command=np.array([loop.command_row(mode) @ np.append(q, 1.0) for _, q, mode in track]),
-        )
+        command = {
+            "torque_limit": float(loop.limit), "command_amplitude": float(abs(first[1])),
+            "saturated_time": float(sum(duration for _, mode, _, duration in segments if mode[1] != 0)),
+            "clamped_time": float(sum(duration for _, mode, _, duration in segments if abs(mode[1]) >= 2)),
+            "command_events": tuple((float(t), int(a[1]), int(b[1])) for t, a, b in events if a[1] != b[1]),
+            "command": np.array([loop.command_row(mode) @ np.append(q, 1.0) for _, q, mode in track]),
+        }
     return PeriodicOrbit(
         period=period, omega=omega, amplitude=float(abs(first[0])), peak=_peak(loop, track, period, mean[0]),
         bias=float(mean[0]),

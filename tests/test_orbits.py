@@ -311,18 +311,19 @@ def _user_pi(kp, ti, lag=0.0):
 #: the limit caps the growth), a slide along the limit (a fast integrator under a load torque), cascades
 #: (kv = 20 1/s, both position feedbacks), a dead time on both measured signals, a user's PI (no clamp).
 LIMITED = {
-    "kp3000-limit50": dict(kp=3000.0, torque_limit=50.0),
-    "kp3000-limit200": dict(kp=3000.0, torque_limit=200.0),
-    "kp300-limit30": dict(kp=300.0, torque_limit=30.0),
-    "sliding": dict(kp=100.0, ti=0.002, torque_limit=30.0, load=20.0),
-    "cascade-motor": dict(structure="cascade", kv=20.0, position_feedback="motor"),
-    "cascade-load-limit30": dict(structure="cascade", kv=20.0, position_feedback="load", kp=300.0, torque_limit=30.0),
-    "cascade-delay-limit30": dict(structure="cascade", kv=20.0, position_feedback="load", kp=300.0,
-                                  torque_limit=30.0, delay=0.0005),
+    "kp3000-limit50": {"kp": 3000.0, "torque_limit": 50.0},
+    "kp3000-limit200": {"kp": 3000.0, "torque_limit": 200.0},
+    "kp300-limit30": {"kp": 300.0, "torque_limit": 30.0},
+    "sliding": {"kp": 100.0, "ti": 0.002, "torque_limit": 30.0, "load": 20.0},
+    "cascade-motor": {"structure": "cascade", "kv": 20.0, "position_feedback": "motor"},
+    "cascade-load-limit30": {"structure": "cascade", "kv": 20.0, "position_feedback": "load", "kp": 300.0,
+                             "torque_limit": 30.0},
+    "cascade-delay-limit30": {"structure": "cascade", "kv": 20.0, "position_feedback": "load", "kp": 300.0,
+                              "torque_limit": 30.0, "delay": 0.0005},
 }
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _limited(name, model="phase-plane"):
     """(rig, orbit) of a loop of LIMITED (``"user-limit30"``: kp300-limit30 with the PI as a user's LTI),
     seeded by a simulation from a kick."""
@@ -337,7 +338,7 @@ def _limited(name, model="phase-plane"):
 
 def _last_periods(result, period, periods):
     """Samples of a run covering the last ``periods`` periods (the nearest whole number of steps)."""
-    steps = int(round(periods * period / (result.time[1] - result.time[0])))
+    steps = round(periods * period / (result.time[1] - result.time[0]))
     return slice(result.time.size - 1 - steps, result.time.size)
 
 
