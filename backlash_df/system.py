@@ -53,6 +53,7 @@ __all__ = [
     "augmented_row",
     "command_matrices",
     "command_mode_of",
+    "initial_command_mode",
     "exp_ladder",
     "lti_linear_part",
     "two_mass_system",
@@ -557,6 +558,21 @@ def command_mode_of(mode, u, e, rate_clamped, rate_integrating, limit, clamps):
     if side * rate_clamped > 0.0:
         return 2 * side
     return 0 if side * rate_integrating < 0.0 else mode
+
+
+@_jit
+def initial_command_mode(u, e, limit, clamps):
+    """The command mode of a state that no event reached (a run's start, an orbit's section point).
+
+    Linear inside the limit; beyond it saturated, with the integrator clamped where
+    ``e`` has the sign of ``u``.  Never sliding: off the limit, the clamped flow
+    brings ``u`` back onto it first, and :func:`command_mode_of` decides at that event
+    (a slide holds ``u``, so one begun beyond the limit would stay there).
+    """
+    side = 1 if u > limit else (-1 if u < -limit else 0)
+    if side == 0:
+        return 0
+    return 2 * side if clamps and side * e > 0.0 else side
 
 
 @_jit
