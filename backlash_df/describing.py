@@ -605,6 +605,16 @@ def _u_minus_sin(u):
 
 
 @_jit
+def _one_minus_cos(h):
+    """1 - cos h without cancellation (Taylor series below 1)."""
+    if h < 1.0:
+        q = h * h
+        return 0.5 * q * (1.0 - q / 12.0 * (1.0 - q / 30.0 * (1.0 - q / 56.0 * (1.0 - q / 90.0 * (
+            1.0 - q / 132.0 * (1.0 - q / 182.0 * (1.0 - q / 240.0 * (1.0 - q / 306.0))))))))
+    return 1.0 - math.cos(h)
+
+
+@_jit
 def _sin_minus_h_cos(h):
     """sin h - h cos h without cancellation (Taylor series below 1)."""
     if h < 1.0:
@@ -617,7 +627,8 @@ def _sin_minus_h_cos(h):
 @_jit
 def _arc(offset, radius, level):
     """Half-width h of the arc where offset + radius sin(theta) > level, centred at theta = pi/2,
-    with cos h and sin h; h = -1 if the arc is empty, pi if it is the whole circle.
+    with cos h = (level - offset) / radius and sin h; h = -1 if the arc is empty, pi if it is
+    the whole circle (then sin h = 0 and cos h < -1).
 
     Computed from the excess 1 - cos h = (radius + offset - level) / radius, which keeps full
     precision as the arc shrinks (A -> alpha)."""
@@ -625,7 +636,7 @@ def _arc(offset, radius, level):
     if excess <= 0.0:
         return -1.0, 1.0, 0.0
     if excess >= 2.0:
-        return math.pi, -1.0, 0.0
+        return math.pi, 1.0 - excess, 0.0
     half = math.sqrt(0.5 * excess)  # sin(h / 2)
     return 2.0 * math.asin(half), 1.0 - excess, 2.0 * half * math.sqrt(1.0 - half * half)
 
@@ -666,6 +677,42 @@ def _affine(p0, p1, p2, a, sa, ca, e, se, ce):
     return (p0 * d_cos + p1 * (0.5 * span - sin_cos) + p2 * sin_sq,
             p0 * d_sin + p1 * sin_sq + p2 * (0.5 * span + sin_cos),
             p0 * span + p1 * d_cos + p2 * d_sin)
+
+
+@_jit
+def _centred(t_m, u_m, du_m, sin_m, cos_m, d):
+    """int T sin, int T cos, int T over m +- d of T(m + t) = t_m - u_m (1 - cos t) + du_m sin t,
+    in the cancellation-free forms d - sin d, 2 d - sin 2 d, 1 - cos d."""
+    sin_d = math.sin(d)
+    int_cos = 2.0 * t_m * sin_d - u_m * (sin_d * _one_minus_cos(d) - _u_minus_sin(d))  # int T cos t dt
+    int_sin = 0.5 * du_m * _u_minus_sin(2.0 * d)  # int T sin t dt
+    return (sin_m * int_cos + cos_m * int_sin, cos_m * int_cos - sin_m * int_sin,
+            2.0 * d * t_m - 2.0 * u_m * _u_minus_sin(d))
+
+
+@_jit
+def _arc_integrals(scale, centre, sin_c, cos_c, h, cos_h, a, sa, ca, e, se, ce):
+    """int T sin, int T cos, int T over [a, e] inside the arc centre +- h (see _arc) of
+    T = scale (cos(phi - centre) - cos h): k (y - alpha) on the arc y > alpha, 2 k (x - alpha)
+    on x > alpha.
+
+    On pieces shorter than 1 rad about their middle m, with T(m) in the product form
+    2 scale sin((h + theta) / 2) sin((h - theta) / 2), theta = m - centre: T is small where the
+    piece is short next to the gap, and the ends' values would cancel.
+    """
+    if e - a >= 1.0:
+        return _affine(-scale * cos_h, scale * sin_c, scale * cos_c, a, sa, ca, e, se, ce)
+    d = 0.5 * (e - a)
+    m = a + d
+    sin_m, cos_m = math.sin(m), math.cos(m)
+    sin_t, cos_t = _shifted(sin_m, cos_m, sin_c, cos_c)
+    if h < math.pi:
+        theta = m - centre
+        theta -= _TWO_PI * math.floor(theta / _TWO_PI + 0.5)
+        t_m = 2.0 * scale * math.sin(0.5 * (h + theta)) * math.sin(0.5 * (h - theta))
+    else:
+        t_m = scale * (cos_t - cos_h)
+    return _centred(t_m, scale * cos_t, -scale * sin_t, sin_m, cos_m, d)
 
 
 @_jit
@@ -747,7 +794,8 @@ def _elasto_side(amp, omega, bias, k, c, alpha, events):
         return 0.0, 0.0, 0.0
     rate = c * omega / k
     cos_psi, sin_psi, psi = _rate_geometry(rate)
-    hy, cos_hy, sin_hy = _arc(bias, amp * math.sqrt(1.0 + rate * rate), alpha)  # y and z: same R and level
+    radius = amp * math.sqrt(1.0 + rate * rate)
+    hy, cos_hy, sin_hy = _arc(bias, radius, alpha)  # y and z: same R and level
     if hy < 0.0:
         return 0.0, 0.0, 0.0
     if hx >= math.pi:
@@ -759,17 +807,16 @@ def _elasto_side(amp, omega, bias, k, c, alpha, events):
     n = _add_arc_ends(events, n, _HALF_PI + psi, cos_psi, -sin_psi, hy, cos_hy, sin_hy, start, end)
     _sort_events(events, n)
     events[n, 0], events[n, 1], events[n, 2] = end, sin_end, cos_end
-    p0, p1 = k * (bias - alpha), k * amp
     total_sin = total_cos = total_one = 0.0
     a, sa, ca = start, sin_start, cos_start
     for i in range(n + 1):
         e, se, ce = events[i, 0], events[i, 1], events[i, 2]
         mid = 0.5 * (a + e)
         if _inside(mid, _HALF_PI - psi, hy):
-            if _inside(mid, _HALF_PI + psi, hy):
-                piece = _affine(p0, p1, c * amp * omega, a, sa, ca, e, se, ce)
-            else:
-                piece = _affine(2.0 * p0, 2.0 * p1, 0.0, a, sa, ca, e, se, ce)
+            if _inside(mid, _HALF_PI + psi, hy):  # T = k (y - alpha)
+                piece = _arc_integrals(k * radius, _HALF_PI - psi, cos_psi, sin_psi, hy, cos_hy, a, sa, ca, e, se, ce)
+            else:  # T = 2 k (x - alpha)
+                piece = _arc_integrals(2.0 * k * amp, _HALF_PI, 1.0, 0.0, hx, cos_hx, a, sa, ca, e, se, ce)
             total_sin += piece[0]
             total_cos += piece[1]
             total_one += piece[2]
@@ -986,8 +1033,8 @@ def _phase_plane_side(amp, omega, bias, p, crit):
         if down <= _HALF_PI:
             return 0.0, 0.0, 0.0
         phi, sin_phi, cos_phi = _HALF_PI, 1.0, 0.0  # contact where v reaches 0 inside the arc
-    return _affine(k * (bias - alpha), k * amp, c * amp * omega, max(phi, up), sin_phi, cos_phi, down, sin_down,
-                   cos_down)
+    return _arc_integrals(k * radius, _HALF_PI - psi, cos_psi, sin_psi, h, cos_h, max(phi, up), sin_phi, cos_phi,
+                          down, sin_down, cos_down)
 
 
 # The rubber law (28)-(40): the band torque needs theta*(v) at the quadrature nodes, computed
@@ -1047,12 +1094,13 @@ def _band_torque(x, v, p):
 
 
 @_jit
-def _add_piece(mode, a, sa, ca, e, se, ce, amp, omega, bias, p, stack, acc):
-    """Add the integrals of the right rubber torque in mode (0 free, 1 band, 2 contact) over [a, e] to acc."""
+def _add_piece(mode, a, sa, ca, e, se, ce, amp, omega, bias, p, contact, stack, acc):
+    """Add the integrals of the right rubber torque in mode (0 free, 1 band, 2 contact, k (y - alpha)
+    on the arc ``contact`` of _arc_integrals) over [a, e] to acc."""
     if mode == 0 or e <= a:
         return
     if mode == 2:
-        piece = _affine(p[0] * (bias - p[2]), p[0] * amp, p[1] * amp * omega, a, sa, ca, e, se, ce)
+        piece = _arc_integrals(*contact, a, sa, ca, e, se, ce)
         acc[0] += piece[0]
         acc[1] += piece[1]
         acc[2] += piece[2]
@@ -1126,6 +1174,8 @@ def _rubber_side(amp, omega, bias, p, crit, stack, acc, events):
     rate = c * omega / k
     cos_psi, sin_psi, psi = _rate_geometry(rate)
     radius = amp * math.sqrt(1.0 + rate * rate)
+    hy, cos_hy, sin_hy = _arc(bias, radius, alpha)
+    contact = (k * radius, _HALF_PI - psi, cos_psi, sin_psi, hy, cos_hy)
     low, high = -0.5 * beta - bias, 0.5 * beta - bias
     n = _level_crossings(low, 1.0, 0.0, amp, rate, psi, radius, alpha, crit, events, 0)
     n = _level_crossings(high, 2.0, 1.0, amp, rate, psi, radius, alpha, crit, events, n)
@@ -1135,11 +1185,10 @@ def _rubber_side(amp, omega, bias, p, crit, stack, acc, events):
     a, sa, ca = -_HALF_PI, -1.0, 0.0
     for i in range(n):
         e = max(events[i, 0], a)
-        _add_piece(mode, a, sa, ca, e, events[i, 1], events[i, 2], amp, omega, bias, p, stack, acc)
+        _add_piece(mode, a, sa, ca, e, events[i, 1], events[i, 2], amp, omega, bias, p, contact, stack, acc)
         a, sa, ca, mode = e, events[i, 1], events[i, 2], int(events[i, 3])
-    _add_piece(mode, a, sa, ca, _HALF_PI, 1.0, 0.0, amp, omega, bias, p, stack, acc)
+    _add_piece(mode, a, sa, ca, _HALF_PI, 1.0, 0.0, amp, omega, bias, p, contact, stack, acc)
     hx, cos_hx, sin_hx = _arc(bias, amp, alpha + 0.5 * beta)
-    hy, cos_hy, sin_hy = _arc(bias, radius, alpha)
     cos_psi2, sin_psi2, psi2 = _rate_geometry(2.0 * rate)  # x + 2 c v / k = bias + R2 sin(phi + psi2)
     hz, cos_hz, sin_hz = _arc(bias, amp * math.sqrt(1.0 + 4.0 * rate * rate), alpha - 0.5 * beta)
     start, end = _HALF_PI, 1.5 * math.pi
@@ -1156,7 +1205,7 @@ def _rubber_side(amp, omega, bias, p, crit, stack, acc, events):
             mode = 2 if _inside(mid, _HALF_PI - psi, hy) else 0
         else:
             mode = 1 if _inside(mid, _HALF_PI - psi2, hz) else 0
-        _add_piece(mode, a, sa, ca, e, se, ce, amp, omega, bias, p, stack, acc)
+        _add_piece(mode, a, sa, ca, e, se, ce, amp, omega, bias, p, contact, stack, acc)
         a, sa, ca = e, se, ce
     return acc[0], acc[1], acc[2]
 
