@@ -68,7 +68,6 @@ from .models import (
     REVISED_DEAD_ZONE,
     RUBBER,
     BacklashModel,
-    _contact_fraction,
     _theta_star,
     held_mode,
     make_model,
@@ -852,21 +851,21 @@ def _criticality(w, rate):
 
 @_jit
 def _upper_critical(level, rate):
-    """(found, w) with p(w) = level on the branch u -> 1 of the convex p, by Newton in t = ln(-w)
-    from where p ~ -2 t + ln 2 + ln(1 + r^2) / 2 lies above level; not found when the iterates
-    pass the minimum of p (p stays above level: no critical point)."""
-    t = min(0.5 * (math.log(2.0) + 0.5 * math.log1p(rate * rate) - level), math.log(0.5))
+    """(found, w) with p(w) = level on the branch u -> 1 of the convex p, by Newton from the right
+    (monotone: the iterates stay right of the root), started where p ~ -2 ln(-w) + ln 2 +
+    ln(1 + r^2) / 2 lies above level; not found when an iterate passes the minimum of p."""
+    w = -0.5 * math.exp(0.5 * (math.log(2.0) + 0.5 * math.log1p(rate * rate) - level))
+    while w < -1e-4 and _criticality(w, rate)[0] <= level:
+        w *= 0.25
     for _ in range(100):
-        w = -math.exp(t)
         value, slope, _ = _criticality(w, rate)
-        slope_t = slope * w
-        if slope_t >= 0.0:
+        if slope <= 0.0:
             return False, w
-        step = (value - level) / slope_t
-        t -= step
-        if abs(step) <= 1e-12:
+        step = (value - level) / slope
+        w = max(w - step, _TAIL_W)
+        if abs(step) <= 1e-13 * abs(w):
             break
-    return True, -math.exp(t)
+    return True, w
 
 
 @_jit
@@ -1045,14 +1044,19 @@ _FRACTION_STEP = math.sqrt(_FRACTION_MAX) / _FRACTION_NODES
 
 
 def _fraction_table():
-    """ln u and d ln u / dt on a uniform grid of t = sqrt(K) (1 - u ~ sqrt(2 K) as K -> 0)."""
+    """ln u and d ln u / dt on a uniform grid of t = sqrt(K) (1 - u ~ sqrt(2 K) as K -> 0):
+    e^y - y - 1 = K solved for y = ln u < 0 by bisection (decreasing in y) to the last bit."""
     t = np.arange(_FRACTION_NODES + 2) * _FRACTION_STEP
-    table = np.empty((t.size, 2))
-    table[0] = 0.0, -math.sqrt(2.0)
-    for i in range(1, t.size):
-        u = _contact_fraction(t[i] * t[i])
-        table[i] = math.log(u), -2.0 * t[i] / (1.0 - u)
-    return table
+    big_k = t * t
+    lo, hi = -big_k - 2.0, np.zeros_like(t)
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        below = np.expm1(mid) - mid < big_k  # y above the root
+        lo, hi = np.where(below, lo, mid), np.where(below, mid, hi)
+    log_u = 0.5 * (lo + hi)
+    slope = np.full_like(t, -math.sqrt(2.0))
+    slope[1:] = -2.0 * t[1:] / -np.expm1(log_u[1:])
+    return np.stack([log_u, slope], axis=1)
 
 
 _FRACTION_TABLE = _fraction_table()

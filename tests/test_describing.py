@@ -489,3 +489,57 @@ def test_switch_exact_kernels_match_an_mpmath_reference_with_its_own_switches(na
         return
     assert abs(complex(n) - n_mp) <= 1e-13 * abs(n_mp)
     assert abs(float(mean) - mean_mp) <= 1e-13 * abs(n_mp) * amplitude
+
+
+@pytest.mark.parametrize("rate", [0.05, 0.3, 1.1095969687283675, 3.0, 10.0, 100.0])
+def test_critical_points_of_x_minus_theta_star_match_a_dense_sampling(rate):
+    # on v > 0, phi in (0, pi/2), x - theta*(v) rises, or rises, falls and rises again: the
+    # kernels bracket the theta* crossings between its critical points.  Checked against the
+    # sign changes of its slope on 2^16 phases (theta* from models.theta_star); 4.53 at
+    # c w / k = 1.1096 lies just above the floor of the criticality level with no critical point
+    from backlash_df.describing import _critical_points
+
+    phi = np.linspace(0.0, np.pi / 2, 2**16 + 1)
+    for ratio in (0.3, 1.001, 2.0, 4.533105131932044, 20.0, 100.0):
+        amplitude, omega = ratio * ALPHA, rate * K / C
+        gamma = amplitude * np.sin(phi) - theta_star(amplitude * omega * np.cos(phi), K, C, ALPHA)
+        turns = np.nonzero(np.diff(np.sign(np.diff(gamma))) != 0)[0] + 1
+        crit = np.full(5, -1.0)
+        found = _critical_points(amplitude, rate, ALPHA, crit, True)
+        if not found:
+            # a turn within a few samples of pi/2 is below the resolution of theta* (D ~ 1e-17)
+            assert turns.size == 0 or phi[turns[0]] > np.pi / 2 - 1e-3
+            continue
+        step = phi[1]
+        if crit[3] > np.pi / 2 - 2 * step:  # the minimum within two samples of pi/2: not resolved
+            turns = np.append(turns, phi.size - 1)
+        assert turns.size == 2
+        for turn, (phase, value) in zip(turns, [crit[1:3], crit[3:5]]):
+            assert abs(phase - phi[turn]) < 2 * step
+            # the sampled extremum is off the true one by about |gamma''| step^2 / 8
+            if turn < phi.size - 1:
+                curvature = abs(gamma[turn + 1] - 2 * gamma[turn] + gamma[turn - 1])
+            else:  # gamma ~ A - alpha - A t^2 / 2 within 2 steps t of pi/2
+                curvature = 2.0 * amplitude * step**2
+            assert value == pytest.approx(gamma[turn], abs=curvature + 1e-12 * amplitude)
+
+
+def test_contact_fraction_of_the_band_torque_matches_lambert_w():
+    # theta* = alpha - s u, u - ln u = 1 + K (K = 2 alpha k / (c v)), u = -W0(-exp(-1 - K))
+    from backlash_df.describing import _fraction
+
+    for big_k in np.concatenate([np.geomspace(1e-10, 40.0, 400), np.linspace(0.01, 40.0, 400)]):
+        with mpmath.workdps(30):
+            u = -mpmath.lambertw(-mpmath.exp(-1 - mpmath.mpf(big_k)))
+            assert abs(_fraction(big_k) - u) <= 1e-14 * u
+
+
+def test_grid_on_threads_equals_the_serial_kernel():
+    amplitude = ALPHA * np.geomspace(1.01, 50.0, 40)
+    omega = np.geomspace(1.0, 2e4, 30)
+    for name in ("phase-plane", "rubber"):
+        for bias in (0.0, 0.02):
+            result = describing_function_grid(model(name), amplitude, omega, bias)
+            n, mean = _evaluate(model(name), amplitude[:, None], omega[None, :], bias, "auto")
+            np.testing.assert_array_equal(result.N, n)
+            np.testing.assert_array_equal(result.mean_torque, mean)
