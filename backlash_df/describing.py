@@ -54,6 +54,7 @@ How each law is computed:
 """
 
 import dataclasses
+import functools
 import math
 
 import numba
@@ -1215,77 +1216,147 @@ def _rubber_side(amp, omega, bias, p, crit, stack, acc, events):
 
 
 @_jit
-def _switch_exact_point(law, p, amp, omega, bias, stack, acc, events, crit):
-    """(N, mean torque) of a static law at one point: right contact plus left contact, the
-    latter as right contact of -bias mirrored (b1, a1 add, a0 subtracts)."""
-    k, c, alpha, beta = p[0], p[1], p[2], p[3]
-    mirror = bias != 0.0
-    if law == DEAD_ZONE or law == DAMPED_DEAD_ZONE:
-        damped = law == DAMPED_DEAD_ZONE
-        right = _dead_zone_side(damped, amp, omega, bias, k, c, alpha)
-        left = _dead_zone_side(damped, amp, omega, -bias, k, c, alpha) if mirror else right
-    elif law == REVISED_DEAD_ZONE:
-        right = _revised_side(amp, omega, bias, k, c, alpha)
-        left = _revised_side(amp, omega, -bias, k, c, alpha) if mirror else right
-    elif law == ELASTO_BACKLASH:
-        right = _elasto_side(amp, omega, bias, k, c, alpha, events)
-        left = _elasto_side(amp, omega, -bias, k, c, alpha, events) if mirror else right
-    else:
-        crit[0] = -1.0
-        if law == PHASE_PLANE or beta == 0.0:
-            right = _phase_plane_side(amp, omega, bias, p, crit)
-            left = _phase_plane_side(amp, omega, -bias, p, crit) if mirror else right
-        else:
-            right = _rubber_side(amp, omega, bias, p, crit, stack, acc, events)
-            left = _rubber_side(amp, omega, -bias, p, crit, stack, acc, events) if mirror else right
+def _both_sides(amp, right, left):
+    """(N, mean torque) from the right-contact integrals and the mirrored left ones (right
+    contact of -bias): b1 and a1 add, a0 subtracts."""
     scale = 1.0 / (math.pi * amp)
     return complex((right[0] + left[0]) * scale, (right[1] + left[1]) * scale), (right[2] - left[2]) / _TWO_PI
 
 
 @_jit
-def _switch_exact_balance(law, p, amp, omega, bias, n_out, mean_out):
-    """N and mean torque at each point (one thread)."""
-    stack = np.empty((2 * _MAX_LEVEL + 8, 3))
-    acc = np.zeros(3)
-    events = np.empty((16, 4))
-    crit = np.empty(5)
+def _closed_form_point(law, p, amp, omega, bias):
+    """(N, mean torque) of (24), (26) or (27) at one point."""
+    k, c, alpha = p[0], p[1], p[2]
+    if law == REVISED_DEAD_ZONE:
+        right = _revised_side(amp, omega, bias, k, c, alpha)
+        return _both_sides(amp, right, _revised_side(amp, omega, -bias, k, c, alpha) if bias != 0.0 else right)
+    damped = law == DAMPED_DEAD_ZONE
+    right = _dead_zone_side(damped, amp, omega, bias, k, c, alpha)
+    return _both_sides(amp, right, _dead_zone_side(damped, amp, omega, -bias, k, c, alpha) if bias != 0.0 else right)
+
+
+@_jit
+def _elasto_point(p, amp, omega, bias, events):
+    """(N, mean torque) of the ElastoBacklash law at one point."""
+    right = _elasto_side(amp, omega, bias, p[0], p[1], p[2], events)
+    return _both_sides(amp, right, _elasto_side(amp, omega, -bias, p[0], p[1], p[2], events) if bias != 0.0 else right)
+
+
+@_jit
+def _phase_plane_point(p, amp, omega, bias, crit):
+    """(N, mean torque) of the phase plane law (23) at one point (both sides share crit)."""
+    crit[0] = -1.0
+    right = _phase_plane_side(amp, omega, bias, p, crit)
+    return _both_sides(amp, right, _phase_plane_side(amp, omega, -bias, p, crit) if bias != 0.0 else right)
+
+
+@_jit
+def _rubber_point(p, amp, omega, bias, crit, stack, acc, events):
+    """(N, mean torque) of the rubber law (40) at one point (both sides share crit)."""
+    crit[0] = -1.0
+    right = _rubber_side(amp, omega, bias, p, crit, stack, acc, events)
+    left = _rubber_side(amp, omega, -bias, p, crit, stack, acc, events) if bias != 0.0 else right
+    return _both_sides(amp, right, left)
+
+
+# One driver per family of laws, on one thread and on numba's threads (prange): a call
+# compiles only its family's kernels.
+
+
+@_jit
+def _closed_form_balance(law, p, amp, omega, bias, n_out, mean_out):
     for i in range(amp.shape[0]):
-        n_out[i], mean_out[i] = _switch_exact_point(law, p, amp[i], omega[i], bias[i], stack, acc, events, crit)
+        n_out[i], mean_out[i] = _closed_form_point(law, p, amp[i], omega[i], bias[i])
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _switch_exact_balance_parallel(law, p, amp, omega, bias, n_out, mean_out):
-    """N and mean torque at each point, points shared among numba's threads (prange)."""
+def _closed_form_balance_parallel(law, p, amp, omega, bias, n_out, mean_out):
     for i in numba.prange(amp.shape[0]):
-        stack = np.empty((2 * _MAX_LEVEL + 8, 3))
-        acc = np.zeros(3)
-        events = np.empty((16, 4))
-        crit = np.empty(5)
-        n_out[i], mean_out[i] = _switch_exact_point(law, p, amp[i], omega[i], bias[i], stack, acc, events, crit)
+        n_out[i], mean_out[i] = _closed_form_point(law, p, amp[i], omega[i], bias[i])
+
+
+@_jit
+def _elasto_balance(p, amp, omega, bias, n_out, mean_out):
+    events = np.empty((8, 3))
+    for i in range(amp.shape[0]):
+        n_out[i], mean_out[i] = _elasto_point(p, amp[i], omega[i], bias[i], events)
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _elasto_balance_parallel(p, amp, omega, bias, n_out, mean_out):
+    for i in numba.prange(amp.shape[0]):
+        n_out[i], mean_out[i] = _elasto_point(p, amp[i], omega[i], bias[i], np.empty((8, 3)))
+
+
+@_jit
+def _phase_plane_balance(p, amp, omega, bias, n_out, mean_out):
+    crit = np.empty(5)
+    for i in range(amp.shape[0]):
+        n_out[i], mean_out[i] = _phase_plane_point(p, amp[i], omega[i], bias[i], crit)
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _phase_plane_balance_parallel(p, amp, omega, bias, n_out, mean_out):
+    for i in numba.prange(amp.shape[0]):
+        n_out[i], mean_out[i] = _phase_plane_point(p, amp[i], omega[i], bias[i], np.empty(5))
+
+
+@_jit
+def _rubber_balance(p, amp, omega, bias, n_out, mean_out):
+    crit, stack, acc, events = np.empty(5), np.empty((2 * _MAX_LEVEL + 8, 3)), np.zeros(3), np.empty((16, 4))
+    for i in range(amp.shape[0]):
+        n_out[i], mean_out[i] = _rubber_point(p, amp[i], omega[i], bias[i], crit, stack, acc, events)
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _rubber_balance_parallel(p, amp, omega, bias, n_out, mean_out):
+    for i in numba.prange(amp.shape[0]):
+        crit, stack, acc, events = np.empty(5), np.empty((2 * _MAX_LEVEL + 8, 3)), np.zeros(3), np.empty((16, 4))
+        n_out[i], mean_out[i] = _rubber_point(p, amp[i], omega[i], bias[i], crit, stack, acc, events)
+
+
+def _switch_exact_kernel(model, parallel):
+    """The driver of a static model's switch-exact harmonic balance, called as
+    ``driver(params, amp, omega, bias, n_out, mean_out)``; (40) with beta = 0 is (23)."""
+    law = model.law
+    if law == PHASE_PLANE or (law == RUBBER and model.rubber_thickness == 0.0):
+        return _phase_plane_balance_parallel if parallel else _phase_plane_balance
+    if law == RUBBER:
+        return _rubber_balance_parallel if parallel else _rubber_balance
+    if law == ELASTO_BACKLASH:
+        return _elasto_balance_parallel if parallel else _elasto_balance
+    return functools.partial(_closed_form_balance_parallel if parallel else _closed_form_balance, law)
 
 
 # --------------------------------------------------------------------------- grid kernel
 
 
 @_jit
-def _harmonic_balance(law, p, amp, omega, bias, nodes, weights, samples, scan_step, n_out, mean_out):
-    """N and mean torque at each point.  ``scan_step`` is None for a static law (numba then
-    prunes, and never compiles, the exact model's branch); for the exact model it is a
-    float and ``law`` is the dead-zone, its limit at c w = 0 (the shaft relaxes at once)."""
+def _harmonic_balance(law, p, amp, omega, bias, nodes, weights, samples, n_out, mean_out):
+    """N and mean torque of a static law at each point by the sampled walk (the reference)."""
     acc = np.zeros(3)
     stack = np.empty((2 * _MAX_LEVEL + 8, 3))
     for i in range(amp.shape[0]):
-        a, w, b = amp[i], omega[i], bias[i]
-        exact = False
-        if scan_step is not None:
-            exact = p[1] > 0.0 and w > 0.0
-        if exact:
-            periods = _exact_harmonics(a, w, b, p, scan_step, acc)
-        else:
-            periods = _static_harmonics(law, a, w, b, p, nodes, weights, samples, stack, acc)
+        a = amp[i]
+        periods = _static_harmonics(law, a, omega[i], bias[i], p, nodes, weights, samples, stack, acc)
         scale = 1.0 / (math.pi * periods)
         n_out[i] = complex(acc[0] * scale / a, acc[1] * scale / a)
         mean_out[i] = 0.5 * acc[2] * scale
+
+
+@_jit
+def _exact_balance(p, amp, omega, bias, scan_step, n_out, mean_out):
+    """N and mean torque of the exact model (1) + (14) at each point; at c w = 0 it is the
+    dead-zone (the shaft relaxes at once), in closed form."""
+    acc = np.zeros(3)
+    for i in range(amp.shape[0]):
+        a, w, b = amp[i], omega[i], bias[i]
+        if p[1] > 0.0 and w > 0.0:
+            scale = 1.0 / (math.pi * _exact_harmonics(a, w, b, p, scan_step, acc))
+            n_out[i] = complex(acc[0] * scale / a, acc[1] * scale / a)
+            mean_out[i] = 0.5 * acc[2] * scale
+        else:
+            n_out[i], mean_out[i] = _closed_form_point(DEAD_ZONE, p, a, w, b)
 
 
 def _tustin(excess):
@@ -1388,14 +1459,13 @@ def _evaluate(model, amplitude, omega, bias, method, samples=None, gauss_order=N
     # np.array copies: broadcast views are flagged "warn on write", and numba's typeof
     # reads that flag (a FutureWarning on every call with numpy >= 2.4)
     points = tuple(np.array(x, dtype=float).ravel() for x in (a, w, b))
-    exact = model.law == EXACT
-    if not exact and samples is None and gauss_order is None:
-        kernel = _switch_exact_balance_parallel if parallel else _switch_exact_balance
-        kernel(model.law, model.params, *points, n_out, mean_out)
+    if model.law == EXACT:
+        _exact_balance(model.params, *points, float(scan_step), n_out, mean_out)
+    elif samples is None and gauss_order is None:
+        _switch_exact_kernel(model, parallel)(model.params, *points, n_out, mean_out)
     else:
         nodes, weights = np.polynomial.legendre.leggauss(gauss_order) if gauss_order else (np.empty(0), np.empty(0))
-        _harmonic_balance(DEAD_ZONE if exact else model.law, model.params, *points, nodes, weights,
-                          int(samples or _SAMPLES), float(scan_step) if exact else None, n_out, mean_out)
+        _harmonic_balance(model.law, model.params, *points, nodes, weights, int(samples or _SAMPLES), n_out, mean_out)
     n_out, mean_out = n_out.reshape(a.shape), mean_out.reshape(a.shape)
     # Every law is odd, T(-x, -v) = -T(x, v): at zero bias the mean torque is zero, and
     # what the quadrature returns is round-off relative to the torque's scale |N| A.
