@@ -1394,11 +1394,11 @@ _MEAN_ROUND_OFF = 1e-10
 
 def _validated(name, values, positive=False):
     array = np.asarray(values, dtype=float)
-    if not np.all(np.isfinite(array)):
+    if not np.isfinite(array).all():
         raise ValueError(f"{name} must be finite")
-    if positive and np.any(array <= 0.0):
+    if positive and (array <= 0.0).any():
         raise ValueError(f"{name} must be > 0")
-    if not positive and name == "omega" and np.any(array < 0.0):
+    if not positive and name == "omega" and (array < 0.0).any():
         raise ValueError("omega must be >= 0")
     return array
 
@@ -1416,11 +1416,17 @@ _MAX_BIAS_RATIO = 1e8
 
 def _check_scales(model, a, w, b):
     """Refuse arguments whose harmonic balance floating point cannot carry (one-line ``ValueError``)."""
-    ratio = np.abs(b) / a
-    if np.any(ratio > _MAX_BIAS_RATIO):
+    if a.size == 0:
+        return
+    magnitude = np.abs(b)
+    ratio = magnitude / a
+    if (ratio > _MAX_BIAS_RATIO).any():
         i = np.unravel_index(np.argmax(ratio), ratio.shape)
         raise ValueError(f"bias = {b[i]:g} rad is more than {_MAX_BIAS_RATIO:g} times the amplitude {a[i]:g} rad: "
                          f"A sin(w t) is lost in the round-off of bias + A sin(w t)")
+    # a bound on every point's torque scale in Python floats (inf, no warning, on overflow)
+    if math.isfinite((model.stiffness + model.damping * float(w.max())) * (float(a.max()) + float(magnitude.max()))):
+        return
     with np.errstate(over="ignore"):
         scale = (model.stiffness + model.damping * w) * (a + np.abs(b))
     if not np.all(np.isfinite(scale)):
@@ -1448,7 +1454,7 @@ def _evaluate(model, amplitude, omega, bias, method, samples=None, gauss_order=N
         raise ValueError(f"method must be 'auto', 'closed-form' or 'harmonic-balance', got {method!r}")
     a, w, b = np.broadcast_arrays(amplitude, omega, bias)
     _check_scales(model, a, w, b)
-    closed = _closed_form(model, a, w) if method != "harmonic-balance" and not np.any(b) else None
+    closed = _closed_form(model, a, w) if method != "harmonic-balance" and not b.any() else None
     if method == "closed-form" and closed is None:
         raise ValueError(f"no closed-form describing function for {model.name!r} (or with a bias)")
     if closed is not None:
