@@ -1258,8 +1258,9 @@ def _rubber_point(p, amp, omega, bias, crit, stack, acc, events):
     return _both_sides(amp, right, left)
 
 
-# One driver per family of laws, on one thread and on numba's threads (prange): a call
-# compiles only its family's kernels.
+# One driver per family of laws, on one thread and on numba's threads (prange, by chunks of
+# _CHUNK points that share their work arrays): a call compiles only its family's kernels.
+_CHUNK = 256
 
 
 @_jit
@@ -1275,43 +1276,58 @@ def _closed_form_balance_parallel(law, p, amp, omega, bias, n_out, mean_out):
 
 
 @_jit
-def _elasto_balance(p, amp, omega, bias, n_out, mean_out):
+def _elasto_chunk(p, amp, omega, bias, n_out, mean_out, start, stop):
     events = np.empty((8, 3))
-    for i in range(amp.shape[0]):
+    for i in range(start, stop):
         n_out[i], mean_out[i] = _elasto_point(p, amp[i], omega[i], bias[i], events)
+
+
+@_jit
+def _elasto_balance(p, amp, omega, bias, n_out, mean_out):
+    _elasto_chunk(p, amp, omega, bias, n_out, mean_out, 0, amp.shape[0])
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
 def _elasto_balance_parallel(p, amp, omega, bias, n_out, mean_out):
-    for i in numba.prange(amp.shape[0]):
-        n_out[i], mean_out[i] = _elasto_point(p, amp[i], omega[i], bias[i], np.empty((8, 3)))
+    for chunk in numba.prange((amp.shape[0] + _CHUNK - 1) // _CHUNK):
+        _elasto_chunk(p, amp, omega, bias, n_out, mean_out, chunk * _CHUNK, min((chunk + 1) * _CHUNK, amp.shape[0]))
+
+
+@_jit
+def _phase_plane_chunk(p, amp, omega, bias, n_out, mean_out, start, stop):
+    crit = np.empty(5)
+    for i in range(start, stop):
+        n_out[i], mean_out[i] = _phase_plane_point(p, amp[i], omega[i], bias[i], crit)
 
 
 @_jit
 def _phase_plane_balance(p, amp, omega, bias, n_out, mean_out):
-    crit = np.empty(5)
-    for i in range(amp.shape[0]):
-        n_out[i], mean_out[i] = _phase_plane_point(p, amp[i], omega[i], bias[i], crit)
+    _phase_plane_chunk(p, amp, omega, bias, n_out, mean_out, 0, amp.shape[0])
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
 def _phase_plane_balance_parallel(p, amp, omega, bias, n_out, mean_out):
-    for i in numba.prange(amp.shape[0]):
-        n_out[i], mean_out[i] = _phase_plane_point(p, amp[i], omega[i], bias[i], np.empty(5))
+    for chunk in numba.prange((amp.shape[0] + _CHUNK - 1) // _CHUNK):
+        _phase_plane_chunk(p, amp, omega, bias, n_out, mean_out, chunk * _CHUNK,
+                           min((chunk + 1) * _CHUNK, amp.shape[0]))
+
+
+@_jit
+def _rubber_chunk(p, amp, omega, bias, n_out, mean_out, start, stop):
+    crit, stack, acc, events = np.empty(5), np.empty((2 * _MAX_LEVEL + 8, 3)), np.zeros(3), np.empty((16, 4))
+    for i in range(start, stop):
+        n_out[i], mean_out[i] = _rubber_point(p, amp[i], omega[i], bias[i], crit, stack, acc, events)
 
 
 @_jit
 def _rubber_balance(p, amp, omega, bias, n_out, mean_out):
-    crit, stack, acc, events = np.empty(5), np.empty((2 * _MAX_LEVEL + 8, 3)), np.zeros(3), np.empty((16, 4))
-    for i in range(amp.shape[0]):
-        n_out[i], mean_out[i] = _rubber_point(p, amp[i], omega[i], bias[i], crit, stack, acc, events)
+    _rubber_chunk(p, amp, omega, bias, n_out, mean_out, 0, amp.shape[0])
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
 def _rubber_balance_parallel(p, amp, omega, bias, n_out, mean_out):
-    for i in numba.prange(amp.shape[0]):
-        crit, stack, acc, events = np.empty(5), np.empty((2 * _MAX_LEVEL + 8, 3)), np.zeros(3), np.empty((16, 4))
-        n_out[i], mean_out[i] = _rubber_point(p, amp[i], omega[i], bias[i], crit, stack, acc, events)
+    for chunk in numba.prange((amp.shape[0] + _CHUNK - 1) // _CHUNK):
+        _rubber_chunk(p, amp, omega, bias, n_out, mean_out, chunk * _CHUNK, min((chunk + 1) * _CHUNK, amp.shape[0]))
 
 
 def _switch_exact_kernel(model, parallel):
