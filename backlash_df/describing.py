@@ -584,7 +584,7 @@ def _exact_harmonics(amp, omega, bias, p, scan_step, acc):
 # The default harmonic balance of the static laws.  Along x = bias + A sin(phi) every boundary
 # of a law except theta* is a sinusoid, b + R sin(phi + shift) = level, crossed in closed form
 # (an arc of half-width h about phi = pi/2 - shift, _arc); every contact torque is affine in
-# (1, sin phi, cos phi) and integrated in closed form (_affine, or the series forms of
+# (1, sin phi, cos phi) and integrated in closed form (_arc_integrals, or the series forms of
 # _y_arc_side where the arc is symmetric).  The theta* boundaries are located by Newton on
 # eq. (19) written with one exponential (_contact_residual), inside brackets where the
 # boundary is monotone (_critical_points).  Right contact is integrated for the bias, left
@@ -628,7 +628,7 @@ def _sin_minus_h_cos(h):
 def _arc(offset, radius, level):
     """Half-width h of the arc where offset + radius sin(theta) > level, centred at theta = pi/2,
     with cos h = (level - offset) / radius and sin h; h = -1 if the arc is empty, pi if it is
-    the whole circle (then sin h = 0 and cos h < -1).
+    the whole circle (then sin h = 0 and cos h <= -1).
 
     Computed from the excess 1 - cos h = (radius + offset - level) / radius, which keeps full
     precision as the arc shrinks (A -> alpha)."""
@@ -1132,12 +1132,11 @@ def _level_crossings(level, up_mode, down_mode, amp, rate, psi, radius, alpha, c
         return n
     lo = -_HALF_PI if h >= math.pi else max(_HALF_PI - psi - h, -_HALF_PI)
     sin_x = (alpha + level) / amp
-    hi = _HALF_PI if sin_x >= 1.0 else math.asin(max(sin_x, -1.0))
-    if h < math.pi:
-        hi = min(hi, _HALF_PI - psi + h)
+    phi_x = _HALF_PI if sin_x >= 1.0 else math.asin(max(sin_x, -1.0))
+    hi = phi_x if h >= math.pi else min(phi_x, _HALF_PI - psi + h)
     if lo >= hi:
         return n
-    above_hi = sin_x < 1.0 and hi >= math.asin(max(sin_x, -1.0))
+    above_hi = sin_x < 1.0 and hi >= phi_x
     above = lo <= -_HALF_PI and -amp - alpha >= level  # gamma at lo; at -pi/2 (v = 0) gamma = -A - alpha
     if lo < 0.0:  # gamma rises on [lo, 0]
         above_end = _top_above(level, amp, slope_scale, alpha) if hi > 0.0 else above_hi
