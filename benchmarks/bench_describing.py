@@ -4,8 +4,9 @@ Per law, with and without bias (bias = alpha / 2), on a 100 x 100 grid of A / al
 [1.001, 100] and c w / k in [1e-3, 10] (the validity map's regions), through
 ``method="harmonic-balance"`` (the closed forms of the dead-zones are not used):
 
-* backlash-df on one thread (CPU time of the process, best of REPEAT) and on numba's threads
-  with ``prange`` (wall time: the threads' CPU time adds up), in points per second;
+* backlash-df on one thread (CPU time of the process, best of REPEAT; and its wall time) and
+  on numba's threads with ``prange`` (wall time: the threads' CPU time adds up, and on a
+  shared machine the second core is not always free), in points per second;
 * the numerical competitor, a vectorised numpy sampler: ``samples`` phases per period, one
   lap, sin and cos computed once, the law from the package's vectorised ``torque`` (contact
   of (23) held from theta* to the release by a cumulative maximum over each run of
@@ -18,8 +19,8 @@ Per law, with and without bias (bias = alpha / 2), on a 100 x 100 grid of A / al
 * a floor row: the classical dead-zone (24) through the same path and driver, the cheapest
   law: one arcsine and two series per side.  It is what a point costs before its law's own
   switches and integrals (input checks, broadcasting, the compiled loop);
-* the share of the three functions on top of a cProfile of the call (the compiled driver is
-  one of them: the profiler does not see into it).
+* the share of the three functions on top of a cProfile of 0.3 s of calls (the compiled
+  driver is one of them: the profiler does not see into it).
 
 python-control's ``describing_function`` cannot take a rate-dependent law; its per-call and
 per-amplitude overhead is printed apart, given Tustin's closed form (a
@@ -27,7 +28,7 @@ per-amplitude overhead is printed apart, given Tustin's closed form (a
 has its own route; its throughput is printed last, with its accuracy against an FFT of a
 time simulation of (14).
 
-Run: python benchmarks/bench_describing.py  (about five minutes on one core)
+Run: python benchmarks/bench_describing.py  (about five minutes; most of it the mpmath references)
 """
 
 import cProfile
@@ -127,10 +128,12 @@ def matched_samples(law, amplitude, omega, bias, reference, target):
 # ----------------------------------------------------------------------------- one law
 
 
-def profile_top3(function):
-    """The three functions with the most own time in a cProfile of REPEAT calls, with their share."""
+def profile_top3(function, seconds=0.3):
+    """The three functions with the most own time in a cProfile of calls adding up to ``seconds``
+    (CPU time), with their share."""
     profiler = cProfile.Profile()
-    for _ in range(REPEAT):
+    start = time.process_time()
+    while time.process_time() - start < seconds:
         profiler.runcall(function)
     stats = pstats.Stats(profiler).stats
     total = sum(entry[2] for entry in stats.values())
@@ -153,7 +156,7 @@ def law_row(name, bias, amplitude, omega):
     ours_error = max_rel_error(_evaluate(law, mp_a, mp_w, bias, "harmonic-balance")[0], reference)
     ours_rate = points / serial_cpu
     label = f"{name}, bias {bias / ALPHA:g} alpha"
-    row = f"   {label:<34s}{ours_rate:10.3g}{points / threaded_wall:10.3g}{serial_wall / threaded_wall:6.2f}x{ours_error:9.1e}"
+    row = f"   {label:<34s}{ours_rate:10.3g}{points / serial_wall:10.3g}{points / threaded_wall:10.3g}{ours_error:9.1e}"
     for target in (max(ours_error, 1e-15), PRACTICAL):
         samples = matched_samples(law, mp_a, mp_w, bias, reference, target)
         sampler_error = max_rel_error(numpy_sampler(law, mp_a, mp_w, bias, samples)[0], reference)
@@ -241,9 +244,9 @@ if __name__ == "__main__":
     print(f"1. describing functions, {amplitude.size} points: A/alpha in [1.001, 100] x c w/k in [1e-3, 10] (log grid), "
           f"method='harmonic-balance'; {numba.get_num_threads()} numba threads; error: max rel to mpmath (30 digits, "
           f"own switch location) at {len(MP_POINTS)} points")
-    print(f"   {'':34s}{'backlash-df':^35s} | {'numpy sampler, matched (or best)':^35s}| "
+    print(f"   {'':34s}{'backlash-df (points/s)':^39s}| {'numpy sampler, matched (or best)':^35s}| "
           f"{'numpy sampler at ' + format(PRACTICAL, '.0e'):^35s}")
-    print(f"   {'law':<34s}{'1 thread':>10s}{'prange':>10s}{'':7s}{'error':>8s}" +
+    print(f"   {'law':<34s}{'1 thread':>10s}{'(wall)':>10s}{'prange':>10s}{'error':>9s}" +
           f" |{'samples':>8s}{'points/s':>9s}{'error':>9s}{'ratio':>10s}" * 2)
     for bias in BIASES:
         for name in LAWS:
