@@ -241,8 +241,8 @@ def exact_row():
 
 if __name__ == "__main__":
     amplitude, omega = grid()
-    print(f"1. describing functions, {amplitude.size} points: A/alpha in [1.001, 100] x c w/k in [1e-3, 10] (log grid), "
-          f"without bias and biased (bias = alpha/2), method='harmonic-balance'; {numba.get_num_threads()} numba "
+    print(f"1. describing functions, {amplitude.size} points: A/alpha in [1.001, 100] x c w/k in [1e-3, 10] "
+          f"(log grid), without bias and biased (bias = alpha/2), method='harmonic-balance'; {numba.get_num_threads()} numba "
           f"threads; error: max rel to mpmath (30 digits, own switch location) at {len(MP_POINTS)} points; "
           f"CPU time best of {REPEAT} (wall time where marked)")
     print(f"   {'':34s}{'backlash-df (points/s)':^39s}| {'numpy sampler, matched (or best)':^35s}| "

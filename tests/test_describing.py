@@ -369,7 +369,6 @@ def mp_describing_function(name, amplitude, omega, bias, damping=C, scan=360):
     with mpmath.workdps(30):
         k, c, alpha, beta = (mpmath.mpf(value) for value in (K, damping, ALPHA, BETA))
         amp, w, b = (mpmath.mpf(value) for value in (amplitude, omega, bias))
-        held = name == "phase-plane"
 
         def state(phi):
             return b + amp * mpmath.sin(phi), amp * w * mpmath.cos(phi)
