@@ -16,18 +16,30 @@ loaded loop (:class:`BiasedDescribing`).  Because the laws depend on the rate ``
 
 How each law is computed:
 
-* Static laws: along ``phi = w t`` the torque is smooth inside each mode of the
-  law (free, rubber band, contact; see :mod:`backlash_df.models`).  The mode is
-  followed as the simulation follows it (:func:`~backlash_df.models.held_mode`):
-  contact of the phase plane law, once made at theta*, holds until the release
-  condition, as in the paper's derivation of (20).  The mode
+* Static laws, by default (the switch-exact kernels): every contact torque is
+  affine in (1, sin phi, cos phi) along ``phi = w t`` and is integrated in closed
+  form; every mode boundary but theta* is a sinusoid, ``b + R sin(phi + psi) = level``
+  (x, y = x + (c/k) v, z = x - (c/k) v, x + 2 (c/k) v), crossed at phases in closed
+  form.  Right contact is integrated for the bias, left contact as its mirror image
+  (odd symmetry).  Contact of the phase plane law, once made at theta*, holds until
+  the release (Theorem 1, :func:`~backlash_df.models.held_mode`): it spans the arc
+  where y >= alpha from its first phase with ``x >= theta*(v)`` or ``v <= 0``.  The
+  theta* boundaries ``x = theta*(v) (+- beta / 2)`` are located by Newton on (19) written
+  with one exponential, in brackets where ``x - theta*(v)`` is monotone: it rises for
+  ``v`` rising and, for ``v`` falling, rises or has one maximum and one minimum, found as
+  the roots of a convex function of the contact fraction (``cot phi = (c w / k) D``,
+  ``D = -d theta*/ds``).  The rubber band (36), not affine, is integrated by adaptive
+  Gauss-Kronrod (7-15), the error test of ``_integrate_adaptive``.  No sample count enters.
+* Static laws, reference (``_evaluate(..., samples=..., gauss_order=...)``): the
+  walk of earlier releases.  The mode is followed as the simulation follows it
+  (:func:`~backlash_df.models.held_mode`).  The mode
   changes (contact, release, theta*, rubber band edges, the kink of the
   ElastoBacklash law) are bracketed by 64 phase samples, located to a few
   ulps as zeros of the law's boundary functions (regula falsi, Illinois) and
   settled by bisection on the mode itself, which has the last word (bisection
   alone where no boundary function fits).  Each smooth piece is integrated by
-  adaptive Gauss-Kronrod (7-15) quadrature with a stated error test.  Accuracy
-  does not depend on a sample count.
+  adaptive Gauss-Kronrod (7-15) quadrature with a stated error test, or by a fixed
+  Gauss-Legendre rule.
 * The exact model (1) + (14): off contact the shaft relaxes as
   ``theta_b = x + (theta_b0 - x0) exp(-(phi - phi0) / (c w / k))`` (eq. 13),
   contact starts when that reaches ``+-alpha`` (located by bisection) and ends at
@@ -46,6 +58,7 @@ How each law is computed:
 """
 
 import dataclasses
+import functools
 import math
 
 import numba
@@ -83,6 +96,8 @@ __all__ = [
 
 _jit = numba.njit(cache=True, nogil=True)
 _TWO_PI = 2.0 * math.pi
+_HALF_PI = 0.5 * math.pi
+_RUBBER_BAND = -1  # law code of _kronrod for the rubber band torque of the switch-exact kernels
 _SAMPLES = 64  # phase samples that bracket mode changes (plus special phases)
 _SCAN_STEP = 0.02  # phase step (rad) of the exact model's search for re-contact
 _BISECTIONS = 60
@@ -161,7 +176,8 @@ def _integrate_fixed(law, m, a, e, amp, omega, bias, p, nodes, weights, acc):
 
 @_jit
 def _kronrod(law, m, a, e, amp, omega, bias, p):
-    """15-point Kronrod integrals of T sin, T cos, T over [a, e], |K15 - G7| and int |T|."""
+    """15-point Kronrod integrals of T sin, T cos, T over [a, e], |K15 - G7| and int |T|
+    (T of mode m of the law, or the rubber band torque of :func:`_band_torque` if law is _RUBBER_BAND)."""
     half = 0.5 * (e - a)
     centre = a + half
     k_sin = k_cos = k_one = g_sin = g_cos = g_one = total = 0.0
@@ -169,7 +185,8 @@ def _kronrod(law, m, a, e, amp, omega, bias, p):
         phi = centre + half * _KRONROD[i, 0]
         sn = math.sin(phi)
         cs = math.cos(phi)
-        torque = mode_torque(law, m, bias + amp * sn, amp * omega * cs, p[0], p[1], p[2], p[3])
+        x, v = bias + amp * sn, amp * omega * cs
+        torque = _band_torque(x, v, p) if law == _RUBBER_BAND else mode_torque(law, m, x, v, p[0], p[1], p[2], p[3])
         kronrod = _KRONROD[i, 1] * torque
         gauss = _KRONROD[i, 2] * torque
         k_sin += kronrod * sn
@@ -572,28 +589,798 @@ def _exact_harmonics(amp, omega, bias, p, scan_step, acc):
     return 1.0
 
 
+# --------------------------------------------------------------------------- switch-exact kernels
+#
+# The default harmonic balance of the static laws.  Along x = bias + A sin(phi) every boundary
+# of a law except theta* is a sinusoid, b + R sin(phi + shift) = level, crossed in closed form
+# (an arc of half-width h about phi = pi/2 - shift, _arc); every contact torque is affine in
+# (1, sin phi, cos phi) and integrated in closed form (_arc_integrals, or the series forms of
+# _y_arc_side where the arc is symmetric).  The theta* boundaries are located by Newton on
+# eq. (19) written with one exponential (_contact_residual), inside brackets where the
+# boundary is monotone (_critical_points).  Right contact is integrated for the bias, left
+# contact as the mirror image, right contact of -bias (odd symmetry, reading notes item 3).
+
+_TAIL_W = -41.0  # ln u at K = 40, where theta* rounds to alpha (models._theta_star); u ~ 1.6e-18
+_CRIT_FLOOR = 1.0233  # min over u of p(u; r = 0) = 1.023388 is a lower bound of p: no critical points below
+
+
+@_jit
+def _u_minus_sin(u):
+    """u - sin u without cancellation (Taylor series below 1)."""
+    if u < 1.0:
+        q = u * u
+        return u * q / 6.0 * (1.0 - q / 20.0 * (1.0 - q / 42.0 * (1.0 - q / 72.0 * (1.0 - q / 110.0 * (
+            1.0 - q / 156.0 * (1.0 - q / 210.0 * (1.0 - q / 272.0 * (1.0 - q / 342.0))))))))
+    return u - math.sin(u)
+
+
+@_jit
+def _one_minus_cos(h):
+    """1 - cos h without cancellation (Taylor series below 1)."""
+    if h < 1.0:
+        q = h * h
+        return 0.5 * q * (1.0 - q / 12.0 * (1.0 - q / 30.0 * (1.0 - q / 56.0 * (1.0 - q / 90.0 * (
+            1.0 - q / 132.0 * (1.0 - q / 182.0 * (1.0 - q / 240.0 * (1.0 - q / 306.0))))))))
+    return 1.0 - math.cos(h)
+
+
+@_jit
+def _sin_minus_h_cos(h):
+    """sin h - h cos h without cancellation (Taylor series below 1)."""
+    if h < 1.0:
+        q = h * h
+        return h * q / 3.0 * (1.0 - q / 10.0 * (1.0 - q / 28.0 * (1.0 - q / 54.0 * (1.0 - q / 88.0 * (
+            1.0 - q / 130.0 * (1.0 - q / 180.0 * (1.0 - q / 238.0 * (1.0 - q / 304.0 * (1.0 - q / 378.0)))))))))
+    return math.sin(h) - h * math.cos(h)
+
+
+@_jit
+def _arc(offset, radius, level):
+    """Half-width h of the arc where offset + radius sin(theta) > level, centred at theta = pi/2,
+    with cos h = (level - offset) / radius and sin h; h = -1 if the arc is empty, pi if it is
+    the whole circle (then sin h = 0 and cos h <= -1).
+
+    Computed from the excess 1 - cos h = (radius + offset - level) / radius, which keeps full
+    precision as the arc shrinks (A -> alpha)."""
+    excess = (radius + offset - level) / radius
+    if excess <= 0.0:
+        return -1.0, 1.0, 0.0
+    if excess >= 2.0:
+        return math.pi, 1.0 - excess, 0.0
+    half = math.sqrt(0.5 * excess)  # sin(h / 2)
+    return 2.0 * math.asin(half), 1.0 - excess, 2.0 * half * math.sqrt(1.0 - half * half)
+
+
+@_jit
+def _inside(phi, centre, half):
+    """Whether phase phi lies inside the arc centre +- half (see _arc for half = -1 or pi)."""
+    if half >= math.pi:
+        return True
+    if half < 0.0:
+        return False
+    offset = phi - centre
+    return abs(offset - _TWO_PI * math.floor(offset / _TWO_PI + 0.5)) < half
+
+
+@_jit
+def _shifted(sin_t, cos_t, sin_s, cos_s):
+    """sin and cos of t - s from those of t and s."""
+    return sin_t * cos_s - cos_t * sin_s, cos_t * cos_s + sin_t * sin_s
+
+
+@_jit
+def _rate_geometry(rate):
+    """cos psi, sin psi and psi = atan(rate): y = x + (c/k) v = bias + R sin(phi + psi), R = A sqrt(1 + rate^2)."""
+    cos_psi = 1.0 / math.sqrt(1.0 + rate * rate)
+    return cos_psi, rate * cos_psi, math.atan(rate)
+
+
+@_jit
+def _affine(p0, p1, p2, a, sa, ca, e, se, ce):
+    """int T sin, int T cos, int T over [a, e] of T = p0 + p1 sin phi + p2 cos phi, from the
+    phases and their sines and cosines."""
+    span = e - a
+    d_cos = ca - ce
+    d_sin = se - sa
+    sin_sq = 0.5 * (se * se - sa * sa)
+    sin_cos = 0.5 * (se * ce - sa * ca)
+    return (p0 * d_cos + p1 * (0.5 * span - sin_cos) + p2 * sin_sq,
+            p0 * d_sin + p1 * sin_sq + p2 * (0.5 * span + sin_cos),
+            p0 * span + p1 * d_cos + p2 * d_sin)
+
+
+@_jit
+def _centred(t_m, u_m, du_m, sin_m, cos_m, d):
+    """int T sin, int T cos, int T over m +- d of T(m + t) = t_m - u_m (1 - cos t) + du_m sin t,
+    in the cancellation-free forms d - sin d, 2 d - sin 2 d, 1 - cos d."""
+    sin_d = math.sin(d)
+    int_cos = 2.0 * t_m * sin_d - u_m * (sin_d * _one_minus_cos(d) - _u_minus_sin(d))  # int T cos t dt
+    int_sin = 0.5 * du_m * _u_minus_sin(2.0 * d)  # int T sin t dt
+    return (sin_m * int_cos + cos_m * int_sin, cos_m * int_cos - sin_m * int_sin,
+            2.0 * d * t_m - 2.0 * u_m * _u_minus_sin(d))
+
+
+@_jit
+def _arc_integrals(scale, centre, sin_c, cos_c, h, cos_h, a, sa, ca, e, se, ce):
+    """int T sin, int T cos, int T over [a, e] inside the arc centre +- h (see _arc) of
+    T = scale (cos(phi - centre) - cos h): k (y - alpha) on the arc y > alpha, 2 k (x - alpha)
+    on x > alpha.
+
+    On pieces shorter than 1 rad about their middle m, with T(m) in the product form
+    2 scale sin((h + theta) / 2) sin((h - theta) / 2), theta = m - centre: T is small where the
+    piece is short next to the gap, and the ends' values would cancel.
+    """
+    if e - a >= 1.0:
+        return _affine(-scale * cos_h, scale * sin_c, scale * cos_c, a, sa, ca, e, se, ce)
+    d = 0.5 * (e - a)
+    m = a + d
+    sin_m, cos_m = math.sin(m), math.cos(m)
+    sin_t, cos_t = _shifted(sin_m, cos_m, sin_c, cos_c)
+    if h < math.pi:
+        theta = m - centre
+        theta -= _TWO_PI * math.floor(theta / _TWO_PI + 0.5)
+        t_m = 2.0 * scale * math.sin(0.5 * (h + theta)) * math.sin(0.5 * (h - theta))
+    else:
+        t_m = scale * (cos_t - cos_h)
+    return _centred(t_m, scale * cos_t, -scale * sin_t, sin_m, cos_m, d)
+
+
+@_jit
+def _dead_zone_side(damped, amp, omega, bias, k, c, alpha):
+    """Right-contact integrals of (24) or (26): contact on the arc x > alpha, T = k (x - alpha) (+ c v)."""
+    h, _, _ = _arc(bias, amp, alpha)
+    if h < 0.0:
+        return 0.0, 0.0, 0.0
+    rate_term = c * amp * omega if damped else 0.0
+    if h >= math.pi:
+        return math.pi * k * amp, math.pi * rate_term, _TWO_PI * k * (bias - alpha)
+    # phi = pi/2 + t, |t| < h: x - alpha = A (cos t - cos h), v = -A w sin t
+    lens = 0.5 * _u_minus_sin(2.0 * h)
+    return k * amp * lens, rate_term * lens, 2.0 * k * amp * _sin_minus_h_cos(h)
+
+
+@_jit
+def _y_arc_side(amp, omega, bias, k, c, alpha, radius, h):
+    """Right-contact integrals of T = k (y - alpha) over the whole arc y > alpha of half-width h, as (27)."""
+    if h >= math.pi:
+        return math.pi * k * amp, math.pi * c * amp * omega, _TWO_PI * k * (bias - alpha)
+    # theta = phi + psi = pi/2 + t: y - alpha = R (cos t - cos h); R cos psi = A, R sin psi = A c w / k
+    lens = 0.5 * _u_minus_sin(2.0 * h)
+    return k * amp * lens, c * amp * omega * lens, 2.0 * k * radius * _sin_minus_h_cos(h)
+
+
+@_jit
+def _revised_side(amp, omega, bias, k, c, alpha):
+    """Right-contact integrals of (27): T = k (y - alpha) wherever y = x + (c/k) v > alpha."""
+    rate = c * omega / k
+    radius = amp * math.sqrt(1.0 + rate * rate)
+    h, _, _ = _arc(bias, radius, alpha)
+    if h < 0.0:
+        return 0.0, 0.0, 0.0
+    return _y_arc_side(amp, omega, bias, k, c, alpha, radius, h)
+
+
+@_jit
+def _add_event(events, n, phi, sin_phi, cos_phi, start, end):
+    """Append (phi, sin, cos), phi moved by whole periods into [start, start + 2 pi), if start < phi < end."""
+    phi += _TWO_PI * math.floor((start - phi) / _TWO_PI + 1.0)
+    if phi - _TWO_PI >= start:
+        phi -= _TWO_PI
+    if start < phi < end:
+        events[n, 0], events[n, 1], events[n, 2] = phi, sin_phi, cos_phi
+        return n + 1
+    return n
+
+
+@_jit
+def _add_arc_ends(events, n, centre, sin_centre, cos_centre, h, cos_h, sin_h, start, end):
+    """Append both ends centre -+ h of an arc (see _arc) that is neither empty nor the whole circle."""
+    if h <= 0.0 or h >= math.pi:
+        return n
+    for side in (-1.0, 1.0):
+        # the arc's own angle theta = phi + pi/2 - centre is pi/2 + side h at the end
+        sin_phi, cos_phi = _shifted(cos_h, -side * sin_h, cos_centre, sin_centre)
+        n = _add_event(events, n, centre + side * h, sin_phi, cos_phi, start, end)
+    return n
+
+
+@_jit
+def _sort_events(events, n):
+    """Sort the first n rows of events by phase (insertion sort: a handful of rows)."""
+    for i in range(1, n):
+        j = i
+        while j > 0 and events[j - 1, 0] > events[j, 0]:
+            for col in range(events.shape[1]):
+                events[j - 1, col], events[j, col] = events[j, col], events[j - 1, col]
+            j -= 1
+
+
+@_jit
+def _elasto_side(amp, omega, bias, k, c, alpha, events):
+    """Right-contact integrals of the ElastoBacklash law: contact where x > alpha and y > alpha,
+    T = 2 k (x - alpha) where z = x - (c/k) v < alpha (the damper clipped), else k (x - alpha) + c v."""
+    hx, cos_hx, sin_hx = _arc(bias, amp, alpha)
+    if hx < 0.0:
+        return 0.0, 0.0, 0.0
+    rate = c * omega / k
+    cos_psi, sin_psi, psi = _rate_geometry(rate)
+    radius = amp * math.sqrt(1.0 + rate * rate)
+    hy, cos_hy, sin_hy = _arc(bias, radius, alpha)  # y and z: same R and level
+    if hy < 0.0:
+        return 0.0, 0.0, 0.0
+    if hx >= math.pi:
+        start, sin_start, cos_start, end, sin_end, cos_end = -_HALF_PI, -1.0, 0.0, 1.5 * math.pi, -1.0, 0.0
+    else:
+        start, sin_start, cos_start = _HALF_PI - hx, cos_hx, sin_hx
+        end, sin_end, cos_end = _HALF_PI + hx, cos_hx, -sin_hx
+    n = _add_arc_ends(events, 0, _HALF_PI - psi, cos_psi, sin_psi, hy, cos_hy, sin_hy, start, end)
+    n = _add_arc_ends(events, n, _HALF_PI + psi, cos_psi, -sin_psi, hy, cos_hy, sin_hy, start, end)
+    _sort_events(events, n)
+    events[n, 0], events[n, 1], events[n, 2] = end, sin_end, cos_end
+    total_sin = total_cos = total_one = 0.0
+    a, sa, ca = start, sin_start, cos_start
+    for i in range(n + 1):
+        e, se, ce = events[i, 0], events[i, 1], events[i, 2]
+        mid = 0.5 * (a + e)
+        if _inside(mid, _HALF_PI - psi, hy):
+            if _inside(mid, _HALF_PI + psi, hy):  # T = k (y - alpha)
+                piece = _arc_integrals(k * radius, _HALF_PI - psi, cos_psi, sin_psi, hy, cos_hy, a, sa, ca, e, se, ce)
+            else:  # T = 2 k (x - alpha)
+                piece = _arc_integrals(2.0 * k * amp, _HALF_PI, 1.0, 0.0, hx, cos_hx, a, sa, ca, e, se, ce)
+            total_sin += piece[0]
+            total_cos += piece[1]
+            total_one += piece[2]
+        a, sa, ca = e, se, ce
+    return total_sin, total_cos, total_one
+
+
+# theta* along the sinusoid.  With s = S cos phi (S = A c w / k) on the rising half (v > 0),
+# gamma(phi) = A sin phi - theta*(s) is x - theta* less the bias: its shape does not depend on
+# the bias, so both sides and every level share it.  gamma rises on [-pi/2, 0] (x rises, s
+# rises, theta* falls); on [0, pi/2] it rises, or rises, falls and rises again between two
+# critical points phi1 < phi2 (a dip at high rate, where (23) read as a function would drop
+# contact before the peak).  The contact curve is parametrised by w = ln u, u the contact
+# fraction of theta* = alpha - s u, K = 2 alpha / s = u - 1 - ln u (reading notes, item 1).
+
+
+@_jit
+def _criticality(w, rate):
+    """p(w) = ln(sqrt(1 + (r D)^2) / (K D)), dp/dw and D = -d theta*/ds = u (1 + K / (1 - u)), at u = e^w.
+
+    gamma' = A cos phi - D S sin phi vanishes where cot phi = r D (r = c w / k); with
+    s = 2 alpha / K = S cos phi this reads p(w) = ln(r S / (2 alpha)).
+    """
+    u = math.exp(w)
+    om = -math.expm1(w) if w > -0.7 else 1.0 - u
+    big_k = -om - w
+    d = u + u * big_k / om
+    rd2 = (rate * d) ** 2
+    value = 0.5 * math.log((1.0 + rd2) / (big_k * d) ** 2)
+    slope = om / big_k - u * big_k / (om * om * d * (1.0 + rd2))
+    return value, slope, d
+
+
+@_jit
+def _upper_critical(level, rate):
+    """(found, w) with p(w) = level on the branch u -> 1 of the convex p, by Newton from the right
+    (monotone: the iterates stay right of the root), started where p ~ -2 ln(-w) + ln 2 +
+    ln(1 + r^2) / 2 lies above level; not found when an iterate passes the minimum of p."""
+    w = -0.5 * math.exp(0.5 * (math.log(2.0) + 0.5 * math.log1p(rate * rate) - level))
+    while w < -1e-4 and _criticality(w, rate)[0] <= level:
+        w *= 0.25
+    for _ in range(100):
+        value, slope, _ = _criticality(w, rate)
+        if slope <= 0.0:
+            return False, w
+        step = (value - level) / slope
+        w = max(w - step, _TAIL_W)
+        if abs(step) <= 1e-13 * abs(w):
+            break
+    return True, w
+
+
+@_jit
+def _lower_critical(level, rate):
+    """w with p(w) = level on the branch u -> 0 (p ~ -w - 2 ln(-w)), by Newton in w; at least _TAIL_W."""
+    w = max(-(level + 2.0 * math.log(max(level, 1.0)) + 3.0), _TAIL_W)
+    if _criticality(w, rate)[0] <= level:
+        return w
+    for _ in range(100):
+        value, slope, _ = _criticality(w, rate)
+        step = (value - level) / slope
+        w -= step
+        if abs(step) <= 1e-13 * abs(w):
+            break
+    return w
+
+
+@_jit
+def _critical_phase(w, rate, alpha, amp):
+    """phi (cot phi = r D) and gamma there, at the critical point with contact fraction u = e^w."""
+    _, _, d = _criticality(w, rate)
+    u = math.exp(w)
+    s = 2.0 * alpha / (u - 1.0 - w)
+    return math.atan2(1.0, rate * d), amp / math.sqrt(1.0 + (rate * d) ** 2) - (alpha - s * u)
+
+
+@_jit
+def _critical_points(amp, rate, alpha, crit, lower):
+    """The critical points of gamma on (0, pi/2), computed once per point into crit:
+    crit[0] = -1 not yet, 0 none, 1 phi1 and gamma1 in crit[1:3], 2 also phi2 and gamma2 in crit[3:5].
+
+    p is convex in w and p >= _CRIT_FLOOR: two critical points (phi1 from the branch u -> 1)
+    or none.  Returns whether they exist; phi2 is computed only if ``lower``.
+    """
+    if crit[0] < 0.0:
+        crit[0] = 0.0
+        scale = rate * rate * amp / (2.0 * alpha)
+        if scale > math.exp(_CRIT_FLOOR):
+            found, w = _upper_critical(math.log(scale), rate)
+            if found:
+                crit[0] = 1.0
+                crit[1], crit[2] = _critical_phase(w, rate, alpha, amp)
+    if lower and crit[0] == 1.0:
+        crit[0] = 2.0
+        crit[3], crit[4] = _critical_phase(_lower_critical(math.log(rate * rate * amp / (2.0 * alpha)), rate),
+                                           rate, alpha, amp)
+    return crit[0] > 0.0
+
+
+@_jit
+def _contact_residual(sin_phi, cos_phi, level, amp, slope_scale, alpha):
+    """F = X - alpha + s exp(-(X + alpha) / s - 1) with X = A sin phi - level, s = S cos phi, and dF/dphi.
+
+    (19) as f(X + alpha, s) - 2 alpha: f rises in its first argument where X + s >= alpha, so
+    there F has the sign of gamma - level (no Lambert W)."""
+    x = amp * sin_phi - level
+    s = slope_scale * cos_phi
+    if s <= 0.0:
+        return x - alpha, amp * cos_phi
+    ratio = (x + alpha) / s
+    e = math.exp(-ratio - 1.0)
+    return x - alpha + s * e, amp * cos_phi * (1.0 - e) - slope_scale * sin_phi * e * (1.0 + ratio)
+
+
+@_jit
+def _rotated(sin_phi, cos_phi, step):
+    """sin and cos of phi - step by the Taylor series of the rotation; NaN if |step| >= 0.01."""
+    if abs(step) >= 0.01:
+        return math.nan, math.nan
+    q = step * step
+    sin_step = step * (1.0 - q / 6.0 * (1.0 - q / 20.0 * (1.0 - q / 42.0)))
+    cos_step = 1.0 - q / 2.0 * (1.0 - q / 12.0 * (1.0 - q / 30.0))
+    return sin_phi * cos_step - cos_phi * sin_step, cos_phi * cos_step + sin_phi * sin_step
+
+
+@_jit
+def _contact_root(level, lo, hi, rising, amp, slope_scale, alpha):
+    """Phase, sin and cos of the only crossing of gamma = level in [lo, hi] (upward if rising).
+
+    Newton on F (_contact_residual) from the end nearest x' = A sin phi = alpha + level (the
+    root itself where theta* = alpha), kept in the bracket by bisection; converged when the
+    Newton step is below 1e-9 rad (the next would be ~1e-18)."""
+    phi = hi if rising else lo
+    sin_phi, cos_phi = math.sin(phi), math.cos(phi)
+    for _ in range(100):
+        value, slope = _contact_residual(sin_phi, cos_phi, level, amp, slope_scale, alpha)
+        if value == 0.0:
+            break
+        if (value < 0.0) == rising:
+            lo = phi
+        else:
+            hi = phi
+        step = value / slope if slope != 0.0 else math.inf
+        if lo <= phi - step <= hi:
+            sin_new, cos_new = _rotated(sin_phi, cos_phi, step)
+            phi -= step
+            if abs(step) <= 1e-9:
+                return phi, sin_new, cos_new
+        elif hi - lo <= 1e-15:
+            break
+        else:
+            phi = 0.5 * (lo + hi)
+            sin_new = math.nan
+        if math.isnan(sin_new):
+            sin_phi, cos_phi = math.sin(phi), math.cos(phi)
+        else:
+            sin_phi, cos_phi = sin_new, cos_new
+    return phi, sin_phi, cos_phi
+
+
+@_jit
+def _top_above(level, amp, slope_scale, alpha):
+    """Whether gamma(0) = -theta*(S) lies above level (valid where S >= alpha + level)."""
+    return _contact_residual(0.0, 1.0, level, amp, slope_scale, alpha)[0] > 0.0
+
+
+@_jit
+def _first_contact(level, lo, hi, amp, rate, alpha, crit):
+    """(found, phi, sin, cos): the first phase in [lo, hi] where gamma reaches level, given
+    gamma < level at lo, y' = A sin phi + S cos phi >= alpha + level on [lo, hi] and
+    hi <= the phase where x' = A sin phi reaches alpha + level (there gamma >= level)."""
+    slope_scale = rate * amp
+    sin_x = (alpha + level) / amp
+    reaches = sin_x < 1.0 and hi >= math.asin(max(sin_x, -1.0))  # gamma(hi) >= level
+    if lo < 0.0 < hi:
+        if _top_above(level, amp, slope_scale, alpha):
+            return (True,) + _contact_root(level, lo, 0.0, True, amp, slope_scale, alpha)
+        lo = 0.0
+    elif hi <= 0.0 and not reaches:
+        return False, 0.0, 0.0, 0.0
+    if lo >= 0.0 and _critical_points(amp, rate, alpha, crit, False) and crit[1] <= hi:
+        if lo < crit[1] and crit[2] >= level:  # the first rise of gamma crosses level
+            return (True,) + _contact_root(level, lo, crit[1], True, amp, slope_scale, alpha)
+        lo = max(lo, crit[1])  # beyond phi1 gamma falls, then rises once through level if it reaches it
+    if not reaches:
+        return False, 0.0, 0.0, 0.0
+    return (True,) + _contact_root(level, lo, hi, True, amp, slope_scale, alpha)
+
+
+@_jit
+def _phase_plane_side(amp, omega, bias, p, crit):
+    """Right-contact integrals of the phase plane law (23), contact held until release (Theorem 1).
+
+    Contact holds on part of the arc where y = x + (c/k) v >= alpha: from the first phase
+    where the law closes the gap (x >= theta*(v) while v > 0, or anywhere v <= 0) to the
+    release where y falls through alpha.  T = k (y - alpha) there.
+    """
+    k, c, alpha = p[0], p[1], p[2]
+    rate = c * omega / k
+    cos_psi, sin_psi, psi = _rate_geometry(rate)
+    radius = amp * math.sqrt(1.0 + rate * rate)
+    h, cos_h, sin_h = _arc(bias, radius, alpha)
+    if h < 0.0:
+        return 0.0, 0.0, 0.0
+    up = _HALF_PI - psi - h
+    if h >= math.pi or up <= -_HALF_PI:  # y reaches alpha while v <= 0: contact on all the arc
+        return _y_arc_side(amp, omega, bias, k, c, alpha, radius, h)
+    down = _HALF_PI - psi + h
+    sin_down, cos_down = _shifted(cos_h, -sin_h, sin_psi, cos_psi)  # theta = phi + psi = pi/2 + h
+    sin_x = (alpha - bias) / amp
+    hi = min(down, _HALF_PI, math.asin(sin_x) if sin_x < 1.0 else _HALF_PI)
+    found, phi, sin_phi, cos_phi = _first_contact(-bias, up, hi, amp, rate, alpha, crit)
+    if not found:
+        if down <= _HALF_PI:
+            return 0.0, 0.0, 0.0
+        phi, sin_phi, cos_phi = _HALF_PI, 1.0, 0.0  # contact where v reaches 0 inside the arc
+    return _arc_integrals(k * radius, _HALF_PI - psi, cos_psi, sin_psi, h, cos_h, max(phi, up), sin_phi, cos_phi,
+                          down, sin_down, cos_down)
+
+
+# The rubber law (28)-(40): the band torque needs theta*(v) at the quadrature nodes, computed
+# from a table of the contact fraction (u - ln u = 1 + K) with quintic Hermite interpolation.
+_FRACTION_MAX = 40.0  # K beyond which theta* = alpha to round-off (models._theta_star)
+_FRACTION_NODES = 512
+_FRACTION_STEP = math.sqrt(_FRACTION_MAX) / _FRACTION_NODES
+
+
+def _fraction_table():
+    """y = ln u and its first two derivatives in t = sqrt(K) (times the step and its square) on a
+    uniform grid of t: e^y - y - 1 = K solved by bisection (decreasing in y < 0) to the last bit;
+    y' = -2 t / (1 - u), y'' = -2 / (1 - u) + 4 t^2 u / (1 - u)^3, at t = 0 -sqrt(2) and -2/3
+    (1 - u = sqrt(2 K) - 2 K / 3 + ...)."""
+    t = np.arange(_FRACTION_NODES + 2) * _FRACTION_STEP
+    big_k = t * t
+    lo, hi = -big_k - 2.0, np.zeros_like(t)
+    for _ in range(90):
+        mid = 0.5 * (lo + hi)
+        below = np.expm1(mid) - mid < big_k  # y above the root
+        lo, hi = np.where(below, lo, mid), np.where(below, mid, hi)
+    log_u = 0.5 * (lo + hi)
+    u, om = np.exp(log_u), -np.expm1(log_u)
+    slope = np.full_like(t, -math.sqrt(2.0))
+    curvature = np.full_like(t, -2.0 / 3.0)
+    slope[1:] = -2.0 * t[1:] / om[1:]
+    curvature[1:] = -2.0 / om[1:] + 4.0 * big_k[1:] * u[1:] / om[1:] ** 3
+    return np.stack([log_u, slope * _FRACTION_STEP, curvature * _FRACTION_STEP**2], axis=1)
+
+
+_FRACTION_TABLE = _fraction_table()
+
+
+@_jit
+def _fraction(big_k):
+    """The contact fraction u in (0, 1] with u - ln u = 1 + K, 0 < K <= 40: quintic Hermite
+    interpolation of ln u in sqrt(K); relative error below 1e-15 (1 + K), the ulp of ln u."""
+    t = math.sqrt(big_k) / _FRACTION_STEP
+    i = min(int(t), _FRACTION_NODES - 1)
+    z = t - i
+    y0, d0, e0 = _FRACTION_TABLE[i, 0], _FRACTION_TABLE[i, 1], _FRACTION_TABLE[i, 2]
+    y1, d1, e1 = _FRACTION_TABLE[i + 1, 0], _FRACTION_TABLE[i + 1, 1], _FRACTION_TABLE[i + 1, 2]
+    rise = y1 - y0
+    c3 = 10.0 * rise - 6.0 * d0 - 4.0 * d1 - 1.5 * e0 + 0.5 * e1
+    c4 = -15.0 * rise + 8.0 * d0 + 7.0 * d1 + 1.5 * e0 - e1
+    c5 = 6.0 * rise - 3.0 * d0 - 3.0 * d1 - 0.5 * e0 + 0.5 * e1
+    return math.exp(y0 + z * (d0 + z * (0.5 * e0 + z * (c3 + z * (c4 + z * c5)))))
+
+
+@_jit
+def _band_torque(x, v, p):
+    """Right rubber-band torque (36) of models.right_torque, mode 1 (N m), theta* by _fraction."""
+    k, c, alpha, beta = p[0], p[1], p[2], p[3]
+    s = c * v / k
+    if v > 0.0:
+        ts = alpha if 20.0 * s < alpha else alpha - s * _fraction(2.0 * alpha / s)
+        w = x - ts + 0.5 * beta
+        return (0.5 * k * w + k * (ts - alpha) + c * v) * w / beta
+    lower = alpha - 0.5 * beta - 2.0 * s
+    return 0.5 * k * (x - lower) ** 2 / (beta + 2.0 * s)
+
+
+@_jit
+def _add_piece(mode, a, sa, ca, e, se, ce, amp, omega, bias, p, contact, stack, acc):
+    """Add the integrals of the right rubber torque in mode (0 free, 1 band, 2 contact, k (y - alpha)
+    on the arc ``contact`` of _arc_integrals) over [a, e] to acc."""
+    if mode == 0 or e <= a:
+        return
+    if mode == 2:
+        piece = _arc_integrals(*contact, a, sa, ca, e, se, ce)
+        acc[0] += piece[0]
+        acc[1] += piece[1]
+        acc[2] += piece[2]
+    else:
+        _integrate_adaptive(_RUBBER_BAND, 1, a, e, amp, omega, bias, p, stack, acc)
+
+
+@_jit
+def _push_crossing(events, n, mode, level, lo, hi, rising, amp, slope_scale, alpha):
+    """Append the crossing of gamma = level in [lo, hi] (see _contact_root) with the mode after it."""
+    phi, sin_phi, cos_phi = _contact_root(level, lo, hi, rising, amp, slope_scale, alpha)
+    events[n, 0], events[n, 1], events[n, 2], events[n, 3] = phi, sin_phi, cos_phi, mode
+    return n + 1
+
+
+@_jit
+def _level_crossings(level, up_mode, down_mode, amp, rate, psi, radius, alpha, crit, events, n):
+    """Append every crossing of gamma = level on the rising half (v > 0), with the mode after it
+    (up_mode rising through level, down_mode falling)."""
+    slope_scale = rate * amp
+    # every crossing lies where y' = A sin phi + S cos phi >= alpha + level (from its rise, lo)
+    # and x' = A sin phi <= alpha + level (up to hi); gamma < level below y', >= level beyond x'
+    h = _arc(0.0, radius, alpha + level)[0]
+    if h < 0.0:
+        return n
+    lo = -_HALF_PI if h >= math.pi else max(_HALF_PI - psi - h, -_HALF_PI)
+    sin_x = (alpha + level) / amp
+    phi_x = _HALF_PI if sin_x >= 1.0 else math.asin(max(sin_x, -1.0))
+    hi = phi_x if h >= math.pi else min(phi_x, _HALF_PI - psi + h)
+    if lo >= hi:
+        return n
+    above_hi = sin_x < 1.0 and hi >= phi_x
+    above = lo <= -_HALF_PI and -amp - alpha >= level  # gamma at lo; at -pi/2 (v = 0) gamma = -A - alpha
+    if lo < 0.0:  # gamma rises on [lo, 0]
+        above_end = _top_above(level, amp, slope_scale, alpha) if hi > 0.0 else above_hi
+        if above_end and not above:
+            n = _push_crossing(events, n, up_mode, level, lo, min(hi, 0.0), True, amp, slope_scale, alpha)
+        if hi <= 0.0:
+            return n
+        lo, above = 0.0, above_end
+    if _critical_points(amp, rate, alpha, crit, True) and crit[1] < hi:
+        phi1, phi2 = crit[1], crit[3]
+        if lo < phi1:  # gamma rises to its maximum
+            above1 = crit[2] >= level
+            if above1 != above:
+                n = _push_crossing(events, n, up_mode, level, lo, phi1, True, amp, slope_scale, alpha)
+            lo, above = phi1, above1
+        if lo < phi2:  # gamma falls to its minimum, or to hi
+            above2 = crit[4] >= level if phi2 < hi else above_hi
+            if above2 != above:
+                n = _push_crossing(events, n, down_mode, level, lo, min(phi2, hi), False, amp, slope_scale, alpha)
+            if phi2 >= hi:
+                return n
+            lo, above = phi2, above2
+    if above_hi != above:  # gamma rises on [lo, hi]
+        n = _push_crossing(events, n, up_mode, level, lo, hi, True, amp, slope_scale, alpha)
+    return n
+
+
+@_jit
+def _rubber_side(amp, omega, bias, p, crit, stack, acc, events):
+    """Right-side integrals of the rubber law (28)-(40), accumulated in acc[0:3] and returned.
+
+    v > 0: free below the band |x - theta*| < beta / 2, rubber band in it, steel contact above
+    (all three set by gamma against -+ beta / 2 - bias).  v <= 0: contact where x >= alpha +
+    beta / 2 and y >= alpha, else the band of (28) second line where x > alpha - beta / 2 - 2 c v / k.
+    """
+    k, c, alpha, beta = p[0], p[1], p[2], p[3]
+    acc[0] = acc[1] = acc[2] = 0.0
+    rate = c * omega / k
+    cos_psi, sin_psi, psi = _rate_geometry(rate)
+    radius = amp * math.sqrt(1.0 + rate * rate)
+    hy, cos_hy, sin_hy = _arc(bias, radius, alpha)
+    contact = (k * radius, _HALF_PI - psi, cos_psi, sin_psi, hy, cos_hy)
+    low, high = -0.5 * beta - bias, 0.5 * beta - bias
+    n = _level_crossings(low, 1.0, 0.0, amp, rate, psi, radius, alpha, crit, events, 0)
+    n = _level_crossings(high, 2.0, 1.0, amp, rate, psi, radius, alpha, crit, events, n)
+    _sort_events(events, n)
+    gamma = -amp - alpha
+    mode = 2 if gamma >= high else (1 if gamma > low else 0)
+    a, sa, ca = -_HALF_PI, -1.0, 0.0
+    for i in range(n):
+        e = max(events[i, 0], a)
+        _add_piece(mode, a, sa, ca, e, events[i, 1], events[i, 2], amp, omega, bias, p, contact, stack, acc)
+        a, sa, ca, mode = e, events[i, 1], events[i, 2], int(events[i, 3])
+    _add_piece(mode, a, sa, ca, _HALF_PI, 1.0, 0.0, amp, omega, bias, p, contact, stack, acc)
+    hx, cos_hx, sin_hx = _arc(bias, amp, alpha + 0.5 * beta)
+    cos_psi2, sin_psi2, psi2 = _rate_geometry(2.0 * rate)  # x + 2 c v / k = bias + R2 sin(phi + psi2)
+    hz, cos_hz, sin_hz = _arc(bias, amp * math.sqrt(1.0 + 4.0 * rate * rate), alpha - 0.5 * beta)
+    start, end = _HALF_PI, 1.5 * math.pi
+    n = _add_arc_ends(events, 0, _HALF_PI, 1.0, 0.0, hx, cos_hx, sin_hx, start, end)
+    n = _add_arc_ends(events, n, _HALF_PI - psi, cos_psi, sin_psi, hy, cos_hy, sin_hy, start, end)
+    n = _add_arc_ends(events, n, _HALF_PI - psi2, cos_psi2, sin_psi2, hz, cos_hz, sin_hz, start, end)
+    _sort_events(events, n)
+    events[n, 0], events[n, 1], events[n, 2] = end, -1.0, 0.0
+    a, sa, ca = start, 1.0, 0.0
+    for i in range(n + 1):
+        e, se, ce = events[i, 0], events[i, 1], events[i, 2]
+        mid = 0.5 * (a + e)
+        if _inside(mid, _HALF_PI, hx):
+            mode = 2 if _inside(mid, _HALF_PI - psi, hy) else 0
+        else:
+            mode = 1 if _inside(mid, _HALF_PI - psi2, hz) else 0
+        _add_piece(mode, a, sa, ca, e, se, ce, amp, omega, bias, p, contact, stack, acc)
+        a, sa, ca = e, se, ce
+    return acc[0], acc[1], acc[2]
+
+
+@_jit
+def _both_sides(amp, right, left):
+    """(N, mean torque) from the right-contact integrals and the mirrored left ones (right
+    contact of -bias): b1 and a1 add, a0 subtracts."""
+    scale = 1.0 / (math.pi * amp)
+    return complex((right[0] + left[0]) * scale, (right[1] + left[1]) * scale), (right[2] - left[2]) / _TWO_PI
+
+
+@_jit
+def _closed_form_point(law, p, amp, omega, bias):
+    """(N, mean torque) of (24), (26) or (27) at one point."""
+    k, c, alpha = p[0], p[1], p[2]
+    if law == REVISED_DEAD_ZONE:
+        right = _revised_side(amp, omega, bias, k, c, alpha)
+        return _both_sides(amp, right, _revised_side(amp, omega, -bias, k, c, alpha) if bias != 0.0 else right)
+    damped = law == DAMPED_DEAD_ZONE
+    right = _dead_zone_side(damped, amp, omega, bias, k, c, alpha)
+    return _both_sides(amp, right, _dead_zone_side(damped, amp, omega, -bias, k, c, alpha) if bias != 0.0 else right)
+
+
+@_jit
+def _elasto_point(p, amp, omega, bias, events):
+    """(N, mean torque) of the ElastoBacklash law at one point."""
+    right = _elasto_side(amp, omega, bias, p[0], p[1], p[2], events)
+    return _both_sides(amp, right, _elasto_side(amp, omega, -bias, p[0], p[1], p[2], events) if bias != 0.0 else right)
+
+
+@_jit
+def _phase_plane_point(p, amp, omega, bias, crit):
+    """(N, mean torque) of the phase plane law (23) at one point (both sides share crit)."""
+    crit[0] = -1.0
+    right = _phase_plane_side(amp, omega, bias, p, crit)
+    return _both_sides(amp, right, _phase_plane_side(amp, omega, -bias, p, crit) if bias != 0.0 else right)
+
+
+@_jit
+def _rubber_point(p, amp, omega, bias, crit, stack, acc, events):
+    """(N, mean torque) of the rubber law (40) at one point (both sides share crit)."""
+    crit[0] = -1.0
+    right = _rubber_side(amp, omega, bias, p, crit, stack, acc, events)
+    left = _rubber_side(amp, omega, -bias, p, crit, stack, acc, events) if bias != 0.0 else right
+    return _both_sides(amp, right, left)
+
+
+# One driver per family of laws, on one thread and on numba's threads (prange, by chunks of
+# _CHUNK points that share their work arrays): a call compiles only its family's kernels.
+_CHUNK = 256
+
+
+@_jit
+def _closed_form_balance(law, p, amp, omega, bias, n_out, mean_out):
+    for i in range(amp.shape[0]):
+        n_out[i], mean_out[i] = _closed_form_point(law, p, amp[i], omega[i], bias[i])
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _closed_form_balance_parallel(law, p, amp, omega, bias, n_out, mean_out):
+    for i in numba.prange(amp.shape[0]):
+        n_out[i], mean_out[i] = _closed_form_point(law, p, amp[i], omega[i], bias[i])
+
+
+@_jit
+def _elasto_chunk(p, amp, omega, bias, n_out, mean_out, start, stop):
+    events = np.empty((8, 3))
+    for i in range(start, stop):
+        n_out[i], mean_out[i] = _elasto_point(p, amp[i], omega[i], bias[i], events)
+
+
+@_jit
+def _elasto_balance(p, amp, omega, bias, n_out, mean_out):
+    _elasto_chunk(p, amp, omega, bias, n_out, mean_out, 0, amp.shape[0])
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _elasto_balance_parallel(p, amp, omega, bias, n_out, mean_out):
+    for chunk in numba.prange((amp.shape[0] + _CHUNK - 1) // _CHUNK):
+        _elasto_chunk(p, amp, omega, bias, n_out, mean_out, chunk * _CHUNK, min((chunk + 1) * _CHUNK, amp.shape[0]))
+
+
+@_jit
+def _phase_plane_chunk(p, amp, omega, bias, n_out, mean_out, start, stop):
+    crit = np.empty(5)
+    for i in range(start, stop):
+        n_out[i], mean_out[i] = _phase_plane_point(p, amp[i], omega[i], bias[i], crit)
+
+
+@_jit
+def _phase_plane_balance(p, amp, omega, bias, n_out, mean_out):
+    _phase_plane_chunk(p, amp, omega, bias, n_out, mean_out, 0, amp.shape[0])
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _phase_plane_balance_parallel(p, amp, omega, bias, n_out, mean_out):
+    for chunk in numba.prange((amp.shape[0] + _CHUNK - 1) // _CHUNK):
+        _phase_plane_chunk(p, amp, omega, bias, n_out, mean_out, chunk * _CHUNK,
+                           min((chunk + 1) * _CHUNK, amp.shape[0]))
+
+
+@_jit
+def _rubber_chunk(p, amp, omega, bias, n_out, mean_out, start, stop):
+    crit, stack, acc, events = np.empty(5), np.empty((2 * _MAX_LEVEL + 8, 3)), np.zeros(3), np.empty((16, 4))
+    for i in range(start, stop):
+        n_out[i], mean_out[i] = _rubber_point(p, amp[i], omega[i], bias[i], crit, stack, acc, events)
+
+
+@_jit
+def _rubber_balance(p, amp, omega, bias, n_out, mean_out):
+    _rubber_chunk(p, amp, omega, bias, n_out, mean_out, 0, amp.shape[0])
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _rubber_balance_parallel(p, amp, omega, bias, n_out, mean_out):
+    for chunk in numba.prange((amp.shape[0] + _CHUNK - 1) // _CHUNK):
+        _rubber_chunk(p, amp, omega, bias, n_out, mean_out, chunk * _CHUNK, min((chunk + 1) * _CHUNK, amp.shape[0]))
+
+
+def _switch_exact_kernel(model, parallel):
+    """The driver of a static model's switch-exact harmonic balance, called as
+    ``driver(params, amp, omega, bias, n_out, mean_out)``; (40) with beta = 0 is (23)."""
+    law = model.law
+    if law == PHASE_PLANE or (law == RUBBER and model.rubber_thickness == 0.0):
+        return _phase_plane_balance_parallel if parallel else _phase_plane_balance
+    if law == RUBBER:
+        return _rubber_balance_parallel if parallel else _rubber_balance
+    if law == ELASTO_BACKLASH:
+        return _elasto_balance_parallel if parallel else _elasto_balance
+    return functools.partial(_closed_form_balance_parallel if parallel else _closed_form_balance, law)
+
+
 # --------------------------------------------------------------------------- grid kernel
 
 
 @_jit
-def _harmonic_balance(law, p, amp, omega, bias, nodes, weights, samples, scan_step, n_out, mean_out):
-    """N and mean torque at each point.  ``scan_step`` is None for a static law (numba then
-    prunes, and never compiles, the exact model's branch); for the exact model it is a
-    float and ``law`` is the dead-zone, its limit at c w = 0 (the shaft relaxes at once)."""
+def _harmonic_balance(law, p, amp, omega, bias, nodes, weights, samples, n_out, mean_out):
+    """N and mean torque of a static law at each point by the sampled walk (the reference)."""
     acc = np.zeros(3)
     stack = np.empty((2 * _MAX_LEVEL + 8, 3))
     for i in range(amp.shape[0]):
-        a, w, b = amp[i], omega[i], bias[i]
-        exact = False
-        if scan_step is not None:
-            exact = p[1] > 0.0 and w > 0.0
-        if exact:
-            periods = _exact_harmonics(a, w, b, p, scan_step, acc)
-        else:
-            periods = _static_harmonics(law, a, w, b, p, nodes, weights, samples, stack, acc)
+        a = amp[i]
+        periods = _static_harmonics(law, a, omega[i], bias[i], p, nodes, weights, samples, stack, acc)
         scale = 1.0 / (math.pi * periods)
         n_out[i] = complex(acc[0] * scale / a, acc[1] * scale / a)
         mean_out[i] = 0.5 * acc[2] * scale
+
+
+@_jit
+def _exact_balance(p, amp, omega, bias, scan_step, n_out, mean_out):
+    """N and mean torque of the exact model (1) + (14) at each point; at c w = 0 it is the
+    dead-zone (the shaft relaxes at once), in closed form."""
+    acc = np.zeros(3)
+    for i in range(amp.shape[0]):
+        a, w, b = amp[i], omega[i], bias[i]
+        if p[1] > 0.0 and w > 0.0:
+            scale = 1.0 / (math.pi * _exact_harmonics(a, w, b, p, scan_step, acc))
+            n_out[i] = complex(acc[0] * scale / a, acc[1] * scale / a)
+            mean_out[i] = 0.5 * acc[2] * scale
+        else:
+            n_out[i], mean_out[i] = _closed_form_point(DEAD_ZONE, p, a, w, b)
 
 
 def _tustin(excess):
@@ -632,11 +1419,11 @@ _MEAN_ROUND_OFF = 1e-10
 
 def _validated(name, values, positive=False):
     array = np.asarray(values, dtype=float)
-    if not np.all(np.isfinite(array)):
+    if not np.isfinite(array).all():
         raise ValueError(f"{name} must be finite")
-    if positive and np.any(array <= 0.0):
+    if positive and (array <= 0.0).any():
         raise ValueError(f"{name} must be > 0")
-    if not positive and name == "omega" and np.any(array < 0.0):
+    if not positive and name == "omega" and (array < 0.0).any():
         raise ValueError("omega must be >= 0")
     return array
 
@@ -654,11 +1441,17 @@ _MAX_BIAS_RATIO = 1e8
 
 def _check_scales(model, a, w, b):
     """Refuse arguments whose harmonic balance floating point cannot carry (one-line ``ValueError``)."""
-    ratio = np.abs(b) / a
-    if np.any(ratio > _MAX_BIAS_RATIO):
+    if a.size == 0:
+        return
+    magnitude = np.abs(b)
+    ratio = magnitude / a
+    if (ratio > _MAX_BIAS_RATIO).any():
         i = np.unravel_index(np.argmax(ratio), ratio.shape)
         raise ValueError(f"bias = {b[i]:g} rad is more than {_MAX_BIAS_RATIO:g} times the amplitude {a[i]:g} rad: "
                          f"A sin(w t) is lost in the round-off of bias + A sin(w t)")
+    # a bound on every point's torque scale in Python floats (inf, no warning, on overflow)
+    if math.isfinite((model.stiffness + model.damping * float(w.max())) * (float(a.max()) + float(magnitude.max()))):
+        return
     with np.errstate(over="ignore"):
         scale = (model.stiffness + model.damping * w) * (a + np.abs(b))
     if not np.all(np.isfinite(scale)):
@@ -667,11 +1460,17 @@ def _check_scales(model, a, w, b):
                          f"overflows floating point")
 
 
-def _evaluate(model, amplitude, omega, bias, method, samples=_SAMPLES, gauss_order=None, scan_step=_SCAN_STEP):
-    """N and mean torque; ``samples``, ``gauss_order`` and ``scan_step`` set the
-    resolution of the harmonic balance (tests refine them).  ``gauss_order=None``
-    integrates the smooth pieces by adaptive Gauss-Kronrod, an integer by that
-    Gauss-Legendre order on fixed sub-intervals (the reference of the tests)."""
+def _evaluate(model, amplitude, omega, bias, method, samples=None, gauss_order=None, scan_step=_SCAN_STEP,
+              parallel=False):
+    """N and mean torque.
+
+    The harmonic balance of a static law runs the switch-exact kernels, unless ``samples`` or
+    ``gauss_order`` is given: then the sampled walk (:func:`_static_harmonics`) with
+    ``samples`` phase samples (64 if None) and adaptive Gauss-Kronrod (``gauss_order=None``)
+    or that Gauss-Legendre order on fixed sub-intervals, the independent reference of the
+    tests.  ``scan_step`` sets the exact model's search for re-contact; ``parallel`` shares
+    the points of a static law among numba's threads.
+    """
     model = _as_model(model)
     amplitude = _validated("amplitude", amplitude, positive=True)
     omega = _validated("omega", omega)
@@ -680,22 +1479,23 @@ def _evaluate(model, amplitude, omega, bias, method, samples=_SAMPLES, gauss_ord
         raise ValueError(f"method must be 'auto', 'closed-form' or 'harmonic-balance', got {method!r}")
     a, w, b = np.broadcast_arrays(amplitude, omega, bias)
     _check_scales(model, a, w, b)
-    closed = _closed_form(model, a, w) if method != "harmonic-balance" and not np.any(b) else None
+    closed = _closed_form(model, a, w) if method != "harmonic-balance" and not b.any() else None
     if method == "closed-form" and closed is None:
         raise ValueError(f"no closed-form describing function for {model.name!r} (or with a bias)")
     if closed is not None:
         return np.asarray(closed, dtype=complex), np.zeros(a.shape)
     n_out = np.empty(a.size, dtype=complex)
     mean_out = np.empty(a.size)
-    nodes, weights = np.polynomial.legendre.leggauss(gauss_order) if gauss_order else (np.empty(0), np.empty(0))
     # np.array copies: broadcast views are flagged "warn on write", and numba's typeof
     # reads that flag (a FutureWarning on every call with numpy >= 2.4)
-    exact = model.law == EXACT
-    _harmonic_balance(
-        DEAD_ZONE if exact else model.law, model.params, np.array(a, dtype=float).ravel(),
-        np.array(w, dtype=float).ravel(), np.array(b, dtype=float).ravel(), nodes, weights, int(samples),
-        float(scan_step) if exact else None, n_out, mean_out,
-    )
+    points = tuple(np.array(x, dtype=float).ravel() for x in (a, w, b))
+    if model.law == EXACT:
+        _exact_balance(model.params, *points, float(scan_step), n_out, mean_out)
+    elif samples is None and gauss_order is None:
+        _switch_exact_kernel(model, parallel)(model.params, *points, n_out, mean_out)
+    else:
+        nodes, weights = np.polynomial.legendre.leggauss(gauss_order) if gauss_order else (np.empty(0), np.empty(0))
+        _harmonic_balance(model.law, model.params, *points, nodes, weights, int(samples or _SAMPLES), n_out, mean_out)
     n_out, mean_out = n_out.reshape(a.shape), mean_out.reshape(a.shape)
     # Every law is odd, T(-x, -v) = -T(x, v): at zero bias the mean torque is zero, and
     # what the quadrature returns is round-off relative to the torque's scale |N| A.
@@ -1009,7 +1809,7 @@ def describing_function_grid(model, amplitude, omega, bias=0.0):
     omega = np.atleast_1d(np.asarray(omega, dtype=float))
     if amplitude.ndim != 1 or omega.ndim != 1:
         raise ValueError("amplitude and omega must be 1-D arrays")
-    n, mean = _evaluate(model, amplitude[:, None], omega[None, :], float(bias), "auto")
+    n, mean = _evaluate(model, amplitude[:, None], omega[None, :], float(bias), "auto", parallel=True)
     return DescribingFunctionResult(_as_model(model), amplitude, omega, float(bias), n, mean)
 
 
