@@ -600,7 +600,7 @@ def _exact_harmonics(amp, omega, bias, p, scan_step, acc):
 # boundary is monotone (_critical_points).  Right contact is integrated for the bias, left
 # contact as the mirror image, right contact of -bias (odd symmetry, reading notes item 3).
 
-_TAIL_W = -41.0  # ln u at K = 40, where theta* rounds to alpha (models._theta_star); u ~ 1.6e-18
+_TAIL_W = -41.0  # ln u at K = 40, where theta* rounds to alpha (models.theta_star_kernel); u ~ 1.6e-18
 _CRIT_FLOOR = 1.0233  # min over u of p(u; r = 0) = 1.023388 is a lower bound of p: no critical points below
 
 
@@ -1049,7 +1049,7 @@ def _phase_plane_side(amp, omega, bias, p, crit):
 
 # The rubber law (28)-(40): the band torque needs theta*(v) at the quadrature nodes, computed
 # from a table of the contact fraction (u - ln u = 1 + K) with quintic Hermite interpolation.
-_FRACTION_MAX = 40.0  # K beyond which theta* = alpha to round-off (models._theta_star)
+_FRACTION_MAX = 40.0  # K beyond which theta* = alpha to round-off (models.theta_star_kernel)
 _FRACTION_NODES = 512
 _FRACTION_STEP = math.sqrt(_FRACTION_MAX) / _FRACTION_NODES
 
