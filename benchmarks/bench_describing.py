@@ -43,7 +43,7 @@ import numba
 import numpy as np
 
 from backlash_df import describing_function, make_model
-from backlash_df.describing import _evaluate
+from backlash_df.describing._evaluation import evaluate
 from timing import best_of
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
@@ -144,8 +144,8 @@ def profile_top3(function, seconds=0.3):
 def law_row(name, bias, amplitude, omega):
     law = model(name)
     points = amplitude.size
-    run = lambda: _evaluate(law, amplitude, omega, bias, "harmonic-balance")  # noqa: E731
-    parallel = lambda: _evaluate(law, amplitude, omega, bias, "harmonic-balance", parallel=True)  # noqa: E731
+    run = lambda: evaluate(law, amplitude, omega, bias, "harmonic-balance")  # noqa: E731
+    parallel = lambda: evaluate(law, amplitude, omega, bias, "harmonic-balance", parallel=True)  # noqa: E731
     run(), parallel()  # compile
     serial_cpu, _ = best_of(run, REPEAT)
     serial_wall, _ = best_of(run, REPEAT, clock=time.perf_counter)
@@ -153,7 +153,7 @@ def law_row(name, bias, amplitude, omega):
     mp_a = np.array([ratio * ALPHA for ratio, _ in MP_POINTS])
     mp_w = np.array([rate * K / C for _, rate in MP_POINTS])
     reference = np.array([mp_describing_function(name, a, w, bias)[0] for a, w in zip(mp_a, mp_w)])
-    ours_error = max_rel_error(_evaluate(law, mp_a, mp_w, bias, "harmonic-balance")[0], reference)
+    ours_error = max_rel_error(evaluate(law, mp_a, mp_w, bias, "harmonic-balance")[0], reference)
     ours_rate = points / serial_cpu
     label = f"{name}, biased" if bias else name
     row = f"   {label:<34s}{ours_rate:10.3g}{points / serial_wall:10.3g}{points / threaded_wall:10.3g}{ours_error:9.1e}"
@@ -170,7 +170,7 @@ def law_row(name, bias, amplitude, omega):
 
 def floor_row(bias, amplitude, omega):
     law = model("dead-zone")
-    run = lambda: _evaluate(law, amplitude, omega, bias, "harmonic-balance")  # noqa: E731
+    run = lambda: evaluate(law, amplitude, omega, bias, "harmonic-balance")  # noqa: E731
     run()
     seconds, _ = best_of(run, REPEAT)
     print(f"   {'floor: dead-zone (24)' + (', biased' if bias else ''):<34s}"

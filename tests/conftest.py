@@ -89,7 +89,7 @@ def results():
     return {
         "LimitCyclePrediction": prediction,
         "LimitCycle": prediction.cycles[0],
-        "NearMiss": bd.predict_limit_cycles(example_rig("loaded_feedback"), grid=(20, 30)).near_misses[0],
+        "NearMiss": bd.predict_limit_cycles(example_rig("loaded_feedback"), grid=(24, 32)).near_misses[0],
         "LoopVerdict": verdict,
         "Probe": verdict.probes[0],
         "LinearStability": verdict.contact_loop,

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from backlash_df import describing_function, describing_function_grid, make_model
-from backlash_df.describing import _evaluate, phase_plane_validity
+from backlash_df.describing import phase_plane_validity
+from backlash_df.describing._evaluation import evaluate
 from backlash_df.models import theta_star
 
 K, C, ALPHA, BETA = 5895.0, 3.0, 0.05, 0.05
@@ -80,7 +81,7 @@ def test_harmonic_balance_matches_fft_of_the_sampled_torque(name, ratio, omega, 
     phi = np.arange(2**18) * (2.0 * np.pi / 2**18)
     torque = law.torque(bias + amplitude * np.sin(phi), amplitude * omega * np.cos(phi))
     n_fft, mean_fft = fourier_by_fft(torque, amplitude)
-    n, mean = _evaluate(law, amplitude, omega, bias, "harmonic-balance")
+    n, mean = evaluate(law, amplitude, omega, bias, "harmonic-balance")
     # the jumps of (23) and (26) limit the sampled sum to first order: 1/M ~ 4e-6
     assert abs(complex(n) - n_fft) <= 2e-5 * abs(n_fft)
     assert float(mean) == pytest.approx(mean_fft, abs=2e-5 * K * ALPHA)
@@ -107,8 +108,8 @@ def test_exact_model_matches_a_time_simulation_of_14_along_the_sinusoid(ratio, r
 def test_refining_the_quadrature_changes_n_by_less_than_1e_10(name):
     amplitude = ALPHA * np.geomspace(1.01, 50.0, 15)[:, None]
     omega = np.geomspace(1.0, 2e4, 15)[None, :]
-    coarse, _ = _evaluate(model(name), amplitude, omega, 0.0, "harmonic-balance")
-    fine, _ = _evaluate(model(name), amplitude, omega, 0.0, "harmonic-balance", samples=256, gauss_order=32)
+    coarse, _ = evaluate(model(name), amplitude, omega, 0.0, "harmonic-balance")
+    fine, _ = evaluate(model(name), amplitude, omega, 0.0, "harmonic-balance", samples=256, gauss_order=32)
     scale = np.maximum(np.abs(fine), 1e-300)
     assert np.max(np.abs(coarse - fine) / scale) < 1e-10
 
@@ -116,9 +117,9 @@ def test_refining_the_quadrature_changes_n_by_less_than_1e_10(name):
 def test_gauss_kronrod_rule_is_exact_to_its_degrees():
     # the 7-15 rule integrates polynomials exactly to degree 23, its Gauss part to 13
     # (odd degrees vanish by symmetry: the even ones tell)
-    from backlash_df.describing import _KRONROD
+    from backlash_df.describing._kernels import KRONROD
 
-    nodes, kronrod, gauss = _KRONROD.T
+    nodes, kronrod, gauss = KRONROD.T
     for degree in range(0, 26, 2):
         exact = 2.0 / (degree + 1)
         assert (abs(kronrod @ nodes**degree - exact) < 1e-15) == (degree <= 23)
@@ -140,22 +141,22 @@ def boundary_distances(law, x, v):
 @pytest.mark.parametrize("name, ratio, omega", [("phase-plane", 1.2, 2000.0), ("rubber", 1.2, 2000.0),
                                                 ("rubber", 3.0, 800.0), ("rubber", 20.0, 100.0)])
 def test_every_switch_is_located_to_the_last_ulp_on_a_boundary_of_the_law(name, ratio, omega):
-    from backlash_df.describing import _locate_switch, _piece
+    from backlash_df.describing._kernels import locate_switch, piece
     from backlash_df.models import static_mode
 
     law = model(name)
     amplitude = ratio * ALPHA
     phases = np.pi / 2 + np.linspace(0.0, 2.0 * np.pi, 65)
     mode = static_mode(law.law, amplitude, 0.0, *law.params)
-    mode, current = _piece(law.law, mode, phases[0], amplitude, omega, 0.0, law.params)
+    mode, current = piece(law.law, mode, phases[0], amplitude, omega, 0.0, law.params)
     switches = 0
     for lo, hi in zip(phases[:-1], phases[1:]):
-        while _piece(law.law, mode, hi, amplitude, omega, 0.0, law.params)[1] != current:
-            switch = _locate_switch(law.law, mode, current, lo, hi, amplitude, omega, 0.0, law.params)
+        while piece(law.law, mode, hi, amplitude, omega, 0.0, law.params)[1] != current:
+            switch = locate_switch(law.law, mode, current, lo, hi, amplitude, omega, 0.0, law.params)
             # the piece changes between the float before the switch and the switch itself
             before = np.nextafter(switch, -np.inf)
-            assert _piece(law.law, mode, before, amplitude, omega, 0.0, law.params)[1] == current
-            mode, current = _piece(law.law, mode, switch, amplitude, omega, 0.0, law.params)
+            assert piece(law.law, mode, before, amplitude, omega, 0.0, law.params)[1] == current
+            mode, current = piece(law.law, mode, switch, amplitude, omega, 0.0, law.params)
             x, v = amplitude * np.sin(switch), amplitude * omega * np.cos(switch)
             assert boundary_distances(law, x, v).min() < 1e-14
             lo, switches = switch, switches + 1
@@ -165,8 +166,8 @@ def test_every_switch_is_located_to_the_last_ulp_on_a_boundary_of_the_law(name, 
 def test_exact_model_does_not_depend_on_its_search_step():
     amplitude = ALPHA * np.geomspace(1.01, 50.0, 12)[:, None]
     omega = np.geomspace(1.0, 2e4, 12)[None, :]
-    coarse, _ = _evaluate(model("exact"), amplitude, omega, 0.0, "auto")
-    fine, _ = _evaluate(model("exact"), amplitude, omega, 0.0, "auto", scan_step=0.005)
+    coarse, _ = evaluate(model("exact"), amplitude, omega, 0.0, "auto")
+    fine, _ = evaluate(model("exact"), amplitude, omega, 0.0, "auto", scan_step=0.005)
     scale = np.maximum(np.abs(fine), 1e-300)
     assert np.max(np.abs(coarse - fine) / scale) < 1e-6
 
@@ -224,14 +225,14 @@ def test_no_contact_no_torque(name):
     bias = np.array([0.0, 0.01, -0.02])
     amplitude = (ALPHA - np.abs(bias)) * 0.999
     law = model(name, damping=1e-3)  # revised (27) closes early by c v / k: keep it small
-    n, mean = _evaluate(law, amplitude, 50.0, bias, "auto")
+    n, mean = evaluate(law, amplitude, 50.0, bias, "auto")
     assert np.all(n == 0.0) and np.all(mean == 0.0)
 
 
 def test_no_contact_no_torque_for_the_rubber_law():
     bias = np.array([0.0, 0.01])
     amplitude = (ALPHA - BETA / 2 - np.abs(bias)) * 0.999
-    n, mean = _evaluate(model("rubber", damping=1e-3), amplitude, 50.0, bias, "auto")
+    n, mean = evaluate(model("rubber", damping=1e-3), amplitude, 50.0, bias, "auto")
     assert np.all(n == 0.0) and np.all(mean == 0.0)
 
 
@@ -248,8 +249,8 @@ def test_phase_plane_law_closes_the_gap_below_alpha_at_high_rate():
 @pytest.mark.parametrize("name", ALL)
 def test_odd_symmetry_makes_n_even_and_the_mean_odd_in_the_bias(name):
     amplitude, omega = np.array([0.06, 0.12]), 300.0
-    n_up, mean_up = _evaluate(model(name), amplitude, omega, 0.015, "auto")
-    n_down, mean_down = _evaluate(model(name), amplitude, omega, -0.015, "auto")
+    n_up, mean_up = evaluate(model(name), amplitude, omega, 0.015, "auto")
+    n_down, mean_down = evaluate(model(name), amplitude, omega, -0.015, "auto")
     np.testing.assert_allclose(n_down, n_up, rtol=1e-9)
     np.testing.assert_allclose(mean_down, -mean_up, rtol=1e-9)
 
@@ -258,7 +259,7 @@ def test_permanent_contact_gives_the_linear_shaft_and_its_mean():
     # bias beyond the gap, small amplitude: T = k (x - alpha) + c v all period
     bias, amplitude, omega = 0.2, 0.01, 40.0
     for name in ("damped-dead-zone", "phase-plane", "exact", "revised-dead-zone"):
-        n, mean = _evaluate(model(name), amplitude, omega, bias, "auto")
+        n, mean = evaluate(model(name), amplitude, omega, bias, "auto")
         assert complex(n) == pytest.approx(K + 1j * C * omega, rel=1e-12)
         assert float(mean) == pytest.approx(K * (bias - ALPHA), rel=1e-12)
 
@@ -350,8 +351,8 @@ def test_switch_exact_kernels_agree_with_the_sampled_walk_on_10000_points(name):
     # here with 256 samples: at 64 it misses a narrow band of the rubber law at 1 point in 10^4
     amplitude, omega, bias = reference_points(10_000, seed=2024)
     law = model(name)
-    n_walk, mean_walk = _evaluate(law, amplitude, omega, bias, "harmonic-balance", samples=256)
-    n, mean = _evaluate(law, amplitude, omega, bias, "harmonic-balance")
+    n_walk, mean_walk = evaluate(law, amplitude, omega, bias, "harmonic-balance", samples=256)
+    n, mean = evaluate(law, amplitude, omega, bias, "harmonic-balance")
     scale = np.abs(n_walk)
     assert np.all(scale > 0.0)
     assert np.max(np.abs(n - n_walk) / scale) < 1e-12
@@ -482,7 +483,7 @@ MP_POINTS = [(1.3, 0.15, 0.0), (4.0, 0.9, 0.0), (30.0, 0.02, 0.0), (1.001, 5.9, 
 def test_switch_exact_kernels_match_an_mpmath_reference_with_its_own_switches(name, ratio, rate, bias):
     amplitude, omega, bias = ratio * ALPHA, rate * K / C, bias * ALPHA
     n_mp, mean_mp = mp_describing_function(name, amplitude, omega, bias)
-    n, mean = _evaluate(model(name), amplitude, omega, bias, "harmonic-balance")
+    n, mean = evaluate(model(name), amplitude, omega, bias, "harmonic-balance")
     if n_mp == 0.0:
         assert complex(n) == 0.0 and float(mean) == 0.0
         return
@@ -496,7 +497,7 @@ def test_critical_points_of_x_minus_theta_star_match_a_dense_sampling(rate):
     # kernels bracket the theta* crossings between its critical points.  Checked against the
     # sign changes of its slope on 2^16 phases (theta* from models.theta_star); 4.53 at
     # c w / k = 1.1096 lies just above the floor of the criticality level with no critical point
-    from backlash_df.describing import _critical_points
+    from backlash_df.describing._kernels import critical_points
 
     phi = np.linspace(0.0, np.pi / 2, 2**16 + 1)
     for ratio in (0.3, 1.001, 2.0, 4.533105131932044, 20.0, 100.0):
@@ -504,7 +505,7 @@ def test_critical_points_of_x_minus_theta_star_match_a_dense_sampling(rate):
         gamma = amplitude * np.sin(phi) - theta_star(amplitude * omega * np.cos(phi), K, C, ALPHA)
         turns = np.nonzero(np.diff(np.sign(np.diff(gamma))) != 0)[0] + 1
         crit = np.full(5, -1.0)
-        found = _critical_points(amplitude, rate, ALPHA, crit, True)
+        found = critical_points(amplitude, rate, ALPHA, crit, True)
         if not found:
             # a turn within a few samples of pi/2 is below the resolution of theta* (D ~ 1e-17)
             assert turns.size == 0 or phi[turns[0]] > np.pi / 2 - 1e-3
@@ -526,12 +527,12 @@ def test_critical_points_of_x_minus_theta_star_match_a_dense_sampling(rate):
 def test_contact_fraction_of_the_band_torque_matches_lambert_w():
     # theta* = alpha - s u, u - ln u = 1 + K (K = 2 alpha k / (c v)), u = -W0(-exp(-1 - K));
     # ln u ~ -1 - K carries an ulp of 1.1e-16 (1 + K)
-    from backlash_df.describing import _fraction
+    from backlash_df.describing._kernels import contact_fraction
 
     for big_k in np.concatenate([np.geomspace(1e-10, 40.0, 400), np.linspace(0.01, 40.0, 400)]):
         with mpmath.workdps(30):
             u = -mpmath.lambertw(-mpmath.exp(-1 - mpmath.mpf(big_k)))
-            assert abs(_fraction(big_k) - u) <= 1e-15 * (1.0 + big_k) * u
+            assert abs(contact_fraction(big_k) - u) <= 1e-15 * (1.0 + big_k) * u
 
 
 def test_grid_on_threads_equals_the_serial_kernel():
@@ -540,6 +541,6 @@ def test_grid_on_threads_equals_the_serial_kernel():
     for name in ("phase-plane", "rubber"):
         for bias in (0.0, 0.02):
             result = describing_function_grid(model(name), amplitude, omega, bias)
-            n, mean = _evaluate(model(name), amplitude[:, None], omega[None, :], bias, "auto")
+            n, mean = evaluate(model(name), amplitude[:, None], omega[None, :], bias, "auto")
             np.testing.assert_array_equal(result.N, n)
             np.testing.assert_array_equal(result.mean_torque, mean)

@@ -1,105 +1,38 @@
-"""Describing functions N(A, w, bias) of the backlash torque laws by harmonic balance.
+"""The compiled kernels of the describing functions (numba): the switch-exact harmonic
+balance of the static laws, the sampled walk that is its reference, and the exact model.
 
-Convention (the contract page of the documentation): the input is
-``x(t) = bias + A sin(w t)``, ``v = dx/dt``;
-with ``b1``, ``a1`` the sine and cosine Fourier coefficients of the steady-state
-torque over one period,
-
-    N(A, w, bias) = (b1 + j a1) / A        (N m / rad)
-
-and the mean torque ``N0(A, w, bias) = (1 / 2 pi) int T dphi`` (N m) is the DC
-term of the dual-input describing function (:func:`dual_input_describing_function`).
-Under a constant load torque ``T_l`` the DC balance ``N0(A, w, b) = -T_l`` fixes the
-bias (:func:`dc_bias`), and ``N(A, w, b(A, w))`` is the describing function of the
-loaded loop (:class:`BiasedDescribing`).  Because the laws depend on the rate ``v``, N depends on
-``w`` as well as on ``A``.
-
-How each law is computed:
-
-* Static laws, by default (the switch-exact kernels): every contact torque is
-  affine in (1, sin phi, cos phi) along ``phi = w t`` and is integrated in closed
-  form; every mode boundary but theta* is a sinusoid, ``b + R sin(phi + psi) = level``
-  (x, y = x + (c/k) v, z = x - (c/k) v, x + 2 (c/k) v), crossed at phases in closed
-  form.  Right contact is integrated for the bias, left contact as its mirror image
-  (odd symmetry).  Contact of the phase plane law, once made at theta*, holds until
-  the release (Theorem 1, :func:`~backlash_df.models.held_mode`): it spans the arc
-  where y >= alpha from its first phase with ``x >= theta*(v)`` or ``v <= 0``.  The
-  theta* boundaries ``x = theta*(v) (+- beta / 2)`` are located by Newton on (19) written
-  with one exponential, in brackets where ``x - theta*(v)`` is monotone: it rises for
-  ``v`` rising and, for ``v`` falling, rises or has one maximum and one minimum, found as
-  the roots of a convex function of the contact fraction (``cot phi = (c w / k) D``,
-  ``D = -d theta*/ds``).  The rubber band (36), not affine, is integrated by adaptive
-  Gauss-Kronrod (7-15), the error test of ``_integrate_adaptive``.  No sample count enters.
-* Static laws, reference (``_evaluate(..., samples=..., gauss_order=...)``): the
-  walk of earlier releases.  The mode is followed as the simulation follows it
-  (:func:`~backlash_df.models.held_mode`).  The mode
-  changes (contact, release, theta*, rubber band edges, the kink of the
-  ElastoBacklash law) are bracketed by 64 phase samples, located to a few
-  ulps as zeros of the law's boundary functions (regula falsi, Illinois) and
-  settled by bisection on the mode itself, which has the last word (bisection
-  alone where no boundary function fits).  Each smooth piece is integrated by
-  adaptive Gauss-Kronrod (7-15) quadrature with a stated error test, or by a fixed
-  Gauss-Legendre rule.
-* The exact model (1) + (14): off contact the shaft relaxes as
-  ``theta_b = x + (theta_b0 - x0) exp(-(phi - phi0) / (c w / k))`` (eq. 13),
-  contact starts when that reaches ``+-alpha`` (located by bisection) and ends at
-  the release phase where ``y = x + (c/k) v`` crosses ``+-alpha`` (closed form,
-  Theorem 1).  The state at a release is always ``theta_b = +-alpha`` at a fixed
-  phase, so the response is periodic from the first release on: the periodic
-  steady state is reached exactly, after at most the periods it takes the
-  free shaft to close the gap again (no convergence iteration is needed).
-  In contact ``T = k (y -+ alpha)`` is a sinusoid plus a constant, integrated
-  in closed form.
-* Closed forms (no bias): classical dead-zone (24), Tustin's
-  ``N = k F(alpha / A)`` with ``F(r) = 1 - (2/pi)(asin r + r sqrt(1 - r^2))``;
-  damped dead-zone (26), ``N = (k + j c w) F(alpha / A)``; revised dead-zone
-  (27), a dead-zone of ``y`` of amplitude ``R = A sqrt(1 + (c w / k)^2)``:
-  ``N = (k + j c w) F(alpha / R)``.
+The methods are described in :mod:`backlash_df.describing`; the equation numbers are the
+paper's.  Private to the package: :mod:`backlash_df.describing._evaluation` calls them,
+and the tests reach the switch location, the quadrature rule and the contact fraction
+here to check them against references of their own.
 """
 
-import dataclasses
 import functools
 import math
 
 import numba
 import numpy as np
 
-from ._json import json_ready
-from .models import (
+from ..models import (
     DAMPED_DEAD_ZONE,
     DEAD_ZONE,
     ELASTO_BACKLASH,
-    EXACT,
     PHASE_PLANE,
     REVISED_DEAD_ZONE,
     RUBBER,
-    BacklashModel,
     held_mode,
-    make_model,
     mode_torque,
     static_mode,
     theta_star_kernel,
 )
-from .plotting import ResultPlot, axes_or_new, label_contours, legend_beside, log_scale
-
-__all__ = [
-    "describing_function",
-    "dual_input_describing_function",
-    "saturation_describing_function",
-    "dc_bias",
-    "BiasedDescribing",
-    "describing_function_grid",
-    "DescribingFunctionResult",
-    "phase_plane_validity",
-    "ValidityMap",
-]
 
 _jit = numba.njit(cache=True, nogil=True)
+
 _TWO_PI = 2.0 * math.pi
 _HALF_PI = 0.5 * math.pi
 _RUBBER_BAND = -1  # law code of _kronrod for the rubber band torque of the switch-exact kernels
-_SAMPLES = 64  # phase samples that bracket mode changes (plus special phases)
-_SCAN_STEP = 0.02  # phase step (rad) of the exact model's search for re-contact
+SAMPLES = 64  # phase samples that bracket mode changes (plus special phases)
+SCAN_STEP = 0.02  # phase step (rad) of the exact model's search for re-contact
 _BISECTIONS = 60
 _MAX_PIECE = 0.25 * math.pi  # longest sub-interval of the fixed reference rule
 _START_PIECE = 0.5 * math.pi  # longest first sub-interval of the adaptive rule
@@ -119,14 +52,14 @@ _KRONROD_HALF = (
     (0.207784955007898467600689403773245, 0.204432940075298892414161999234649, 0.0),
     (0.0, 0.209482141084727828012999174891714, 0.417959183673469387755102040816327),
 )
-_KRONROD = np.array([(-x, wk, wg) for x, wk, wg in _KRONROD_HALF[:-1]] + list(_KRONROD_HALF[::-1]))
+KRONROD = np.array([(-x, wk, wg) for x, wk, wg in _KRONROD_HALF[:-1]] + list(_KRONROD_HALF[::-1]))
 
 
 # --------------------------------------------------------------------------- static laws
 
 
 @_jit
-def _piece(law, mode, phi, amp, omega, bias, p):
+def piece(law, mode, phi, amp, omega, bias, p):
     """(mode, smooth-piece index) at phase phi for a trajectory that held ``mode``.
 
     The mode follows :func:`~backlash_df.models.held_mode`, as in the simulation:
@@ -181,14 +114,14 @@ def _kronrod(law, m, a, e, amp, omega, bias, p):
     half = 0.5 * (e - a)
     centre = a + half
     k_sin = k_cos = k_one = g_sin = g_cos = g_one = total = 0.0
-    for i in range(_KRONROD.shape[0]):
-        phi = centre + half * _KRONROD[i, 0]
+    for i in range(KRONROD.shape[0]):
+        phi = centre + half * KRONROD[i, 0]
         sn = math.sin(phi)
         cs = math.cos(phi)
         x, v = bias + amp * sn, amp * omega * cs
         torque = _band_torque(x, v, p) if law == _RUBBER_BAND else mode_torque(law, m, x, v, p[0], p[1], p[2], p[3])
-        kronrod = _KRONROD[i, 1] * torque
-        gauss = _KRONROD[i, 2] * torque
+        kronrod = KRONROD[i, 1] * torque
+        gauss = KRONROD[i, 2] * torque
         k_sin += kronrod * sn
         k_cos += kronrod * cs
         k_one += kronrod
@@ -201,7 +134,7 @@ def _kronrod(law, m, a, e, amp, omega, bias, p):
 
 
 @_jit
-def _integrate_adaptive(law, m, a, e, amp, omega, bias, p, stack, acc):
+def integrate_adaptive(law, m, a, e, amp, omega, bias, p, stack, acc):
     """Add int T sin, int T cos, int T over [a, e] to ``acc`` by adaptive Gauss-Kronrod.
 
     A sub-interval is accepted when its 15-point Kronrod and embedded 7-point
@@ -241,7 +174,7 @@ def _integrate_piece(law, m, a, e, amp, omega, bias, p, nodes, weights, stack, a
     if m == 0:
         return
     if nodes.shape[0] == 0:
-        _integrate_adaptive(law, m, a, e, amp, omega, bias, p, stack, acc)
+        integrate_adaptive(law, m, a, e, amp, omega, bias, p, stack, acc)
     else:
         _integrate_fixed(law, m, a, e, amp, omega, bias, p, nodes, weights, acc)
 
@@ -357,7 +290,7 @@ def _hinted_switch(law, mode, current, lo, hi, amp, omega, bias, p):
 
     The boundary functions that change sign over the bracket are tried in the
     order of their linearly interpolated zeros.  They only propose phases;
-    :func:`_piece` (the law of :mod:`backlash_df.models`) decides, so a wrong
+    :func:`piece` (the law of :mod:`backlash_df.models`) decides, so a wrong
     proposal costs time, never accuracy.
     """
     right_lo, left_lo = _boundary_values(law, lo, amp, omega, bias, p)
@@ -384,13 +317,13 @@ def _hinted_switch(law, mode, current, lo, hi, amp, omega, bias, p):
             margin = ulps * 2.2e-16 * max(1.0, abs(root))
             before = max(lo, root - margin)
             after = min(hi, root + margin)
-            if (_piece(law, mode, before, amp, omega, bias, p)[1] == current
-                    and _piece(law, mode, after, amp, omega, bias, p)[1] != current):
+            if (piece(law, mode, before, amp, omega, bias, p)[1] == current
+                    and piece(law, mode, after, amp, omega, bias, p)[1] != current):
                 return before, after
 
 
 @_jit
-def _locate_switch(law, mode, current, lo, hi, amp, omega, bias, p):
+def locate_switch(law, mode, current, lo, hi, amp, omega, bias, p):
     """First phase in (lo, hi] of another smooth piece than ``current`` (at lo).
 
     Bisection on the mode to round-off, from the bracket of a few ulps where a
@@ -405,7 +338,7 @@ def _locate_switch(law, mode, current, lo, hi, amp, omega, bias, p):
         mid = 0.5 * (lo + hi)
         if mid <= lo or mid >= hi:
             break
-        if _piece(law, mode, mid, amp, omega, bias, p)[1] == current:
+        if piece(law, mode, mid, amp, omega, bias, p)[1] == current:
             lo = mid
         else:
             hi = mid
@@ -413,7 +346,7 @@ def _locate_switch(law, mode, current, lo, hi, amp, omega, bias, p):
 
 
 @_jit
-def _static_harmonics(law, amp, omega, bias, p, nodes, weights, samples, stack, acc):
+def static_harmonics(law, amp, omega, bias, p, nodes, weights, samples, stack, acc):
     """Fourier integrals of a static law's torque over one period (see module docs).
 
     The walk starts at phi = pi/2, where v = 0 and the held mode does not depend
@@ -436,17 +369,17 @@ def _static_harmonics(law, amp, omega, bias, p, nodes, weights, samples, stack, 
     start = phi0
     x0 = bias + amp * math.sin(phi0)
     mode = static_mode(law, x0, 0.0, p[0], p[1], p[2], p[3])
-    mode, current = _piece(law, mode, phi0, amp, omega, bias, p)
+    mode, current = piece(law, mode, phi0, amp, omega, bias, p)
     for j in range(1, grid.shape[0]):
         if grid[j] <= grid[j - 1]:
             continue
-        target = _piece(law, mode, grid[j], amp, omega, bias, p)[1]
+        target = piece(law, mode, grid[j], amp, omega, bias, p)[1]
         while target != current:
-            switch = _locate_switch(law, mode, current, max(start, grid[j - 1]), grid[j], amp, omega, bias, p)
+            switch = locate_switch(law, mode, current, max(start, grid[j - 1]), grid[j], amp, omega, bias, p)
             _integrate_piece(law, mode, start, switch, amp, omega, bias, p, nodes, weights, stack, acc)
             start = switch
-            mode, current = _piece(law, mode, switch, amp, omega, bias, p)
-            target = _piece(law, mode, grid[j], amp, omega, bias, p)[1]
+            mode, current = piece(law, mode, switch, amp, omega, bias, p)
+            target = piece(law, mode, grid[j], amp, omega, bias, p)[1]
     _integrate_piece(law, mode, start, phi0 + _TWO_PI, amp, omega, bias, p, nodes, weights, stack, acc)
     return 1.0
 
@@ -597,7 +530,7 @@ def _exact_harmonics(amp, omega, bias, p, scan_step, acc):
 # (1, sin phi, cos phi) and integrated in closed form (_arc_integrals, or the series forms of
 # _y_arc_side where the arc is symmetric).  The theta* boundaries are located by Newton on
 # eq. (19) written with one exponential (_contact_residual), inside brackets where the
-# boundary is monotone (_critical_points).  Right contact is integrated for the bias, left
+# boundary is monotone (critical_points).  Right contact is integrated for the bias, left
 # contact as the mirror image, right contact of -bias (odd symmetry, reading notes item 3).
 
 _TAIL_W = -41.0  # ln u at K = 40, where theta* rounds to alpha (models.theta_star_kernel); u ~ 1.6e-18
@@ -904,7 +837,7 @@ def _critical_phase(w, rate, alpha, amp):
 
 
 @_jit
-def _critical_points(amp, rate, alpha, crit, lower):
+def critical_points(amp, rate, alpha, crit, lower):
     """The critical points of gamma on (0, pi/2), computed once per point into crit:
     crit[0] = -1 not yet, 0 none, 1 phi1 and gamma1 in crit[1:3], 2 also phi2 and gamma2 in crit[3:5].
 
@@ -1007,7 +940,7 @@ def _first_contact(level, lo, hi, amp, rate, alpha, crit):
         lo = 0.0
     elif hi <= 0.0 and not reaches:
         return False, 0.0, 0.0, 0.0
-    if lo >= 0.0 and _critical_points(amp, rate, alpha, crit, False) and crit[1] <= hi:
+    if lo >= 0.0 and critical_points(amp, rate, alpha, crit, False) and crit[1] <= hi:
         if lo < crit[1] and crit[2] >= level:  # the first rise of gamma crosses level
             return (True,) + _contact_root(level, lo, crit[1], True, amp, slope_scale, alpha)
         lo = max(lo, crit[1])  # beyond phi1 gamma falls, then rises once through level if it reaches it
@@ -1079,7 +1012,7 @@ _FRACTION_TABLE = _fraction_table()
 
 
 @_jit
-def _fraction(big_k):
+def contact_fraction(big_k):
     """The contact fraction u in (0, 1] with u - ln u = 1 + K, 0 < K <= 40: quintic Hermite
     interpolation of ln u in sqrt(K); relative error below 1e-15 (1 + K), the ulp of ln u."""
     t = math.sqrt(big_k) / _FRACTION_STEP
@@ -1096,11 +1029,11 @@ def _fraction(big_k):
 
 @_jit
 def _band_torque(x, v, p):
-    """Right rubber-band torque (36) of models.right_torque, mode 1 (N m), theta* by _fraction."""
+    """Right rubber-band torque (36) of models.right_torque, mode 1 (N m), theta* by contact_fraction."""
     k, c, alpha, beta = p[0], p[1], p[2], p[3]
     s = c * v / k
     if v > 0.0:
-        ts = alpha if 20.0 * s < alpha else alpha - s * _fraction(2.0 * alpha / s)
+        ts = alpha if 20.0 * s < alpha else alpha - s * contact_fraction(2.0 * alpha / s)
         w = x - ts + 0.5 * beta
         return (0.5 * k * w + k * (ts - alpha) + c * v) * w / beta
     lower = alpha - 0.5 * beta - 2.0 * s
@@ -1119,7 +1052,7 @@ def _add_piece(mode, a, sa, ca, e, se, ce, amp, omega, bias, p, contact, stack, 
         acc[1] += piece[1]
         acc[2] += piece[2]
     else:
-        _integrate_adaptive(_RUBBER_BAND, 1, a, e, amp, omega, bias, p, stack, acc)
+        integrate_adaptive(_RUBBER_BAND, 1, a, e, amp, omega, bias, p, stack, acc)
 
 
 @_jit
@@ -1155,7 +1088,7 @@ def _level_crossings(level, up_mode, down_mode, amp, rate, psi, radius, alpha, c
         if hi <= 0.0:
             return n
         lo, above = 0.0, above_end
-    if _critical_points(amp, rate, alpha, crit, True) and crit[1] < hi:
+    if critical_points(amp, rate, alpha, crit, True) and crit[1] < hi:
         phi1, phi2 = crit[1], crit[3]
         if lo < phi1:  # gamma rises to its maximum
             above1 = crit[2] >= level
@@ -1339,7 +1272,7 @@ def _rubber_balance_parallel(p, amp, omega, bias, n_out, mean_out):
         _rubber_chunk(p, amp, omega, bias, n_out, mean_out, chunk * _CHUNK, min((chunk + 1) * _CHUNK, amp.shape[0]))
 
 
-def _switch_exact_kernel(model, parallel):
+def switch_exact_kernel(model, parallel):
     """The driver of a static model's switch-exact harmonic balance, called as
     ``driver(params, amp, omega, bias, n_out, mean_out)``; (40) with beta = 0 is (23)."""
     law = model.law
@@ -1356,20 +1289,20 @@ def _switch_exact_kernel(model, parallel):
 
 
 @_jit
-def _harmonic_balance(law, p, amp, omega, bias, nodes, weights, samples, n_out, mean_out):
+def harmonic_balance(law, p, amp, omega, bias, nodes, weights, samples, n_out, mean_out):
     """N and mean torque of a static law at each point by the sampled walk (the reference)."""
     acc = np.zeros(3)
     stack = np.empty((2 * _MAX_LEVEL + 8, 3))
     for i in range(amp.shape[0]):
         a = amp[i]
-        periods = _static_harmonics(law, a, omega[i], bias[i], p, nodes, weights, samples, stack, acc)
+        periods = static_harmonics(law, a, omega[i], bias[i], p, nodes, weights, samples, stack, acc)
         scale = 1.0 / (math.pi * periods)
         n_out[i] = complex(acc[0] * scale / a, acc[1] * scale / a)
         mean_out[i] = 0.5 * acc[2] * scale
 
 
 @_jit
-def _exact_balance(p, amp, omega, bias, scan_step, n_out, mean_out):
+def exact_balance(p, amp, omega, bias, scan_step, n_out, mean_out):
     """N and mean torque of the exact model (1) + (14) at each point; at c w = 0 it is the
     dead-zone (the shaft relaxes at once), in closed form."""
     acc = np.zeros(3)
@@ -1381,527 +1314,3 @@ def _exact_balance(p, amp, omega, bias, scan_step, n_out, mean_out):
             mean_out[i] = 0.5 * acc[2] * scale
         else:
             n_out[i], mean_out[i] = _closed_form_point(DEAD_ZONE, p, a, w, b)
-
-
-def _tustin(excess):
-    """Dead-zone DF over k, F = 1 - (2/pi)(asin r + r sqrt(1 - r^2)), r = alpha / A.
-
-    Evaluated from ``excess = (A - alpha) / A`` as ``F = (u - sin u) / pi`` with
-    ``u = 4 asin(sqrt(excess / 2))``, and a series for small u, so that F keeps
-    full relative precision as A -> alpha (the printed form cancels).
-    """
-    d = np.clip(excess, 0.0, 1.0)
-    u = 4.0 * np.arcsin(np.sqrt(0.5 * d))
-    u2 = u * u
-    series = u * u2 / 6.0 * (1.0 - u2 / 20.0 * (1.0 - u2 / 42.0 * (1.0 - u2 / 72.0 * (1.0 - u2 / 110.0))))
-    return np.where(u < 0.1, series, u - np.sin(u)) / np.pi
-
-
-def _closed_form(model, amplitude, omega):
-    """N of (24), (26), (27) without bias, or None for laws that have no closed form here."""
-    k, c, alpha = model.stiffness, model.damping, model.half_gap
-    if model.law == DEAD_ZONE:
-        return k * _tustin((amplitude - alpha) / amplitude) + 0j * omega
-    if model.law == DAMPED_DEAD_ZONE:
-        return (k + 1j * c * omega) * _tustin((amplitude - alpha) / amplitude)
-    if model.law == REVISED_DEAD_ZONE:
-        radius = amplitude * np.sqrt(1.0 + (c * omega / k) ** 2)
-        return (k + 1j * c * omega) * _tustin((radius - alpha) / radius)
-    return None
-
-
-# --------------------------------------------------------------------------- public API
-
-
-#: Relative size (of |N| A) below which the mean torque at zero bias is round-off.
-_MEAN_ROUND_OFF = 1e-10
-
-
-def _validated(name, values, positive=False):
-    array = np.asarray(values, dtype=float)
-    if not np.isfinite(array).all():
-        raise ValueError(f"{name} must be finite")
-    if positive and (array <= 0.0).any():
-        raise ValueError(f"{name} must be > 0")
-    if not positive and name == "omega" and (array < 0.0).any():
-        raise ValueError("omega must be >= 0")
-    return array
-
-
-def _as_model(model):
-    if isinstance(model, BacklashModel):
-        return model
-    raise ValueError(f"model must be a model from make_model(), got {model!r}")
-
-
-#: Largest |bias| / A: beyond it A sin(w t) drowns in the round-off of bias + A sin(w t)
-#: (relative error ~1e-16 |bias| / A in N).
-_MAX_BIAS_RATIO = 1e8
-
-
-def _check_scales(model, a, w, b):
-    """Refuse arguments whose harmonic balance floating point cannot carry (one-line ``ValueError``)."""
-    if a.size == 0:
-        return
-    magnitude = np.abs(b)
-    ratio = magnitude / a
-    if (ratio > _MAX_BIAS_RATIO).any():
-        i = np.unravel_index(np.argmax(ratio), ratio.shape)
-        raise ValueError(f"bias = {b[i]:g} rad is more than {_MAX_BIAS_RATIO:g} times the amplitude {a[i]:g} rad: "
-                         f"A sin(w t) is lost in the round-off of bias + A sin(w t)")
-    # a bound on every point's torque scale in Python floats (inf, no warning, on overflow)
-    if math.isfinite((model.stiffness + model.damping * float(w.max())) * (float(a.max()) + float(magnitude.max()))):
-        return
-    with np.errstate(over="ignore"):
-        scale = (model.stiffness + model.damping * w) * (a + np.abs(b))
-    if not np.all(np.isfinite(scale)):
-        i = np.unravel_index(np.argmax(~np.isfinite(scale)), scale.shape)
-        raise ValueError(f"amplitude = {a[i]:g} rad at omega = {w[i]:g} rad/s: the torque (k + c w)(A + |bias|) "
-                         f"overflows floating point")
-
-
-def _evaluate(model, amplitude, omega, bias, method, samples=None, gauss_order=None, scan_step=_SCAN_STEP,
-              parallel=False):
-    """N and mean torque.
-
-    The harmonic balance of a static law runs the switch-exact kernels, unless ``samples`` or
-    ``gauss_order`` is given: then the sampled walk (:func:`_static_harmonics`) with
-    ``samples`` phase samples (64 if None) and adaptive Gauss-Kronrod (``gauss_order=None``)
-    or that Gauss-Legendre order on fixed sub-intervals, the independent reference of the
-    tests.  ``scan_step`` sets the exact model's search for re-contact; ``parallel`` shares
-    the points of a static law among numba's threads.
-    """
-    model = _as_model(model)
-    amplitude = _validated("amplitude", amplitude, positive=True)
-    omega = _validated("omega", omega)
-    bias = _validated("bias", bias)
-    if method not in ("auto", "closed-form", "harmonic-balance"):
-        raise ValueError(f"method must be 'auto', 'closed-form' or 'harmonic-balance', got {method!r}")
-    a, w, b = np.broadcast_arrays(amplitude, omega, bias)
-    _check_scales(model, a, w, b)
-    closed = _closed_form(model, a, w) if method != "harmonic-balance" and not b.any() else None
-    if method == "closed-form" and closed is None:
-        raise ValueError(f"no closed-form describing function for {model.name!r} (or with a bias)")
-    if closed is not None:
-        return np.asarray(closed, dtype=complex), np.zeros(a.shape)
-    n_out = np.empty(a.size, dtype=complex)
-    mean_out = np.empty(a.size)
-    # np.array copies: broadcast views are flagged "warn on write", and numba's typeof
-    # reads that flag (a FutureWarning on every call with numpy >= 2.4)
-    points = tuple(np.array(x, dtype=float).ravel() for x in (a, w, b))
-    if model.law == EXACT:
-        _exact_balance(model.params, *points, float(scan_step), n_out, mean_out)
-    elif samples is None and gauss_order is None:
-        _switch_exact_kernel(model, parallel)(model.params, *points, n_out, mean_out)
-    else:
-        nodes, weights = np.polynomial.legendre.leggauss(gauss_order) if gauss_order else (np.empty(0), np.empty(0))
-        _harmonic_balance(model.law, model.params, *points, nodes, weights, int(samples or _SAMPLES), n_out, mean_out)
-    n_out, mean_out = n_out.reshape(a.shape), mean_out.reshape(a.shape)
-    # Every law is odd, T(-x, -v) = -T(x, v): at zero bias the mean torque is zero, and
-    # what the quadrature returns is round-off relative to the torque's scale |N| A.
-    round_off = (b == 0.0) & (np.abs(mean_out) <= _MEAN_ROUND_OFF * np.abs(n_out) * a)
-    return n_out, np.where(round_off, 0.0, mean_out)
-
-
-def describing_function(model, amplitude, omega, bias=0.0, method="auto"):
-    """Describing function N(A, w, bias) of a backlash torque law.
-
-    Parameters
-    ----------
-    model : BacklashModel
-        A law from :func:`~backlash_df.make_model`, the exact model included.
-    amplitude : array_like
-        First-harmonic amplitude A of theta_d, rad (> 0).
-    omega : array_like
-        Angular frequency w, rad/s (>= 0).
-    bias : array_like, optional
-        Mean of theta_d, rad.
-    method : {"auto", "closed-form", "harmonic-balance"}
-        ``auto`` uses the closed forms of (24), (26), (27) without bias and
-        harmonic balance otherwise; the other two force one route.
-
-    Returns
-    -------
-    complex ndarray
-        N = (b1 + j a1) / A in N m/rad, broadcast over the arguments.
-
-    Raises
-    ------
-    ValueError
-        Amplitude not > 0, omega negative, any argument non-finite.
-
-    See Also
-    --------
-    describing_function_grid : a grid with gain, phase, mean torque and plots.
-
-    Examples
-    --------
-    Tustin's dead-zone: N = k F(alpha / A).
-
-    >>> model = make_model("dead-zone", stiffness=100.0, half_gap=0.1)
-    >>> complex(describing_function(model, 0.2, 10.0))
-    (39.100...+0j)
-
-    The damped laws lead in phase:
-
-    >>> pp = make_model("phase-plane", stiffness=5895.0, damping=3.0, half_gap=0.05)
-    >>> n = describing_function(pp, [0.06, 0.2], 100.0)
-    >>> bool(np.all(np.angle(n) > 0))
-    True
-    """
-    return _evaluate(model, amplitude, omega, bias, method)[0]
-
-
-def dual_input_describing_function(model, amplitude, omega, bias=0.0, method="auto"):
-    """The dual-input describing function: N(A, w, bias) and the mean torque N0(A, w, bias).
-
-    For ``x(t) = bias + A sin(w t)``: ``N = (b1 + j a1) / A`` (N m/rad) of the
-    first harmonic and ``N0 = (1 / 2 pi) int T dphi`` (N m), the DC term.  At zero
-    bias every law is odd and ``N0 = 0``.
-
-    Parameters
-    ----------
-    model, amplitude, omega, bias, method
-        As :func:`describing_function`.
-
-    Returns
-    -------
-    n : complex ndarray
-        N, N m/rad, broadcast over the arguments.
-    mean_torque : ndarray
-        N0, N m, same shape.
-
-    Examples
-    --------
-    Resting on the right flank of a dead-zone (``bias - A > alpha``) the torque is
-    ``k (x - alpha)``: ``N = k`` and ``N0 = k (bias - alpha)``.
-
-    >>> model = make_model("dead-zone", stiffness=100.0, half_gap=0.1)
-    >>> n, mean = dual_input_describing_function(model, 0.05, 10.0, bias=0.3)
-    >>> round(float(n.real), 9), round(float(mean), 9)
-    (100.0, 20.0)
-    """
-    return _evaluate(model, amplitude, omega, bias, method)
-
-
-def saturation_describing_function(amplitude, limit):
-    """Describing function of the saturation ``clip(u, -limit, limit)`` of ``u = U sin(w t)``: a real gain.
-
-    ``N_s = 1`` for ``U <= limit``, else ``(2 / pi) (asin r + r sqrt(1 - r^2))``
-    with ``r = limit / U`` (Gelb and Vander Velde, 1968): the torque limit's
-    describing function in a loop that also holds the backlash.
-
-    Parameters
-    ----------
-    amplitude : array_like
-        U, the first-harmonic amplitude of the command, N m (>= 0).
-    limit : float
-        N m, > 0.
-
-    Returns
-    -------
-    ndarray
-        N_s in (0, 1], the shape of ``amplitude``.
-
-    Examples
-    --------
-    >>> round(float(saturation_describing_function(2.0, 1.0)), 6)
-    0.608998
-    """
-    amplitude = np.asarray(amplitude, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r = np.clip(limit / amplitude, 0.0, 1.0)
-        return np.where(amplitude <= limit, 1.0, 2.0 / np.pi * (np.arcsin(r) + r * np.sqrt(1.0 - r * r)))
-
-
-_BIAS_TOL = 1e-11  # relative to the bracket width (alpha + A + |T_l| / k) and to k times it
-
-
-def dc_bias(model, amplitude, omega, load_torque, iterations=40):
-    """Bias b (rad) of theta_d solving the DC balance ``N0(A, w, b) = -load_torque``.
-
-    Parameters
-    ----------
-    model : BacklashModel
-    amplitude, omega : array_like
-        A (rad, > 0) and w (rad/s), broadcast together.
-    load_torque : float
-        T_l, N m, applied to the load (positive: the shaft carries ``-T_l``).
-    iterations : int
-        Most Newton steps (safeguarded by bisection).
-
-    Returns
-    -------
-    ndarray
-        b, rad, shape of the broadcast arguments.
-
-    Examples
-    --------
-    A large amplitude with the shaft in contact most of the time needs about
-    ``b = -alpha - T_l / k`` at small amplitude (resting on the left flank):
-
-    >>> model = make_model("dead-zone", stiffness=1000.0, half_gap=0.05)
-    >>> round(float(dc_bias(model, 1e-3, 10.0, 20.0)), 6)
-    -0.07
-    """
-    a, w = np.broadcast_arrays(np.asarray(amplitude, dtype=float), np.asarray(omega, dtype=float))
-    target = -float(load_torque)
-    # at b = +-width the oscillation never leaves a flank: N0 = k (b -+ alpha) passes the target
-    width = model.half_gap + a + abs(target) / model.stiffness
-    lo, hi = (np.zeros(a.shape), width) if target > 0.0 else (-width, np.zeros(a.shape))
-    # start as if always in contact: exact for small A, and Newton's steps stay inside the bracket
-    b = np.clip(np.full(a.shape, target / model.stiffness + np.copysign(model.half_gap, target)), lo, hi)
-    step = 1e-7 * width
-    for _ in range(iterations):
-        f = _evaluate(model, a, w, b, "auto")[1] - target
-        if np.all(np.abs(f) <= _BIAS_TOL * model.stiffness * width):
-            break
-        slope = (_evaluate(model, a, w, b + step, "auto")[1] - target - f) / step
-        lo, hi = np.where(f < 0.0, b, lo), np.where(f > 0.0, b, hi)
-        newton = b - f / np.where(slope > 0.0, slope, 1.0)
-        inside = (slope > 0.0) & (newton > lo) & (newton < hi)
-        b = np.where(f == 0.0, b, np.where(inside, newton, 0.5 * (lo + hi)))
-    return b
-
-
-@dataclasses.dataclass(frozen=True)
-class BiasedDescribing:
-    """``N(A, w, b(A, w))`` with the bias slaved to the DC balance: a callable ``(A, w) -> N``.
-
-    The describing function of a loop under the constant load torque ``T_l``
-    (:func:`dc_bias`; the PI integrator removes the mean speed error, so the mean
-    shaft torque carries the load).
-
-    Attributes
-    ----------
-    model : BacklashModel
-    load_torque : float
-        T_l, N m.
-    """
-
-    model: BacklashModel
-    load_torque: float
-
-    def __call__(self, amplitude, omega):
-        a, w = np.broadcast_arrays(np.asarray(amplitude, dtype=float), np.asarray(omega, dtype=float))
-        bias = dc_bias(self.model, a, w, self.load_torque)
-        return _evaluate(self.model, a, w, bias, "auto")[0]
-
-    def bias(self, amplitude, omega):
-        """b (rad) at (A, w); see :func:`dc_bias`."""
-        return dc_bias(self.model, amplitude, omega, self.load_torque)
-
-
-@dataclasses.dataclass(frozen=True)
-class DescribingFunctionResult:
-    """Describing function of one law on an (amplitude x omega) grid.
-
-    Attributes
-    ----------
-    model : BacklashModel
-    amplitude : ndarray
-        Amplitudes A (rad), shape (n_A,).
-    omega : ndarray
-        Angular frequencies w (rad/s), shape (n_w,).
-    bias : float
-        Mean of theta_d (rad).
-    N : complex ndarray
-        Describing function (N m/rad), shape (n_A, n_w).
-    mean_torque : ndarray
-        DC term of the torque (N m), shape (n_A, n_w); zero without bias.
-    """
-
-    model: BacklashModel
-    amplitude: np.ndarray
-    omega: np.ndarray
-    bias: float
-    N: np.ndarray
-    mean_torque: np.ndarray
-
-    @property
-    def gain(self):
-        """Gain ``|N|``, N m/rad."""
-        return np.abs(self.N)
-
-    @property
-    def phase_deg(self):
-        """Phase of N in degrees (positive: a lead)."""
-        return np.degrees(np.angle(self.N))
-
-    @property
-    def rate(self):
-        """Dimensionless rate c w / k of each column."""
-        return self.model.damping * self.omega / self.model.stiffness
-
-    def __repr__(self):
-        return (
-            f"DescribingFunctionResult(model={self.model.name!r}, {self.amplitude.size} amplitudes x "
-            f"{self.omega.size} frequencies, bias={self.bias!r})"
-        )
-
-    def to_dict(self):
-        """JSON-ready: the law and one entry per (A, w) point, as ``backlash-df df --json`` writes them.
-
-        Each point: ``amplitude`` (rad), ``omega`` (rad/s), ``gain`` (N m/rad),
-        ``phase_deg``, ``real`` and ``imag`` of N, ``mean_torque`` N0 (N m).
-        """
-        points = []
-        for i, amplitude in enumerate(self.amplitude):
-            for j, omega in enumerate(self.omega):
-                points.append({
-                    "amplitude": float(amplitude), "omega": float(omega),
-                    "gain": float(self.gain[i, j]), "phase_deg": float(self.phase_deg[i, j]),
-                    "real": float(self.N[i, j].real), "imag": float(self.N[i, j].imag),
-                    "mean_torque": float(self.mean_torque[i, j]),
-                })
-        return {"model": self.model.name, "shaft": self.model.plant_params, "bias": self.bias, "points": points}
-
-    def plot(self, ax=None):
-        """Gain (normalised by k) and phase against A / alpha, one line per c w / k.
-
-        Returns
-        -------
-        ResultPlot
-            Axes ``[gain, phase]``; the legend (one entry per c w / k) beside the gain.
-        """
-        figure, axes = axes_or_new(ax, (2, 1), sharex=True, figsize=(8, 5.5), layout="constrained")
-        ratio = self.amplitude / self.model.half_gap
-        for j, rate in enumerate(self.rate):
-            label = f"c w / k = {rate:.3g}"
-            axes[0].plot(ratio, self.gain[:, j] / self.model.stiffness, label=label)
-            axes[1].plot(ratio, self.phase_deg[:, j], label=label)
-        for panel in axes:  # log over a decade or more
-            if ratio.max() > 10.0 * ratio.min():
-                log_scale(panel.xaxis, ratio.min(), ratio.max())
-        axes[0].set_ylabel("|N| / k")
-        axes[1].set_ylabel("phase of N (deg)")
-        axes[1].set_xlabel("A / alpha")
-        axes[0].set_title(f"describing function: {self.model.name}", fontsize="medium")
-        legend_beside(axes[0])
-        for panel in axes:
-            panel.grid(True, which="both", alpha=0.3)
-        return ResultPlot(figure, axes)
-
-
-def describing_function_grid(model, amplitude, omega, bias=0.0):
-    """Describing function and mean torque on the grid ``amplitude x omega``.
-
-    Parameters
-    ----------
-    model : BacklashModel
-    amplitude, omega : array_like
-        1-D arrays of amplitudes (rad, > 0) and angular frequencies (rad/s, >= 0).
-    bias : float, optional
-        Mean of theta_d, rad.
-
-    Returns
-    -------
-    DescribingFunctionResult
-
-    Examples
-    --------
-    >>> model = make_model("phase-plane", stiffness=5895.0, damping=3.0, half_gap=0.05)
-    >>> result = describing_function_grid(model, [0.06, 0.1], [10.0, 100.0])
-    >>> result.N.shape
-    (2, 2)
-    """
-    amplitude = np.atleast_1d(np.asarray(amplitude, dtype=float))
-    omega = np.atleast_1d(np.asarray(omega, dtype=float))
-    if amplitude.ndim != 1 or omega.ndim != 1:
-        raise ValueError("amplitude and omega must be 1-D arrays")
-    n, mean = _evaluate(model, amplitude[:, None], omega[None, :], float(bias), "auto", parallel=True)
-    return DescribingFunctionResult(_as_model(model), amplitude, omega, float(bias), n, mean)
-
-
-@dataclasses.dataclass(frozen=True)
-class ValidityMap:
-    """Where the phase plane law's DF departs from the exact model's (reading notes, item 10).
-
-    Attributes
-    ----------
-    amplitude_ratio : ndarray
-        A / alpha, shape (n_A,).
-    rate : ndarray
-        c w / k, shape (n_r,).
-    relative_error : ndarray
-        ``|N_phase - N_exact| / |N_exact|``, shape (n_A, n_r); NaN where ``N_exact = 0``.
-    early_contact : ndarray of bool
-        Where the phase plane law transmits torque although A < alpha: it closes
-        the gap at theta* < alpha, an artefact of its approximation (ii).
-    """
-
-    amplitude_ratio: np.ndarray
-    rate: np.ndarray
-    relative_error: np.ndarray
-    early_contact: np.ndarray
-
-    def __repr__(self):
-        worst = float(np.nanmax(self.relative_error, initial=0.0))
-        return (f"ValidityMap({self.amplitude_ratio.size} amplitudes x {self.rate.size} rates, largest relative "
-                f"difference {100 * worst:.3g} %)")
-
-    def to_dict(self):
-        """JSON-ready: A / alpha, c w / k, the relative difference (null where N_exact = 0), early contact."""
-        return json_ready({"amplitude_ratio": self.amplitude_ratio, "rate": self.rate,
-                           "relative_error": self.relative_error, "early_contact": self.early_contact})
-
-    def plot(self, ax=None, levels=(0.01, 0.05, 0.2)):
-        """Contours of the relative difference at ``levels`` (1 %, 5 %, 20 %) and the early-contact region.
-
-        Returns
-        -------
-        ResultPlot
-            One panel: filled bands between the levels, the contours labelled with
-            their level, the early-contact region hatched; the colour bar beside it.
-        """
-        figure, axes = axes_or_new(ax, figsize=(7, 4.5), layout="constrained")
-        ax = axes[0]
-        err = np.where(np.isfinite(self.relative_error), self.relative_error, np.nan)
-        bounds = [0.0, *levels, max(float(np.nanmax(err, initial=0.0)), 2.0 * levels[-1])]
-        colours = ["#f7fbff", "#c6dbef", "#6baed6", "#08519c", "#08306b"][: len(bounds) - 1]
-        filled = ax.contourf(self.rate, self.amplitude_ratio, err, levels=bounds, colors=colours)
-        lines = ax.contour(self.rate, self.amplitude_ratio, err, levels=list(levels), colors="k", linewidths=0.8)
-        label_contours(ax, lines, fmt=lambda level: f"{level:.0%}")
-        if np.any(self.early_contact):
-            ax.contourf(self.rate, self.amplitude_ratio, self.early_contact.astype(float), levels=[0.5, 1.5],
-                        colors="none", hatches=["//"])
-        log_scale(ax.xaxis, self.rate.min(), self.rate.max())
-        log_scale(ax.yaxis, self.amplitude_ratio.min(), self.amplitude_ratio.max())
-        ax.set_xlabel("c w / k")
-        ax.set_ylabel("A / alpha")
-        ax.set_title("|N_phase-plane - N_exact| / |N_exact|\nhatched: contact although A < alpha", fontsize="medium")
-        colorbar = ax.figure.colorbar(filled, ax=ax, spacing="uniform")
-        colorbar.set_ticks(bounds)
-        colorbar.set_ticklabels(["0", *[f"{level:.0%}" for level in levels], f"{bounds[-1]:.0%}"])
-        return ResultPlot(figure, axes)
-
-
-def phase_plane_validity(stiffness, damping, half_gap, amplitude_ratio, rate):
-    """Relative difference between the phase plane and exact describing functions.
-
-    Parameters
-    ----------
-    stiffness, damping, half_gap : float
-        k (N m/rad), c (N m s/rad, > 0), alpha (rad).
-    amplitude_ratio : array_like
-        A / alpha values.
-    rate : array_like
-        c w / k values (dimensionless).
-
-    Returns
-    -------
-    ValidityMap
-    """
-    if not damping > 0.0:
-        raise ValueError("damping must be > 0 for a validity map (with c = 0 both laws are the dead-zone)")
-    shaft = dict(stiffness=stiffness, damping=damping, half_gap=half_gap)
-    ratio = np.atleast_1d(np.asarray(amplitude_ratio, dtype=float))
-    rate = np.atleast_1d(np.asarray(rate, dtype=float))
-    amplitude = ratio[:, None] * half_gap
-    omega = rate[None, :] * stiffness / damping
-    n_phase = describing_function(make_model("phase-plane", **shaft), amplitude, omega)
-    n_exact = describing_function(make_model("exact", **shaft), amplitude, omega)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        error = np.where(np.abs(n_exact) > 0.0, np.abs(n_phase - n_exact) / np.abs(n_exact), np.nan)
-    early = (np.abs(n_phase) > 0.0) & (amplitude < half_gap)
-    return ValidityMap(ratio, rate, error, early)
