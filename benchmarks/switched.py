@@ -55,7 +55,8 @@ def solve_modes(rhs_of, guards_of, z0, mode, t_end, t_eval, method, rtol, jac_of
         options = {"jac": jac_of(mode)} if jac_of is not None and method in IMPLICIT else {}
         sol = solve_ivp(rhs_of(mode), (t, t_end), z, method=method, rtol=rtol, atol=rtol * 1e-3,
                         t_eval=t_eval[first:], events=[g for g, _ in pairs], **options)
-        out[:, first:first + sol.t.size] = sol.y
+        if len(sol.t):  # a segment between two switches may hold no output time (then solve_ivp gives lists)
+            out[:, first:first + len(sol.t)] = sol.y
         nfev += sol.nfev
         hit = [i for i, times in enumerate(sol.t_events) if times.size]
         if sol.status != 1 or not hit:
