@@ -12,10 +12,10 @@ through about 120 switches.  All three laws are piecewise affine.
 **Error**: the largest |theta_d - theta_d,ref| over one output grid (every 1 ms,
 2001 points, the same for every method), divided by the range of theta_d,ref.
 
-**Reference**: the exact flow of each mode, ``expm`` of the mode's affine matrix in
-long double (64-bit mantissa), balanced, by scaling and squaring (Taylor), from event to event and from
-output point to output point; the switching surfaces are scanned on a 1 us grid and
-every crossing bisected to 1e-21 s in long double.  It is written here from the
+**Reference**: the exact flow of each mode, the exponential of the mode's affine
+matrix in long double (64-bit mantissa; balanced, scaled and squared, Taylor series),
+from event to event and from output point to output point; the switching surfaces are
+scanned on a 1 us grid and every crossing bisected to 1e-21 s in long double.  It is written here from the
 rig's :class:`~backlash_df.system.LinearPart` and the law's surfaces
 (``switched.py``), independent of the package's kernels.  Checked by refinement
 (scan grid 0.25 us) and against the same computation in double precision: both
@@ -35,12 +35,14 @@ differences are printed and lie far below 1e-13.
   restarted at every root, rtol 1e-5 ... 1e-13.
 
 **CPU time**: ``time.process_time`` of this process, best of ``--repeat`` (a run over
-2 s: once; runs under 0.1 s as many times as fill 0.3 s, at most 50), the whole call a user makes (the kernel: ``simulate`` with its setup); a
-method whose run takes over 20 s is not run at tighter tolerances.
-**Work**: the kernel's steps; the others' right-hand side evaluations (for CVODE and
-the implicit solve_ivp methods those of the finite-difference Jacobian too, where any).
+2 s: once; runs under 0.1 s as many times as fill 0.3 s, at most 50), of the whole call a
+user makes (the kernel: ``simulate`` with its setup); a method whose run takes over 20 s
+is not run at tighter tolerances.
+**Work**: the kernel's steps; the others' right-hand side evaluations as each reports
+them (``nfev``; the compiled pairs count their own, dense-output stages included).
 
-After each case's table: the **floor**, a numba loop doing the kernel's work per step
+After each case's table: the kernel's time as a cost per call plus a cost per step
+(least squares over its five runs); the **floor**, a numba loop doing the kernel's work per step
 (one product with the (n + 2) x (n + 2) mode matrix of the augmented state, the state,
 torque and mode recorded, the mode guard :func:`~backlash_df.models.held_mode`) and the
 kernel's time per step against it; and the **profile** of the kernel's run by ``perf``
