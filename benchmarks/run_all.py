@@ -3,6 +3,7 @@
     python benchmarks/run_all.py                   # every benchmark once: about 30 minutes on 2 cores
     python benchmarks/run_all.py --runs 3          # three times, then the spread of every ratio
     python benchmarks/run_all.py bench_simulation  # a selection (names without .py)
+    python benchmarks/run_all.py --runs 3 --saved  # the spread of the outputs kept by earlier runs
 
 Every benchmark runs in its own interpreter from the repository root, one after the
 other, with one BLAS thread; its output is printed as it comes and kept in
@@ -96,7 +97,9 @@ def ratios(lines):
         values = [float(v.replace(",", "")) for v in RATIO.findall(line)]
         if values:
             label = re.sub(r"(\s+\([^)]*\))+\s*$", "", line.strip())  # notes may change between runs
-            found[" ".join(NUMBER.sub("#", label).split())] = values  # columns pad to the numbers' widths
+            key = " ".join(NUMBER.sub("#", label).split())  # columns pad to the numbers' widths
+            repeated = sum(1 for known in found if known == key or known.startswith(key + " ["))
+            found[f"{key} [{repeated + 1}]" if repeated else key] = values  # lines alike but for numbers
     return found
 
 
@@ -107,14 +110,15 @@ def spread(name, runs):
     for key in runs[0]:
         series = [found.get(key) for found in runs]
         if any(values is None or len(values) != len(series[0]) for values in series):
-            print(f"  {key[:90]:90s} not printed in every run")
+            print(f"  {key if len(key) <= 90 else key[:62] + ' ... ' + key[-23:]:90s} not printed in every run")
             continue
         for position in range(len(series[0])):
             values = [values[position] for values in series]
             ratio = max(values) / min(values) if min(values) > 0 else float("inf")
             stable &= ratio <= LIMIT
             flag = "" if ratio <= LIMIT else "   <-- unstable"
-            print(f"  {key[:90]:90s} {' / '.join(f'{v:.2g}' for v in values):>24s}   spread {ratio:.2g}{flag}")
+            shown = key if len(key) <= 90 else f"{key[:62]} ... {key[-23:]}"
+            print(f"  {shown:90s} {' / '.join(f'{v:.2g}' for v in values):>24s}   spread {ratio:.2g}{flag}")
     return stable
 
 
@@ -122,13 +126,17 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("names", nargs="*", default=list(OPTIONS), help="benchmarks to run (default: all)")
     parser.add_argument("--runs", type=int, default=1, help="how many times to run each (default 1)")
+    parser.add_argument("--saved", action="store_true",
+                        help="run nothing: the spread of the outputs kept in build/benchmarks/ by earlier runs")
     args = parser.parse_args()
     print(f"machine: {machine()}")
     print(load())
     found = {name: [] for name in args.names}
     for index in range(1, args.runs + 1):
         for name in args.names:
-            found[name].append(ratios(run(name, index)))
+            saved = ROOT / "build" / "benchmarks" / f"{name}.run{index}.txt"
+            lines = saved.read_text().splitlines(True) if args.saved else run(name, index)
+            found[name].append(ratios(lines))
     if args.runs > 1:
         stable = all([spread(name, runs) for name, runs in found.items()])
         print(f"\nevery ratio within {LIMIT}x over the runs: {'yes' if stable else 'NO'}")
