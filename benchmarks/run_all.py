@@ -1,6 +1,6 @@
 """Run every benchmark, print the machine, the commit and the load, and check that the ratios are stable.
 
-    python benchmarks/run_all.py                   # every benchmark once: about 30 minutes on 2 cores
+    python benchmarks/run_all.py                   # every benchmark once: about 30 minutes on 2 idle cores (estimated)
     python benchmarks/run_all.py --runs 3          # three times, then the spread of every ratio
     python benchmarks/run_all.py bench_simulation  # a selection (names without .py)
     python benchmarks/run_all.py --runs 3 --saved  # the spread of the outputs kept by earlier runs
@@ -10,7 +10,9 @@ other, with one BLAS thread; its output is printed as it comes and kept in
 ``build/benchmarks/<name>.run<i>.txt``.  The workflow benchmarks run with options that
 keep the whole under about 30 minutes on 2 cores (:data:`OPTIONS`: smaller design maps,
 fewer diagnosis seeds and verdict rigs than when each runs alone; run a file
-directly for its full size).  The speed benchmarks time CPU time of the process
+directly for its full size).  The 30 minutes are estimated from each file's own CPU
+times; the whole has not yet been timed end to end (the wall time grows with the
+machine's load: ``bench_simulation`` alone took 25-51 minutes at a load of 6-14).  The speed benchmarks time CPU time of the process
 (``time.process_time``), best of N: on a shared machine wall time swings with the
 other processes' load, CPU time much less.
 
