@@ -1,27 +1,36 @@
 """backlash-df: describing functions and limit cycles of drives with backlash.
 
-Torque laws of Nordin, Galic and Gutman (1997) (:mod:`backlash_df.models`),
-the rig file (:mod:`backlash_df.config`), and the stages built on them.
+Torque laws of Nordin, Galic and Gutman (1997) (:mod:`backlash_df.models`), the
+rig file (:mod:`backlash_df.config`), the loop cut at the backlash
+(:mod:`backlash_df.system`), and the stages built on them, one module each; every
+import points down that list.  The names below are the public API; the
+documentation's contract page states the rig-file keys, the JSON and CSV formats and
+the sign conventions they follow.
 """
 
 __version__ = "0.1.0"
 
 from .config import Controller, Load, Plant, Rig, RigError, load_rig, rig_from_dict
 from .models import MODEL_NAMES, ExactModel, StaticModel, make_model, theta_star
-from .describing import DescribingFunctionResult, ValidityMap, describing_function, describing_function_grid, phase_plane_validity
+from .describing import (DescribingFunctionResult, ValidityMap, describing_function, describing_function_grid,
+                         dual_input_describing_function, phase_plane_validity)
+from .plotting import ResultPlot
+from .system import LinearPart
 from .loops import DriveLoop, drive_loop
+from .simulation import MeasuredCycle, SimulationResult, measure_limit_cycle, simulated_limit_cycle
+from .simulation import simulate_rig as simulate
 from .limit_cycles import LimitCyclePrediction, limit_cycle_plot, predict_limit_cycles, verify_limit_cycles
-
-# The closed-loop simulation is public as ``backlash_df.simulate(rig, ...)``
-# (DESIGN.md); the module keeps its name: ``from backlash_df.simulate import ...``.
-from .simulate import MeasuredCycle, measure_limit_cycle, simulated_limit_cycle
-from .simulate import simulate_rig as simulate
 from .orbits import OrbitNotFound, PeriodicOrbit, exact_orbits, periodic_orbit
 from .verdict import VERDICTS, LoopVerdict, judge_loop
+from .analysis import LoopAnalysis, analyse_loop
+from .tuning import Tuning, tune
 from .sweeps import DesignMap, design_map
 from .continuation import Branch, continue_limit_cycles
 from .reproduce import TableOne, TorqueComparison, compare_torques, integrated_torque, table1
 from .identify import Diagnosis, Measurements, diagnose, load_measurements
+from ._deprecated import install_simulate_module_alias
+
+install_simulate_module_alias()
 
 __all__ = [
     "__version__",
@@ -29,6 +38,7 @@ __all__ = [
     "make_model",
     "theta_star",
     "describing_function",
+    "dual_input_describing_function",
     "describing_function_grid",
     "DescribingFunctionResult",
     "phase_plane_validity",
@@ -42,6 +52,7 @@ __all__ = [
     "Plant",
     "Controller",
     "Load",
+    "LinearPart",
     "DriveLoop",
     "drive_loop",
     "predict_limit_cycles",
@@ -49,6 +60,7 @@ __all__ = [
     "limit_cycle_plot",
     "LimitCyclePrediction",
     "simulate",
+    "SimulationResult",
     "simulated_limit_cycle",
     "measure_limit_cycle",
     "MeasuredCycle",
@@ -59,6 +71,10 @@ __all__ = [
     "VERDICTS",
     "judge_loop",
     "LoopVerdict",
+    "analyse_loop",
+    "LoopAnalysis",
+    "tune",
+    "Tuning",
     "design_map",
     "DesignMap",
     "continue_limit_cycles",
@@ -72,4 +88,5 @@ __all__ = [
     "Measurements",
     "diagnose",
     "Diagnosis",
+    "ResultPlot",
 ]

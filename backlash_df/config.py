@@ -11,13 +11,17 @@
     rubber_thickness = 0.0     # beta, rad
     gear_ratio = 1.0           # motor turns per load turn (motor-side CSV columns are reflected)
 
-    [controller]               # PI speed loop (optional unless a loop is analysed)
-    feedback = "load"          # "motor" or "load"
+    [controller]               # PI speed loop, optionally inside a P position loop
+    structure = "speed"        # "speed" (PI speed loop) or "cascade" (P position loop around it)
+    feedback = "load"          # "motor" or "load": the speed the PI controller measures
     kp = 30.0                  # N m s / rad
-    ti = 0.5                   # s
+    ti = 0.5                   # s (inf: a P speed controller)
     speed_filter = 0.002       # s
     torque_lag = 0.0           # s
-    delay = 0.0                # s
+    delay = 0.0                # s, on every measured signal
+    kv = 20.0                  # 1/s, cascade only: speed reference = kv (0 - position)
+    position_feedback = "load" # cascade only: "motor" or "load", the angle the position loop measures
+    torque_limit = 0.0         # N m, |torque command| limit with a clamped integrator (0: none)
 
     [load]                     # optional
     torque = 0.0               # N m, constant torque applied to the load
@@ -54,9 +58,11 @@ half_gap                       [1e-9, pi] rad        the total play 2 alpha is b
 rubber_thickness               [0, 2 half_gap] rad   the rubber band lies inside the gap (28)
 gear_ratio                     [1e-4, 1e5]           motor turns per load turn, gear-ups included
 kp                             (0, 1e10] N m s/rad   the loop gain kp / J of any drive above
-ti                             [1e-6, 1e6] s         integral action from microseconds to days
+ti                             [1e-6, 1e6] s or inf  integral action from microseconds to days (inf: P)
 speed_filter, torque_lag       [0, 100] s            first-order lags
 delay                          [0, 10] s             dead time of a speed loop
+kv                             (0, 1e6] 1/s          position-loop gain (cascade only)
+torque_limit                   [0, 1e9] N m          torque-command limit (0: none)
 [load] torque                  [-1e9, 1e9] N m       load torque of either sign
 [load] coulomb                 [0, 1e9] N m          Coulomb friction of the driven machine
 =============================  ====================  ==========================================
@@ -66,6 +72,8 @@ import dataclasses
 import math
 import tomllib
 from pathlib import Path
+
+import numpy as np
 
 from .models import MODEL_NAMES, make_model
 
@@ -100,20 +108,113 @@ class Plant:
 
 
 @dataclasses.dataclass(frozen=True)
+class LtiBlock:
+    """A user's SISO controller as a continuous-time state-space model (hashable, picklable).
+
+    ``dx/dt = A x + B e``, ``y = C x + D e``; from :meth:`from_lti` of a
+    python-control LTI (transfer function or state space).
+
+    Attributes
+    ----------
+    A, B, C, D : tuple of tuple of float
+        Shapes (m, m), (m, 1), (1, m), (1, 1).
+    """
+
+    A: tuple
+    B: tuple
+    C: tuple
+    D: tuple
+
+    @classmethod
+    def from_lti(cls, system, what="controller"):
+        """The block of a python-control LTI; a ``ValueError`` naming ``what`` if it is not SISO, proper, continuous."""
+        import control as ct  # lazy: python-control takes a second to import
+
+        if not isinstance(system, ct.LTI):
+            raise ValueError(f"{what}: a python-control LTI system is needed (ct.tf, ct.ss), got {type(system).__name__}")
+        if system.ninputs != 1 or system.noutputs != 1:
+            raise ValueError(f"{what}: must be SISO (one input, one output), got {system.ninputs} inputs and "
+                             f"{system.noutputs} outputs")
+        if not system.isctime():
+            raise ValueError(f"{what}: must be a continuous-time system (dt = 0), got dt = {system.dt}")
+        if isinstance(system, ct.TransferFunction):
+            num, den = system.num[0][0], system.den[0][0]
+            if len(np.trim_zeros(num, "f")) > len(np.trim_zeros(den, "f")):
+                raise ValueError(f"{what}: is not proper (the numerator's degree exceeds the denominator's); "
+                                 f"add poles, e.g. a filter")
+        try:
+            ss = ct.ss(system)
+        except ValueError as error:
+            raise ValueError(f"{what}: cannot be realised in state space ({error})") from None
+        arrays = [np.asarray(m, dtype=float).reshape(shape) for m, shape in
+                  zip((ss.A, ss.B, ss.C, ss.D), ((ss.nstates, ss.nstates), (ss.nstates, 1), (1, ss.nstates), (1, 1)))]
+        if not all(np.all(np.isfinite(m)) for m in arrays):
+            raise ValueError(f"{what}: has non-finite coefficients")
+        return cls(*(tuple(map(tuple, m)) for m in arrays))
+
+    @property
+    def order(self):
+        """Number of states m."""
+        return len(self.A)
+
+    def matrices(self):
+        """``(A, B, C, D)`` as float arrays."""
+        return tuple(np.array(m, dtype=float).reshape(shape) for m, shape in
+                     zip((self.A, self.B, self.C, self.D),
+                         ((self.order, self.order), (self.order, 1), (1, self.order), (1, 1))))
+
+    def frequency_response(self, omega):
+        """``C (jw I - A)^-1 B + D`` at the frequencies ``omega`` (rad/s), complex."""
+        a, b, c, d = self.matrices()
+        omega = np.asarray(omega, dtype=float)
+        if self.order == 0:
+            return np.full(omega.shape, d[0, 0], dtype=complex)
+        jw = 1j * omega.reshape(-1)[:, None, None]
+        response = c @ np.linalg.solve(jw * np.eye(self.order) - a, np.broadcast_to(b, (jw.shape[0],) + b.shape))
+        return (response[:, 0, 0] + d[0, 0]).reshape(omega.shape)
+
+    def __repr__(self):
+        return f"LtiBlock({self.order} states)"
+
+
+@dataclasses.dataclass(frozen=True)
 class Controller:
-    """PI speed controller and the loop's linear elements (SI units)."""
+    """The loop's controller and linear elements (SI units; the contract page states the loop).
+
+    A PI speed controller (or a user's LTI ``speed_controller``) on the speed error,
+    optionally inside a position loop (``structure = "cascade"``: ``kv``, or a user's
+    LTI ``position_controller``), its torque command limited to ``torque_limit``
+    with a clamped integrator, a speed filter, a torque lag and a dead time on every
+    measured signal.
+    """
 
     kp: float  #: proportional gain, N m s/rad
-    ti: float  #: integral time, s (Ki = kp / ti)
+    ti: float  #: integral time, s (Ki = kp / ti; inf: a P speed controller)
     feedback: str = "load"  #: "motor" or "load": which speed is measured
     speed_filter: float = 0.0  #: time constant of the first-order speed filter, s
     torque_lag: float = 0.0  #: time constant of the torque (current) loop, s
-    delay: float = 0.0  #: dead time in the loop, s
+    delay: float = 0.0  #: dead time on every measured signal, s
+    structure: str = "speed"  #: "speed" (PI speed loop) or "cascade" (a position loop around it)
+    kv: float = 0.0  #: position gain, 1/s (cascade): speed reference = kv (position reference - position)
+    position_feedback: str = "load"  #: "motor" or "load": which angle the position loop measures
+    torque_limit: float = 0.0  #: limit of the torque command's magnitude, N m (0: none)
+    speed_controller: LtiBlock | None = None  #: a user's controller in place of the PI (speed error -> torque)
+    position_controller: LtiBlock | None = None  #: a user's controller in place of kv (position error -> speed)
 
     @property
     def ki(self):
-        """Integral gain kp / ti, N m / rad."""
+        """Integral gain kp / ti, N m / rad (0 for a P controller, ti = inf)."""
         return self.kp / self.ti
+
+    @property
+    def cascade(self):
+        """True for a position loop around the speed loop."""
+        return self.structure == "cascade"
+
+    @property
+    def has_integrator(self):
+        """True for the built-in PI with finite ti (the clamped integrator of the torque limit)."""
+        return self.speed_controller is None and math.isfinite(self.ti)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -152,8 +253,68 @@ class Rig:
             raise RigError(f"{self.source}: no [controller] table; this analysis needs the PI speed loop")
         return self.controller
 
+    def to_dict(self):
+        """The rig as the rig file's tables (a dict :func:`rig_from_dict` reads back).
 
-_POSITIVE = {"motor_inertia", "load_inertia", "stiffness", "half_gap", "kp", "ti", "gear_ratio"}
+        The cascade's keys appear with ``structure = "cascade"`` only; a user's LTI
+        controllers (:meth:`with_controller`) are not rig-file keys and are left out.
+        """
+        data = {"plant": dataclasses.asdict(self.plant), "load": dataclasses.asdict(self.load),
+                "model": {"backlash": self.model}}
+        if self.controller is not None:
+            keys = [f.name for f in dataclasses.fields(self.controller) if f.name not in _PYTHON_ONLY]
+            if not self.controller.cascade:
+                keys = [key for key in keys if key not in ("kv", "position_feedback")]
+            data["controller"] = {key: getattr(self.controller, key) for key in keys}
+        return data
+
+    def with_controller(self, speed=None, position=None):
+        """A copy whose speed controller and/or position controller is a user's python-control LTI.
+
+        Parameters
+        ----------
+        speed : control.LTI, optional
+            Speed error (rad/s) -> torque command (N m), in place of the PI; SISO,
+            proper, continuous time.  The torque limit saturates its output (a
+            user's controller has no clamped integrator).
+        position : control.LTI, optional
+            Position error (rad) -> speed reference (rad/s), in place of ``kv``;
+            the rig's ``structure`` must be ``"cascade"``.
+
+        Returns
+        -------
+        Rig
+
+        Raises
+        ------
+        ValueError
+            No ``[controller]``, a position controller on a speed loop, or a system
+            that is not SISO, proper and continuous: one line naming it.
+
+        Examples
+        --------
+        A P speed controller as a user's LTI gives the same loop as ``ti = inf``:
+
+        >>> import control as ct
+        >>> rig = rig_from_dict({"plant": {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0,
+        ...     "half_gap": 0.05}, "controller": {"kp": 30.0, "ti": float("inf")}})
+        >>> user = rig.with_controller(speed=ct.tf([30.0], [1.0]))
+        >>> user.controller.speed_controller
+        LtiBlock(0 states)
+        """
+        controller = self.require_controller()
+        changes = {}
+        if speed is not None:
+            changes["speed_controller"] = LtiBlock.from_lti(speed, "with_controller(speed=...)")
+        if position is not None:
+            if not controller.cascade:
+                raise RigError(f"{self.source}: with_controller(position=...) needs [controller] structure = "
+                               f"\"cascade\" (a position loop)")
+            changes["position_controller"] = LtiBlock.from_lti(position, "with_controller(position=...)")
+        return dataclasses.replace(self, controller=dataclasses.replace(controller, **changes))
+
+
+_POSITIVE = {"motor_inertia", "load_inertia", "stiffness", "half_gap", "kp", "ti", "gear_ratio", "kv"}
 _SIGNED = {"torque"}  # may be negative: a load torque acts in either direction
 
 #: Accepted range of each rig value: (low, high, unit); see the module notes.
@@ -170,10 +331,16 @@ RANGES = {
     "speed_filter": (0.0, 100.0, "s"),
     "torque_lag": (0.0, 100.0, "s"),
     "delay": (0.0, 10.0, "s"),
+    "kv": (0.0, 1e6, "1/s"),
+    "torque_limit": (0.0, 1e9, "N m"),
     "torque": (-1e9, 1e9, "N m"),
     "coulomb": (0.0, 1e9, "N m"),
 }
 _TABLES = {"plant": Plant, "controller": Controller, "load": Load, "model": None}
+#: Keys whose value is one of a few words.
+_CHOICES = {"feedback": ("motor", "load"), "position_feedback": ("motor", "load"), "structure": ("speed", "cascade")}
+#: Fields of a table that no rig file sets (a user's LTI controllers, set by Rig.with_controller).
+_PYTHON_ONLY = {"speed_controller", "position_controller"}
 
 
 def _number(source, table, key, value):
@@ -181,8 +348,10 @@ def _number(source, table, key, value):
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise RigError(f"{where} must be a number, got {value!r}")
     value = float(value)
+    if key == "ti" and value == math.inf:  # a P speed controller (TOML: ti = inf)
+        return value
     if not math.isfinite(value):
-        raise RigError(f"{where} must be finite, got {value!r}")
+        raise RigError(f"{where} must be finite, got {value!r}" + (" (inf: a P controller)" if key == "ti" else ""))
     if key in _POSITIVE and value <= 0.0:
         raise RigError(f"{where} must be > 0, got {value!r}")
     if value < 0.0 and key not in _SIGNED:
@@ -198,7 +367,7 @@ def _table(source, data, name, cls):
     raw = data.get(name)
     if not isinstance(raw, dict):
         raise RigError(f"{source}: [{name}] must be a table")
-    fields = {field.name: field for field in dataclasses.fields(cls)}
+    fields = {field.name: field for field in dataclasses.fields(cls) if field.name not in _PYTHON_ONLY}
     unknown = sorted(set(raw) - set(fields))
     if unknown:
         raise RigError(f"{source}: unknown key [{name}] {unknown[0]}; allowed: {', '.join(fields)}")
@@ -207,13 +376,26 @@ def _table(source, data, name, cls):
         raise RigError(f"{source}: missing key [{name}] {missing[0]}")
     values = {}
     for key, value in raw.items():
-        if key == "feedback":
-            if value not in ("motor", "load"):
-                raise RigError(f"{source}: [{name}] feedback must be \"motor\" or \"load\", got {value!r}")
+        if key in _CHOICES:
+            if value not in _CHOICES[key]:
+                words = " or ".join(f'"{word}"' for word in _CHOICES[key])
+                raise RigError(f"{source}: [{name}] {key} must be {words}, got {value!r}")
             values[key] = value
         else:
             values[key] = _number(source, name, key, value)
     return cls(**values)
+
+
+def _check_structure(source, raw):
+    """The cascade's keys: ``kv`` with ``structure = "cascade"`` only, and required there."""
+    cascade = raw.get("structure", "speed") == "cascade"
+    for key in ("kv", "position_feedback"):
+        if key in raw and not cascade:
+            raise RigError(f'{source}: [controller] {key} needs structure = "cascade" (a position loop around the '
+                           f'speed loop); the rig has structure = "{raw.get("structure", "speed")}"')
+    if cascade and "kv" not in raw:
+        raise RigError(f'{source}: missing key [controller] kv: structure = "cascade" needs the position gain '
+                       f"(1/s; speed reference = kv (position reference - position))")
 
 
 #: Fastest shaft dynamics accepted, 1/s: the mode sqrt(k (1/J_m + 1/J_l)) (rad/s, 1e5 is
@@ -269,7 +451,10 @@ def rig_from_dict(data, source="<dict>"):
     if "plant" not in data:
         raise RigError(f"{source}: missing table [plant]")
     plant = _table(source, data, "plant", Plant)
-    controller = _table(source, data, "controller", Controller) if "controller" in data else None
+    controller = None
+    if "controller" in data:
+        controller = _table(source, data, "controller", Controller)
+        _check_structure(source, data["controller"])
     load = _table(source, data, "load", Load) if "load" in data else Load()
     model = "phase-plane"
     if "model" in data:

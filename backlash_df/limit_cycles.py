@@ -28,26 +28,36 @@ left half plane.  It is a local, first-harmonic statement; the time simulation
 """
 
 import dataclasses
+import functools
+import html
 import math
+import warnings
 
 import numpy as np
 
+from ._json import json_ready
+from .describing import BiasedDescribing, describing_function, saturation_describing_function
 from .loops import DriveLoop, drive_loop, frequency_response_of
 from .models import BacklashModel
+from .plotting import ResultPlot, adaptive_curve, axes_or_new, legend_below, legend_beside
+from .report import figure_html, html_page, roundoff_zero, signed_percent, table_html, text_table
+from .simulation import simulated_limit_cycle
+from .system import command_channels
 
 __all__ = [
     "LimitCycle",
     "NearMiss",
     "LimitCyclePrediction",
+    "CommandSlaving",
     "solve_harmonic_balance",
+    "default_ranges",
     "predict_limit_cycles",
     "verify_limit_cycles",
     "limit_cycle_plot",
     "prediction_rows",
-    "prediction_json",
+    "prediction_sections",
     "prediction_report",
-    "verdict_rows",
-    "orbit_rows",
+    "PREDICTION_NOTE",
 ]
 
 _NEWTON_TOL = 1e-11
@@ -74,7 +84,12 @@ class LimitCycle:
         The cycle measured in time simulation, once verified.
     bias : float
         Mean of theta_d, rad: 0 without load, set by the DC balance under a load
-        torque (:mod:`backlash_df.loaded`).
+        torque (:func:`~backlash_df.describing.dc_bias`).
+    command_amplitude : float
+        With a torque limit: U, the first-harmonic amplitude of the controller's
+        command u (N m) on the cycle; NaN without a limit.
+    saturated : bool
+        True where ``U`` exceeds the torque limit: the cycle's command saturates.
     """
 
     amplitude: float
@@ -84,6 +99,8 @@ class LimitCycle:
     residual: float
     simulated: object = None
     bias: float = 0.0
+    command_amplitude: float = math.nan
+    saturated: bool = False
 
     @property
     def amplitude_error(self):
@@ -99,9 +116,23 @@ class LimitCycle:
             return math.nan
         return self.omega / self.simulated.omega - 1.0
 
+    def to_dict(self):
+        """The entry of the ``predict`` JSON's ``limit_cycles`` (rad, rad/s), without ``model``."""
+        return {
+            "amplitude": float(self.amplitude),
+            "omega": float(self.omega),
+            "bias": float(self.bias),
+            "stable": bool(self.stable),
+            "simulated": None if self.simulated is None else self.simulated.cycle_dict(),
+            "command_amplitude": None if math.isnan(self.command_amplitude) else float(self.command_amplitude),
+            "saturated": bool(self.saturated),
+        }
+
     def __repr__(self):
         kind = "stable" if self.stable else "unstable"
         text = f"LimitCycle(A={self.amplitude:.6g} rad, omega={self.omega:.6g} rad/s, {kind}"
+        if not math.isnan(self.command_amplitude):
+            text += f", command U={self.command_amplitude:.4g} N m{' saturated' if self.saturated else ''}"
         if self.simulated is not None:
             text += f", simulated={self.simulated!r}"
         return text + ")"
@@ -124,6 +155,10 @@ class NearMiss:
     omega: float
     distance: float
 
+    def to_dict(self):
+        """JSON-ready: ``{"amplitude", "omega", "distance"}`` (rad, rad/s, relative)."""
+        return {"amplitude": self.amplitude, "omega": self.omega, "distance": self.distance}
+
     def __repr__(self):
         return f"NearMiss(A={self.amplitude:.6g} rad, omega={self.omega:.6g} rad/s, distance={100 * self.distance:.3f} %)"
 
@@ -142,19 +177,23 @@ class LimitCyclePrediction:
         Closest approaches that are not solutions, by increasing distance.
     amplitude_range, omega_range : tuple of float
         The searched box, rad and rad/s.
+    simulation : MeasuredCycle or None
+        After :func:`verify_limit_cycles`: what the time simulation settled to
+        (started on the first stable predicted cycle, or from the default kick
+        when none is predicted).
+    verdict : LoopVerdict or None
+        Deprecated: set only by the deprecated :func:`backlash_df.verdict.judge`;
+        :func:`backlash_df.judge_loop` returns the verdict, which holds its prediction.
     linear : object
         The linear part (DriveLoop, LTI or callable), for plots.
     describing : callable
         ``N(A, w)`` used, for plots.
     half_gap : float
         alpha, rad.
-    simulation : MeasuredCycle or None
-        After :func:`verify_limit_cycles`: what the time simulation settled to
-        (started on the first stable predicted cycle, or from the default kick
-        when none is predicted).
-    verdict : LoopVerdict or None
-        After :func:`backlash_df.verdict.judge`: no oscillation, limit cycle,
-        bistable, unstable or undetermined, with its evidence.
+    note : str
+        Why the describing function could not be applied to this loop (then
+        ``cycles`` and ``near_misses`` are empty and the verdict rests on the
+        simulations); ``""`` otherwise.
     """
 
     model: str
@@ -167,46 +206,72 @@ class LimitCyclePrediction:
     linear: object = dataclasses.field(repr=False, default=None)
     describing: object = dataclasses.field(repr=False, default=None)
     half_gap: float = dataclasses.field(repr=False, default=0.0)
+    note: str = ""
 
     @property
     def stable_cycles(self):
         """The cycles Loeb's criterion calls stable (those a simulation can show)."""
         return tuple(cycle for cycle in self.cycles if cycle.stable)
 
+    def __repr__(self):
+        cycles = ", ".join(f"{'stable' if c.stable else 'unstable'} A={c.amplitude:.4g} rad w={c.omega:.4g} rad/s"
+                           for c in self.cycles) or (f"no DF: {self.note}" if self.note else "no cycle")
+        miss = f"; closest miss {100 * self.near_misses[0].distance:.2f} %" if self.near_misses else ""
+        sim = "" if self.simulation is None else f"; simulated: {self.simulation.verdict}"
+        return f"<LimitCyclePrediction {self.model}: {cycles}{miss}{sim}>"
+
+    def cycle_dicts(self):
+        """The ``limit_cycles`` entries of the ``predict`` JSON (contract page): one per cycle."""
+        return [{"model": self.model, **cycle.to_dict()} for cycle in self.cycles]
+
     def to_dicts(self):
-        """The ``limit_cycles`` entries of the ``predict`` JSON (DESIGN.md)."""
-        return [
-            {
-                "model": self.model,
-                "amplitude": float(cycle.amplitude),
-                "omega": float(cycle.omega),
-                "bias": float(cycle.bias),
-                "stable": bool(cycle.stable),
-                "simulated": None if cycle.simulated is None else cycle.simulated.to_dict(),
-            }
-            for cycle in self.cycles
-        ]
+        """Deprecated alias of :meth:`cycle_dicts`."""
+        warnings.warn("LimitCyclePrediction.to_dicts() is deprecated: use cycle_dicts() (the predict JSON's "
+                      "limit_cycles entries) or to_dict()", DeprecationWarning, stacklevel=2)
+        return self.cycle_dicts()
+
+    def to_dict(self):
+        """JSON-ready: the cycles, near misses, what the simulation settled to and the searched box."""
+        return json_ready({
+            "model": self.model,
+            "cycles": [cycle.to_dict() for cycle in self.cycles],
+            "near_misses": [miss.to_dict() for miss in self.near_misses],
+            "simulated": None if self.simulation is None else self.simulation.cycle_dict(),
+            "amplitude_range": list(self.amplitude_range),
+            "omega_range": list(self.omega_range),
+            "note": self.note or None,
+        })
 
     def plot(self, ax=None, **kwargs):
         """Nyquist overlay of G(jw) and the -1/N(A, w) loci; see :func:`limit_cycle_plot`."""
         return limit_cycle_plot([self], ax=ax, **kwargs)
+
+    def report_html(self, title="", rig_text=""):
+        """A self-contained HTML page: the Nyquist overlay and the predicted (and simulated) cycles."""
+        return prediction_report([self], title or f"Limit-cycle prediction: {self.model}", rig_text)
 
 
 # --------------------------------------------------------------------------- solver
 
 
 class _Problem:
-    """F(A, w) = 1 + G(jw) N(A, w) in the variables p = log(A - alpha), q = log w."""
+    """F(A, w) = 1 + G(jw) N(A, w) in the variables p = log(A - alpha), q = log w.
 
-    def __init__(self, g_of_w, n_of, half_gap):
+    ``g_of_w(omega)``, or ``g_of_w(omega, amplitude)`` where the linear part depends
+    on the amplitude through a second nonlinearity (``amplitude_dependent``).
+    """
+
+    def __init__(self, g_of_w, n_of, half_gap, amplitude_dependent=False):
         self.g_of_w, self.n_of, self.half_gap = g_of_w, n_of, half_gap
+        self.amplitude_dependent = amplitude_dependent
 
     def to_aw(self, p, q):
         return self.half_gap + np.exp(p), np.exp(q)
 
     def residual(self, p, q):
         amplitude, omega = self.to_aw(np.asarray(p, dtype=float), np.asarray(q, dtype=float))
-        return 1.0 + self.g_of_w(omega) * self.n_of(amplitude, omega)
+        g = self.g_of_w(omega, amplitude) if self.amplitude_dependent else self.g_of_w(omega)
+        return 1.0 + g * self.n_of(amplitude, omega)
 
     def jacobian(self, p, q):
         """d(Re F, Im F)/d(p, q) by central differences."""
@@ -285,13 +350,15 @@ def _local_minima(magnitude):
 
 
 def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range, grid=(60, 80),
-                           near_miss_cutoff=0.5):
+                           near_miss_cutoff=0.5, amplitude_dependent=False):
     """All roots of ``1 + G(jw) N(A, w) = 0`` in a box, their stability and the near misses.
 
     Parameters
     ----------
     g_of_w : callable
-        ``omega -> G(j omega)`` (complex, vectorised).
+        ``omega -> G(j omega)`` (complex, vectorised); with ``amplitude_dependent``,
+        ``(omega, A) -> G``: a linear part holding a second nonlinearity by its
+        describing function slaved to A (the torque limit, :class:`CommandSlaving`).
     n_of : callable
         ``(A, omega) -> N`` (complex, broadcasting), zero for ``A <= half_gap``.
     half_gap : float
@@ -302,6 +369,8 @@ def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range,
         Scan points in A and w (log-spaced in ``A - alpha`` and ``w``).
     near_miss_cutoff : float
         Largest ``|1 + G N|`` reported as a near miss.
+    amplitude_dependent : bool
+        ``g_of_w`` takes the amplitude too.
 
     Returns
     -------
@@ -329,7 +398,7 @@ def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range,
             f"search box must have half_gap = {half_gap!r} < A_min < A_max and 0 < w_min < w_max; "
             f"got A in {amplitude_range!r}, w in {omega_range!r}"
         )
-    problem = _Problem(g_of_w, n_of, half_gap)
+    problem = _Problem(g_of_w, n_of, half_gap, amplitude_dependent)
     box = ((math.log(lo_a - half_gap), math.log(hi_a - half_gap)), (math.log(lo_w), math.log(hi_w)))
     ps = np.linspace(*box[0], grid[0])
     qs = np.linspace(*box[1], grid[1])
@@ -370,15 +439,6 @@ def _cycle(problem, p, q):
 # --------------------------------------------------------------------------- rig level
 
 
-def _describing_of(model, bias):
-    from . import describing_function
-
-    def n_of(amplitude, omega):
-        return describing_function(model, amplitude, omega, bias=bias)
-
-    return n_of
-
-
 def default_ranges(rig, linear=None):
     """Default search box: A in (alpha (1 + 1e-4), 200 alpha), w within 3 decades of the shaft mode.
 
@@ -392,8 +452,14 @@ def default_ranges(rig, linear=None):
 
 
 def predict_limit_cycles(rig, model=None, linear=None, amplitude_range=None, omega_range=None, bias=0.0,
-                         grid=(60, 80), describing=None, near_miss_cutoff=0.5):
+                         grid=(60, 80), describing=None, near_miss_cutoff=0.5, load_torque=None):
     """Predict the limit cycles of a rig's loop by the describing function.
+
+    The describing function the loop needs is picked here: ``N(A, w, bias)`` of
+    the torque law, or, under a constant load torque, the dual-input DF with the
+    bias slaved to the DC balance (:class:`~backlash_df.describing.BiasedDescribing`:
+    ``N0(A, w, b) = -T_l``), whose cycles carry their ``bias`` and may be smaller
+    than alpha (a cycle that lifts off one flank only).
 
     Parameters
     ----------
@@ -404,40 +470,128 @@ def predict_limit_cycles(rig, model=None, linear=None, amplitude_range=None, ome
     linear : DriveLoop, control.LTI or callable, optional
         The linear part G (shaft torque -> -theta_d); default the rig's PI loop.
     amplitude_range, omega_range : (float, float), optional
-        Search box in rad and rad/s (default :func:`default_ranges`).
+        Search box in rad and rad/s (default :func:`default_ranges`; under a load
+        the amplitudes reach down to alpha / 50).
     bias : float
-        Mean of theta_d, rad, passed to the describing function.
+        Mean of theta_d, rad, passed to the describing function (no DC balance).
     grid : (int, int)
         Scan points in A and w.
     describing : callable, optional
-        ``N(A, w)`` to use instead of :func:`backlash_df.describing_function`.
+        ``N(A, w)`` to use instead of the law's describing function.
     near_miss_cutoff : float
         Largest ``|1 + G N|`` reported as a near miss.
+    load_torque : float, optional
+        T_l, N m: solve with the DC balance under this load (default: the rig's
+        ``[load] torque``, balanced when it is not zero).
 
     Returns
     -------
     LimitCyclePrediction
+
+    Notes
+    -----
+    With a torque limit the loop holds two nonlinearities; both are replaced by
+    their describing functions (Gelb and Vander Velde's multiple-nonlinearity
+    method): the saturation's real gain ``N_s(U)`` of the command's first harmonic
+    ``U`` is slaved to the amplitude (:class:`CommandSlaving`), and each cycle
+    reports ``U`` and whether it exceeds the limit.  Under a load torque the
+    saturation's DC balance is not solved: the prediction says so in ``note``.
     """
     if not isinstance(model, BacklashModel):
         model = rig.make_model(model)
-    if describing is None and bias == 0.0 and rig.load.torque != 0.0:  # biased cycles by the DC balance
-        from .loaded import predict_loaded
-
-        return predict_loaded(rig, model, linear=linear, amplitude_range=amplitude_range, omega_range=omega_range,
-                              grid=grid, near_miss_cutoff=near_miss_cutoff)
     linear = drive_loop(rig) if linear is None else linear
     default_a, default_w = default_ranges(rig)
+    balanced = describing is None and bias == 0.0 and (load_torque is not None or rig.load.torque != 0.0)
+    if balanced:
+        n_of = BiasedDescribing(model, rig.load.torque if load_torque is None else float(load_torque))
+        half_gap, default_a = 0.0, (0.02 * model.half_gap, default_a[1])
+    else:
+        n_of = describing or functools.partial(describing_function, model, bias=bias)
+        half_gap = model.half_gap
     amplitude_range = default_a if amplitude_range is None else tuple(amplitude_range)
     omega_range = default_w if omega_range is None else tuple(omega_range)
-    n_of = _describing_of(model, bias) if describing is None else describing
+    part = linear.linear_part() if isinstance(linear, DriveLoop) else None
+    limited = part is not None and part.command is not None
+    if limited and balanced:
+        return LimitCyclePrediction(
+            model=model.name, cycles=(), near_misses=(), amplitude_range=amplitude_range, omega_range=omega_range,
+            linear=linear, describing=n_of, half_gap=half_gap,
+            note="the describing function of a torque-limited loop under a load torque (the saturation's DC balance) "
+                 "is not implemented; the simulations decide",
+        )
+    g_of_w = CommandSlaving(part) if limited else functools.partial(frequency_response_of, linear)
     cycles, near = solve_harmonic_balance(
-        lambda omega: frequency_response_of(linear, omega), n_of, model.half_gap,
-        amplitude_range, omega_range, grid=grid, near_miss_cutoff=near_miss_cutoff,
+        g_of_w, n_of, half_gap, amplitude_range, omega_range, grid=grid, near_miss_cutoff=near_miss_cutoff,
+        amplitude_dependent=limited,
     )
+    if balanced:
+        cycles = [dataclasses.replace(c, bias=float(n_of.bias(c.amplitude, c.omega))) for c in cycles]
+    if limited:
+        cycles = [dataclasses.replace(c, command_amplitude=u, saturated=bool(u > part.command.limit))
+                  for c, u in ((c, float(g_of_w.command_amplitude(c.amplitude, c.omega))) for c in cycles)]
     return LimitCyclePrediction(
         model=model.name, cycles=tuple(cycles), near_misses=tuple(near), amplitude_range=amplitude_range,
-        omega_range=omega_range, linear=linear, describing=n_of, half_gap=model.half_gap,
+        omega_range=omega_range, linear=g_of_w if limited else linear, describing=n_of, half_gap=half_gap,
     )
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class CommandSlaving:
+    """A torque-limited loop's linear part with the saturation by its describing function, slaved to A.
+
+    For ``theta_d = A sin(w t)`` the command's first harmonic is
+    ``U = A |u / theta_d|`` of the loop whose command gain is the saturation's
+    describing function ``N_s(U)`` (:func:`~backlash_df.describing.saturation_describing_function`);
+    :meth:`gain` solves that fixed point (bisection on ``N_s`` in (0, 1]: ``N_s -
+    N_sat(U(N_s))`` is negative as ``N_s -> 0`` and >= 0 at 1), and calling the
+    object gives ``G(jw)`` of the loop with that gain, from the loop's responses with
+    the command cut (:func:`~backlash_df.system.command_channels`: linear-fractional in
+    the gain).
+
+    Attributes
+    ----------
+    part : LinearPart
+        The loop, with its :class:`~backlash_df.system.Command`.
+    """
+
+    part: object
+
+    _BISECTIONS = 60
+
+    def _closed(self, omega, gain):
+        """(G, u / theta_d) of the loop with the command through ``gain``."""
+        a, b, c, d = command_channels(self.part, omega)
+        theta = a * (1.0 - d * gain) + b * c * gain
+        return -theta / (1.0 - d * gain), c / theta
+
+    def gain(self, amplitude, omega):
+        """N_s at (A, w), broadcast: 1 where the command stays inside the limit."""
+        a, w = np.broadcast_arrays(np.asarray(amplitude, dtype=float), np.asarray(omega, dtype=float))
+        channels = command_channels(self.part, w)
+        limit = self.part.command.limit
+
+        def command(gain):
+            theta = channels[0] * (1.0 - channels[3] * gain) + channels[1] * channels[2] * gain
+            return a * np.abs(channels[2] / theta)
+
+        inside = command(1.0) <= limit
+        if np.all(inside):
+            return np.ones(a.shape)
+        lo, hi = np.zeros(a.shape), np.ones(a.shape)
+        for _ in range(self._BISECTIONS):
+            mid = 0.5 * (lo + hi)
+            below = mid < saturation_describing_function(command(mid), limit)
+            lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+        return np.where(inside, 1.0, 0.5 * (lo + hi))
+
+    def command_amplitude(self, amplitude, omega):
+        """U, N m: the first-harmonic amplitude of the command u at (A, w)."""
+        return np.asarray(amplitude) * np.abs(self._closed(omega, self.gain(amplitude, omega))[1])
+
+    def __call__(self, omega, amplitude=None):
+        """G(jw) with the saturation's gain at A (the command unsaturated without ``amplitude``)."""
+        gain = 1.0 if amplitude is None else self.gain(amplitude, omega)
+        return self._closed(omega, gain)[0]
 
 
 # --------------------------------------------------------------------------- verification
@@ -449,7 +603,7 @@ def verify_limit_cycles(rig, prediction, linear=None, kick=None, t_end=None, max
 
     Every stable predicted cycle is simulated from the kick ``dtheta_d(0) = A w``
     (theta_d(0) = 0, the cycle's zero crossing) until steady state
-    (:func:`~backlash_df.simulate.simulated_limit_cycle`); unstable cycles cannot
+    (:func:`~backlash_df.simulation.simulated_limit_cycle`); unstable cycles cannot
     be observed and keep ``simulated = None``.  Without a stable prediction the
     loop is simulated once from ``kick`` to see whether it settles.
 
@@ -473,8 +627,6 @@ def verify_limit_cycles(rig, prediction, linear=None, kick=None, t_end=None, max
     LimitCyclePrediction
         A copy with ``simulated`` filled in and ``simulation`` set.
     """
-    from .simulate import simulated_limit_cycle
-
     model = rig.make_model(prediction.model)
     user_linear = linear if linear is not None and not isinstance(linear, DriveLoop) else None
     cycles = []
@@ -516,7 +668,9 @@ def limit_cycle_plot(predictions, ax=None, n_loci=7, n_amplitudes=200, g_omega=N
     frequency.  Cycles (o stable, x unstable by Loeb's criterion) and near
     misses (diamonds) are listed with A, w and distance in the legend, so no
     label covers another.  Both axes are in rad/(N m): G maps the shaft torque
-    to theta_d, and a cycle solves G(jw) = -1/N(A, w).
+    to theta_d, and a cycle solves G(jw) = -1/N(A, w).  G is sampled where it
+    turns in the view (:func:`~backlash_df.plotting.adaptive_curve`), so that it
+    stays smooth through the shaft's resonance.
 
     Parameters
     ----------
@@ -530,62 +684,74 @@ def limit_cycle_plot(predictions, ax=None, n_loci=7, n_amplitudes=200, g_omega=N
     n_amplitudes : int
         Points along each locus.
     g_omega : array_like, optional
-        Frequencies (rad/s) for the G curve (default: the searched band).
+        Frequencies (rad/s) for the G curve (default: the searched band, sampled
+        adaptively).
 
     Returns
     -------
-    Axes
-        The axes drawn on (``ax.figure`` is the figure), as every ``.plot()``
-        of the package returns its axes.
+    ResultPlot
+        One panel; the legend below it in a new figure, beside it (outside the
+        data) in the axes given.
     """
     import matplotlib.pyplot as plt
 
     own_figure = ax is None
-    if own_figure:
-        _, ax = plt.subplots(figsize=(8, 7.5), layout="constrained")
+    figure, axes = axes_or_new(ax, figsize=(8, 7.5), layout="constrained")
+    ax = axes[0]
     first = predictions[0]
-    lo_w, hi_w = first.omega_range
-    g_omega = np.geomspace(lo_w, hi_w, 2000) if g_omega is None else np.asarray(g_omega, dtype=float)
-    g = frequency_response_of(first.linear, g_omega)
-    ax.plot(g.real, g.imag, color="k", lw=1.6, label="G(jw)")
-    points, thin = [g], []
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    for index, prediction in enumerate(predictions):
-        color = colors[index % len(colors)]
-        lo_a, hi_a = prediction.amplitude_range
-        amplitudes = prediction.half_gap + np.geomspace(lo_a - prediction.half_gap, hi_a - prediction.half_gap,
-                                                        n_amplitudes)
-        band = list(np.geomspace(lo_w, hi_w, n_loci)) + [cycle.omega for cycle in prediction.cycles]
-        for k, omega in enumerate(band):
-            locus = -1.0 / prediction.describing(amplitudes, omega)
-            bold = k >= n_loci
+    loci = [_loci(prediction, colors[index % len(colors)], n_loci, n_amplitudes)
+            for index, prediction in enumerate(predictions)]
+    view = _zoom(predictions, [locus[np.isfinite(locus)] for model in loci for locus, *_ in model])
+    if g_omega is None:
+        _, g = adaptive_curve(lambda w: frequency_response_of(first.linear, w), *first.omega_range, view)
+    else:
+        g = frequency_response_of(first.linear, np.asarray(g_omega, dtype=float))
+    ax.plot(g.real, g.imag, color="k", lw=1.6, label="G(jw)")
+    for prediction, model in zip(predictions, loci):
+        for k, (locus, _, color, bold) in enumerate(model):
             ax.plot(locus.real, locus.imag, color=color, lw=1.4 if bold else 0.6, alpha=1.0 if bold else 0.5,
                     label=f"-1/N(A, w) {prediction.model}" if k == 0 else None)
-            if not bold:
-                thin.append((locus, omega, color))
-            points.append(locus[np.isfinite(locus)])
-        for cycle in prediction.cycles:
-            at = -1.0 / complex(prediction.describing(cycle.amplitude, cycle.omega))
-            kind = "stable" if cycle.stable else "unstable"
-            ax.plot(at.real, at.imag, "o" if cycle.stable else "x", color=color, ms=8, ls="none",
-                    mfc=color if cycle.stable else "none",
-                    label=f"{prediction.model}: {kind} cycle A = {cycle.amplitude:.4g} rad, w = {cycle.omega:.4g} rad/s")
-        for miss in prediction.near_misses[:3]:
-            at = -1.0 / complex(prediction.describing(miss.amplitude, miss.omega))
-            ax.plot(at.real, at.imag, "d", color=color, ms=6, mfc="none", ls="none",
-                    label=f"{prediction.model}: near miss {100 * miss.distance:.2f} % at w = {miss.omega:.4g} rad/s")
-    _zoom(ax, predictions, points)
-    _label_loci(ax, thin)
+        _mark_cycles(ax, prediction, model[0][2])
+    ax.set_xlim(view[0], view[1])
+    ax.set_ylim(view[2], view[3])
+    _label_loci(ax, [(locus, omega, color) for model in loci for locus, omega, color, bold in model if not bold])
     ax.axhline(0.0, color="0.7", lw=0.5)
     ax.axvline(0.0, color="0.7", lw=0.5)
     ax.set_xlabel("real part (rad/(N m))")
     ax.set_ylabel("imaginary part (rad/(N m))")
-    ax.set_title("Nyquist overlay: G(jw) and -1/N(A, w); thin loci labelled with w (rad/s)")
+    ax.set_title("G(jw) and -1/N(A, w); thin loci labelled with w (rad/s)", fontsize="medium")
     if own_figure:
-        ax.figure.legend(loc="outside lower center", ncols=2, fontsize=8)
+        legend = legend_below(figure, fontsize=8)
     else:
-        ax.legend(loc="best", fontsize=7)
-    return ax
+        legend = legend_beside(ax, fontsize=7)
+    return ResultPlot(figure, axes, legend)
+
+
+def _loci(prediction, color, n_loci, n_amplitudes):
+    """``(locus, w, colour, bold)`` of one model: thin at ``n_loci`` w over the band, bold at each cycle's w."""
+    lo_w, hi_w = prediction.omega_range
+    lo_a, hi_a = prediction.amplitude_range
+    amplitudes = prediction.half_gap + np.geomspace(lo_a - prediction.half_gap, hi_a - prediction.half_gap,
+                                                    n_amplitudes)
+    band = [(omega, False) for omega in np.geomspace(lo_w, hi_w, n_loci)]
+    band += [(cycle.omega, True) for cycle in prediction.cycles]
+    return [(-1.0 / prediction.describing(amplitudes, omega), omega, color, bold) for omega, bold in band]
+
+
+def _mark_cycles(ax, prediction, color):
+    """The cycles (o stable, x unstable) and the first three near misses (diamonds), listed in the legend."""
+    for cycle in prediction.cycles:
+        at = -1.0 / complex(prediction.describing(cycle.amplitude, cycle.omega))
+        kind = "stable" if cycle.stable else "unstable"
+        ax.plot(at.real, at.imag, "o" if cycle.stable else "x", color=color, ms=8, ls="none",
+                mfc=color if cycle.stable else "none",
+                label=f"{prediction.model}: {kind} cycle A = {cycle.amplitude:.4g} rad, w = {cycle.omega:.4g} rad/s")
+    for miss in prediction.near_misses[:3]:
+        at = -1.0 / complex(prediction.describing(miss.amplitude, miss.omega))
+        ax.plot(at.real, at.imag, "d", color=color, ms=6, mfc="none", ls="none",
+                label=f"{prediction.model}: near miss {100 * miss.distance:.2f} % at A = {miss.amplitude:.4g} rad, "
+                      f"w = {miss.omega:.4g} rad/s")
 
 
 def _label_loci(ax, loci, gap=(0.06, 0.025)):
@@ -606,148 +772,86 @@ def _label_loci(ax, loci, gap=(0.06, 0.025)):
                     fontsize=7, color=color)
 
 
-def _zoom(ax, predictions, points):
-    """Frame the loci around the cycles and near misses (or the -1/N band)."""
+def _zoom(predictions, loci):
+    """``(x0, x1, y0, y1)``: a square view around the cycles and near misses (or the loci's ends)."""
     marks = []
     for prediction in predictions:
         for item in list(prediction.cycles) + list(prediction.near_misses[:3]):
             marks.append(-1.0 / complex(prediction.describing(item.amplitude, item.omega)))
-    if not marks:
-        ends = np.concatenate([p[-1:] for p in points[1:]]) if len(points) > 1 else points[0]
-        marks = list(ends)
-    marks = np.array(marks)
+    marks = np.array(marks if marks else [locus[-1] for locus in loci if locus.size])
     span = max(np.ptp(marks.real), np.ptp(marks.imag), 0.5 * np.abs(marks).max())
     center = 0.5 * (marks.real.min() + marks.real.max()) + 0.5j * (marks.imag.min() + marks.imag.max())
-    ax.set_xlim(center.real - span, center.real + span)
-    ax.set_ylim(center.imag - span, center.imag + span)
+    return center.real - span, center.real + span, center.imag - span, center.imag + span
 
 
 # --------------------------------------------------------------------------- tables and report
 
 
-def _percent(value):
-    return "" if not math.isfinite(value) else f"{100.0 * value:+.2f} %"
-
-
 def prediction_rows(predictions):
-    """One row per predicted cycle (or per model without one): predicted next to simulated.
+    """One row per predicted cycle (or per model without a stable one): predicted next to simulated.
+
+    A model without a stable cycle gets a row ``none`` (or ``(unstable only)``)
+    holding what its simulation settled to.  The bias column is shown where the
+    DF solved the DC balance under a load torque (round-off printed as 0,
+    :func:`~backlash_df.report.roundoff_zero`); columns empty in every row
+    (no simulation, no near miss) are left out.
+
+    With a torque limit, the command's first-harmonic amplitude U of each cycle
+    and whether it saturates.
 
     Returns
     -------
     header : list of str
     rows : list of list of str
     """
-    header = ["model", "A pred (rad)", "w pred (rad/s)", "Loeb", "A sim (rad)", "w sim (rad/s)",
-              "A error", "w error", "closest miss"]
+    header = ["model", "A pred (rad)", "w pred (rad/s)", "bias pred (rad)", "Loeb", "A sim (rad)", "w sim (rad/s)",
+              "A error", "w error", "closest miss", "command U (N m)"]
     rows = []
     for prediction in predictions:
         miss = f"{100 * prediction.near_misses[0].distance:.2f} %" if prediction.near_misses else ""
+        balanced = isinstance(prediction.describing, BiasedDescribing)
         for cycle in prediction.cycles:
-            sim = cycle.simulated
-            found = sim is not None and sim.found
-            rows.append([
-                prediction.model, f"{cycle.amplitude:.5g}", f"{cycle.omega:.5g}",
-                "stable" if cycle.stable else "unstable",
-                f"{sim.amplitude:.5g}" if found else ("" if sim is None else sim.verdict),
-                f"{sim.omega:.5g}" if found else "",
-                _percent(cycle.amplitude_error), _percent(cycle.omega_error), miss,
-            ])
+            command = "" if math.isnan(cycle.command_amplitude) else (
+                f"{cycle.command_amplitude:.4g}" + (" (saturated)" if cycle.saturated else ""))
+            rows.append({
+                "model": prediction.model, "A pred (rad)": f"{cycle.amplitude:.5g}",
+                "w pred (rad/s)": f"{cycle.omega:.5g}",
+                "bias pred (rad)": f"{roundoff_zero(cycle.bias, cycle.amplitude):.4g}" if balanced else "",
+                "Loeb": "stable" if cycle.stable else "unstable", **_simulated_cells(cycle.simulated),
+                "A error": signed_percent(cycle.amplitude_error), "w error": signed_percent(cycle.omega_error),
+                "closest miss": miss, "command U (N m)": command,
+            })
         if not prediction.stable_cycles:
-            sim = prediction.simulation
-            found = sim is not None and sim.found
-            rows.append([
-                prediction.model, "none" if not prediction.cycles else "(unstable only)", "", "",
-                f"{sim.amplitude:.5g}" if found else ("" if sim is None else sim.verdict),
-                f"{sim.omega:.5g}" if found else "", "", "", miss,
-            ])
-    return header, rows
+            said = "no DF (see the verdict)" if prediction.note else ("(unstable only)" if prediction.cycles else "none")
+            rows.append({"model": prediction.model, "A pred (rad)": said, **_simulated_cells(prediction.simulation),
+                         "closest miss": miss})
+    return text_table(header, rows)
 
 
-def verdict_rows(predictions):
-    """One row per model: verdict, linear stability in contact and open, disturbance that starts hunting.
-
-    Models without a verdict (:func:`backlash_df.verdict.judge` not run) are left out.
-
-    Returns
-    -------
-    header : list of str
-    rows : list of list of str
-    """
-    header = ["model", "verdict", "contact loop (k + c s)", "open loop (T = 0)", "hunts beyond (rad)"]
-    rows = []
-    for prediction in predictions:
-        verdict = prediction.verdict
-        if verdict is None:
-            continue
-        start = "" if verdict.disturbance_to_start is None else (
-            f"{verdict.disturbance_to_start:.4g} ({verdict.disturbance_source})")
-        rows.append([prediction.model, verdict.verdict, verdict.contact_loop.describe(),
-                     verdict.open_loop.describe(), start])
-    return header, rows
+def _simulated_cells(simulated):
+    """The simulation's cells of a prediction row: its cycle, or its verdict where it found none."""
+    if simulated is None:
+        return {}
+    if not simulated.found:
+        return {"A sim (rad)": simulated.verdict}
+    return {"A sim (rad)": f"{simulated.amplitude:.5g}", "w sim (rad/s)": f"{simulated.omega:.5g}"}
 
 
-def orbit_rows(predictions):
-    """One row per exact periodic orbit (:mod:`backlash_df.orbits`) next to the DF cycle it continues.
+def prediction_sections(predictions, rig_text="", notes=None):
+    """The HTML sections of a prediction report: summary, rig, Nyquist overlay, cycle table.
 
-    The DF error compares the orbit with the predicted cycle of the same
-    stability nearest in amplitude.
+    Parameters
+    ----------
+    predictions : sequence of LimitCyclePrediction
+    rig_text : str
+        The rig file's text, shown as it is under "Rig" when given.
+    notes : dict of str to str, optional
+        Model name -> HTML appended to that model's summary line (a verdict, say).
 
     Returns
     -------
-    header : list of str
-    rows : list of list of str
+    list of (heading, html)
     """
-    header = ["model", "A exact (rad)", "peak (rad)", "period (s)", "w (rad/s)", "Floquet", "|mu| max",
-              "A DF (rad)", "A DF error", "w DF error"]
-    rows = []
-    for prediction in predictions:
-        for orbit in () if prediction.verdict is None else prediction.verdict.orbits:
-            same = [c for c in prediction.cycles if c.stable == orbit.stable]
-            df = min(same, key=lambda c: abs(math.log(c.amplitude / orbit.amplitude)), default=None)
-            rows.append([
-                prediction.model, f"{orbit.amplitude:.6g}", f"{orbit.peak:.6g}", f"{orbit.period:.6g}",
-                f"{orbit.omega:.6g}", "stable" if orbit.stable else "unstable", f"{orbit.max_multiplier:.4f}",
-                "" if df is None else f"{df.amplitude:.5g}",
-                "" if df is None else _percent(df.amplitude / orbit.amplitude - 1.0),
-                "" if df is None else _percent(df.omega / orbit.omega - 1.0),
-            ])
-    return header, rows
-
-
-def prediction_json(predictions, source=""):
-    """The ``predict`` JSON of DESIGN.md: ``limit_cycles``, then per model its verdict and details.
-
-    A ``models`` entry holds ``model``, the verdict fields of
-    :meth:`~backlash_df.verdict.LoopVerdict.to_dict` (``verdict``, ``reason``,
-    ``contact_loop``, ``open_loop``, ``disturbance_to_start``, ... ; ``verdict``
-    is null when none was formed), ``simulated``, ``near_misses`` and the searched box.
-    """
-    return {
-        "limit_cycles": [entry for prediction in predictions for entry in prediction.to_dicts()],
-        "rig": source,
-        "models": [
-            {
-                "model": prediction.model,
-                **({"verdict": None} if prediction.verdict is None else prediction.verdict.to_dict()),
-                "simulated": None if prediction.simulation is None else prediction.simulation.to_dict(),
-                "near_misses": [
-                    {"amplitude": m.amplitude, "omega": m.omega, "distance": m.distance}
-                    for m in prediction.near_misses
-                ],
-                "amplitude_range": list(prediction.amplitude_range),
-                "omega_range": list(prediction.omega_range),
-            }
-            for prediction in predictions
-        ],
-    }
-
-
-def prediction_report(predictions, title="Limit-cycle prediction", rig_text=""):
-    """A self-contained HTML page: summary, Nyquist overlay, predicted vs simulated table."""
-    import html
-
-    from .report import figure_html, html_page, table_html
-
     header, rows = prediction_rows(predictions)
     lines = []
     for prediction in predictions:
@@ -755,43 +859,31 @@ def prediction_report(predictions, title="Limit-cycle prediction", rig_text=""):
         sim = prediction.simulation
         said = f"{len(stable)} stable and {len(prediction.cycles) - len(stable)} unstable predicted cycle(s)"
         seen = html.escape("simulation: " + (str(sim) if sim is not None else "not run"))
-        verdict = prediction.verdict
-        if verdict is not None:
-            seen += f"<br><b>verdict: {verdict.verdict}</b>: {html.escape(verdict.reason)}"
+        seen += (notes or {}).get(prediction.model, "")
         lines.append(f"<li><b>{prediction.model}</b>: {said}; {seen}</li>")
-    summary = (
-        '<div class="summary"><p>Solutions of G(jw) N(A, w) = -1 (A: first-harmonic amplitude of '
-        "theta_d), stability by Loeb's criterion, each stable cycle checked by closed-loop time "
-        "simulation with the same torque law. A near miss is the smallest |1 + G N|: the relative "
-        f"change of G that would create a cycle.</p><ul>{''.join(lines)}</ul></div>"
-    )
-    ax = limit_cycle_plot(predictions)
+    summary = f'<div class="summary"><p>{PREDICTION_NOTE}</p><ul>{"".join(lines)}</ul></div>'
     sections = [("", summary)]
     if rig_text:
-        sections.append(("Rig", f"<pre>{rig_text}</pre>"))
+        sections.append(("Rig", f"<pre>{html.escape(rig_text)}</pre>"))
+    figure = limit_cycle_plot(predictions).figure
     sections += [
-        ("Nyquist overlay", figure_html(ax.figure, "G(jw) (black) and -1/N(A, w) per model at several frequencies; "
+        ("Nyquist overlay", figure_html(figure, "G(jw) (black) and -1/N(A, w) per model at several frequencies; "
                                         "o stable cycle, x unstable, diamond near miss")),
-        ("Predicted and simulated limit cycles", table_html(header, rows, text_columns=(0, 3, 4))),
+        ("Predicted and simulated limit cycles",
+         table_html(header, rows, text_columns=("model", "Loeb", "A sim (rad)"))),
     ]
-    verdict_header, verdicts = verdict_rows(predictions)
-    if verdicts:
-        sections.append(("Verdict and linear stability", _VERDICT_NOTE + table_html(
-            verdict_header, verdicts, text_columns=(0, 1, 2, 3, 4))))
-    orbit_header, orbits = orbit_rows(predictions)
-    if orbits:
-        sections.append(("Exact periodic orbits", _ORBIT_NOTE + table_html(orbit_header, orbits,
-                                                                            text_columns=(0, 5))))
-    return html_page(title, sections)
+    return sections
 
 
-_VERDICT_NOTE = (
-    "<p>Contact loop: the PI loop with the shaft as the spring-damper k + c s (large motions); open loop: "
-    "shaft torque 0 (inside the gap); poles from the state matrix, dead time by its Pade approximant. "
-    "The verdict also weighs simulations from rest with kicks of several sizes (JSON: <code>probes</code>).</p>"
-)
-_ORBIT_NOTE = (
-    "<p>Periodic orbits of the piecewise-smooth loop by shooting, switching events located exactly; "
-    "stability from the Floquet multipliers (saltation matrices at contact and release). "
-    "The DF errors are those of the predicted cycle of the same stability nearest in amplitude.</p>"
+def prediction_report(predictions, title="Limit-cycle prediction", rig_text=""):
+    """A self-contained HTML page of :func:`prediction_sections`."""
+    return html_page(title, prediction_sections(predictions, rig_text))
+
+
+#: What a prediction report's numbers are (HTML).
+PREDICTION_NOTE = (
+    "Solutions of G(jw) N(A, w) = -1 (A: first-harmonic amplitude of "
+    "theta_d), stability by Loeb's criterion, each stable cycle checked by closed-loop time "
+    "simulation with the same torque law. A near miss is the smallest |1 + G N|: the relative "
+    "change of G that would create a cycle."
 )

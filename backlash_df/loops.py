@@ -1,30 +1,42 @@
-"""The PI speed loop around a two-mass drive: the linear part G(s) seen by the backlash.
+"""The drive loops of a rig: the linear part G(s) seen by the backlash, and its time-domain form.
 
-The loop of the rig file's ``[controller]`` table (SI units)::
+The loop of the rig file's ``[controller]`` table (SI units; the contract page
+states it too)::
 
     J_m dw_m/dt = T_m - T           J_l dw_l/dt = T + T_l        dtheta_d/dt = w_m - w_l
+    dtheta_l/dt = w_l                                            (cascade: the load angle)
     y = w_m or w_l                  measured speed ("feedback" = "motor" or "load")
-    y_d(t) = y(t - delay)           dead time on the measurement
+    p = theta_m or theta_l          measured position ("position_feedback"; theta_m = theta_d + theta_l)
+    y_d(t) = y(t - delay)           dead time on every measured signal (p_d likewise)
     tau_f dy_f/dt = y_d - y_f       first-order speed filter (tau_f = speed_filter)
-    dI/dt = r - y_f,  u = kp (r - y_f) + (kp / ti) I           PI speed controller
-    tau_l dT_m/dt = u - T_m         first-order torque (current) loop (tau_l = torque_lag)
+    w_ref = r                       speed loop: the speed reference
+    w_ref = kv (r - p_d)            cascade: r the position reference (or P(s) of a user's LTI)
+    e = w_ref - y_f
+    u = kp e + (kp / ti) I,  dI/dt = e            PI speed controller (ti = inf: P; or K(s), a user's LTI)
+    T_cmd = clip(u, -L, L)          torque limit L = torque_limit (0: none); dI/dt = 0 while
+                                    |u| > L and e has the sign of u (clamping anti-windup)
+    tau_l dT_m/dt = T_cmd - T_m     first-order torque (current) loop (tau_l = torque_lag)
 
-with speed reference ``r`` and load torque ``T_l`` as external inputs (paper eq. 42
+with the reference ``r`` and the load torque ``T_l`` as external inputs (paper eq. 42
 and Figure 3 give the two-mass part).  The filter and lag states exist only when
-their time constants are positive.  The backlash closes the loop through the
-shaft torque ``T = law(theta_d, dtheta_d)``.  With ``r`` and ``T_l`` constant the
-loop is invariant to a common speed offset, so a limit cycle lives around the
-operating point "both speeds at ``r``" with the shaft transmitting ``-T_l``; with
-``T_l = 0`` it is centred in the gap (``bias = 0``).
+their time constants are positive, the integrator only for a finite ``ti``.  The
+backlash closes the loop through the shaft torque ``T = law(theta_d, dtheta_d)``.
+With ``r`` and ``T_l`` constant, a speed loop is invariant to a common speed offset,
+so a limit cycle lives around "both speeds at ``r``" with the shaft transmitting
+``-T_l``; with ``T_l = 0`` it is centred in the gap (``bias = 0``).
 
-Cutting the loop at the backlash, the linear part from ``T`` to ``-theta_d`` is
-``G(s)``, so that ``T = N(A, w) theta_d`` gives the harmonic-balance equation
-``1 + G(jw) N(A, w) = 0``.  With ``K(s) = kp (1 + 1 / (ti s)) e^{-s delay} /
-((tau_f s + 1)(tau_l s + 1))``, ``P_m = 1 / (J_m s)``, ``P_l = 1 / (J_l s)``:
+Cutting the loop at the backlash, the linear part from ``T`` to ``-theta_d`` (the
+command unsaturated) is ``G(s)``, so that ``T = N(A, w) theta_d`` gives the
+harmonic-balance equation ``1 + G(jw) N(A, w) = 0``.  With the speed controller
+``C(s) = K(s) e^{-s delay} / (tau_l s + 1)`` (K the PI or a user's), the filter
+``F(s) = 1 / (tau_f s + 1)``, the position controller ``Kv(s)`` (kv, a user's, or 0
+for a speed loop), ``P_m = 1 / (J_m s)``, ``P_l = 1 / (J_l s)`` and the measured
+combination ``Kv p + F y = alpha w_m + beta w_l``:
 
-* motor feedback: ``G = (P_m / (1 + K P_m) + P_l) / s``,
-* load feedback: ``G = (P_m (1 + K P_l) + P_l) / s``.
+    G = (P_m (1 + C beta P_l) / (1 + C alpha P_m) + P_l) / s
 
+(motor feedback of a speed loop: ``alpha = F, beta = 0``, ``G = (P_m / (1 + C F P_m) +
+P_l) / s``; load feedback: ``alpha = 0, beta = F``, ``G = (P_m (1 + C F P_l) + P_l) / s``).
 The dead time is exact in :meth:`DriveLoop.frequency_response` and
 :meth:`DriveLoop.frd`; a Pade approximation appears only in
 :meth:`DriveLoop.transfer_function`, where a rational model is needed.
@@ -34,21 +46,22 @@ import dataclasses
 
 import numpy as np
 
-from .simulate import LinearPart
+from .system import Command, LinearPart, closed_loop_matrix, closed_loop_response, frequency_response
 
-__all__ = ["DriveLoop", "drive_loop", "lti_linear_part", "frequency_response_of"]
+__all__ = ["DriveLoop", "drive_loop", "frequency_response_of"]
 
 
 @dataclasses.dataclass(frozen=True)
 class DriveLoop:
-    """The PI speed loop of a rig: G(s), its frequency response and its time-domain form.
+    """The loop of a rig: G(s), its frequency response and its time-domain form.
 
     Attributes
     ----------
     plant : Plant
         Inertias (the shaft itself is the backlash element, outside G).
     controller : Controller
-        PI gains, feedback choice, filter, torque lag and dead time.
+        Structure (speed loop or cascade), gains or a user's LTI controllers, feedback
+        choices, filter, torque lag, dead time and torque limit.
 
     Examples
     --------
@@ -62,10 +75,10 @@ class DriveLoop:
     plant: "object"
     controller: "object"
 
-    # ------------------------------------------------------------------ blocks
+    # ------------------------------------------------------------------ blocks (python-control)
 
     def controller_tf(self, pade_order=None):
-        """K(s): PI, speed filter, torque lag and (Pade-approximated) dead time.
+        """C(s) F(s): the speed controller, speed filter, torque lag and (Pade-approximated) dead time.
 
         Parameters
         ----------
@@ -77,45 +90,61 @@ class DriveLoop:
         -------
         control.TransferFunction
         """
-        ctl = self.controller
-        k = self._rational_controller()
-        if ctl.delay > 0.0:
-            if pade_order is None:
-                raise ValueError(
-                    f"the loop has a dead time of {ctl.delay!r} s: pass pade_order for a rational model, "
-                    "or use frequency_response / frd for the exact one"
-                )
-            import control as ct  # lazy: python-control takes a second to import
+        import control as ct  # lazy: python-control takes a second to import
 
-            num, den = ct.pade(ctl.delay, int(pade_order))
-            k = k * ct.tf(num, den)
-        return k
+        return self._speed_blocks(ct.tf("s"))[0] * self._filter(ct.tf("s")) * self._pade(pade_order)
 
-    def _rational_controller(self):
-        """PI, filter and lag: K(s) without the dead time."""
+    def _pade(self, pade_order):
+        """The dead time as a Pade TF (1 without one)."""
         import control as ct
 
+        delay = self.controller.delay
+        if delay == 0.0:
+            return ct.tf(1.0, 1.0)
+        if pade_order is None:
+            raise ValueError(
+                f"the loop has a dead time of {delay!r} s: pass pade_order for a rational model, "
+                "or use frequency_response / frd for the exact one"
+            )
+        return ct.tf(*ct.pade(delay, int(pade_order)))
+
+    def _filter(self, s):
+        tau = self.controller.speed_filter
+        return 1 / (tau * s + 1) if tau > 0.0 else 1 + 0 * s
+
+    def _speed_blocks(self, s):
+        """(C(s) without the dead time, Kv(s)) as TFs or FRDs of the Laplace variable ``s``."""
         ctl = self.controller
-        s = ct.tf("s")
-        k = ctl.kp * (1 + 1 / (ctl.ti * s))
-        if ctl.speed_filter > 0.0:
-            k = k / (ctl.speed_filter * s + 1)
+        if ctl.speed_controller is not None:
+            k = _lti(ctl.speed_controller, s)
+        elif np.isfinite(ctl.ti):
+            k = ctl.kp * (1 + 1 / (ctl.ti * s))
+        else:
+            k = ctl.kp + 0 * s
         if ctl.torque_lag > 0.0:
             k = k / (ctl.torque_lag * s + 1)
-        return k
+        if not ctl.cascade:
+            kv = 0 * s
+        elif ctl.position_controller is not None:
+            kv = _lti(ctl.position_controller, s)
+        else:
+            kv = ctl.kv + 0 * s
+        return k, kv
 
-    def _assemble(self, k, s):
-        """G from the blocks: ``k`` is K and ``s`` the Laplace variable, as TFs or FRDs."""
+    def _assemble(self, delay, s):
+        """G from the blocks (module docs); ``delay`` is e^{-s tau} as a TF or FRD, ``s`` the Laplace variable."""
+        ctl = self.controller
+        c, kv = self._speed_blocks(s)
+        c = c * delay
+        f = self._filter(s)
         p_m = 1 / (self.plant.motor_inertia * s)
         p_l = 1 / (self.plant.load_inertia * s)
-        if self.controller.feedback == "motor":
-            import control as ct
-
-            return (ct.feedback(p_m, k) + p_l) / s
-        return (p_m * (1 + k * p_l) + p_l) / s
+        alpha = (f if ctl.feedback == "motor" else 0 * s) + (kv / s if ctl.position_feedback == "motor" else 0 * s)
+        beta = (f if ctl.feedback == "load" else 0 * s) + (kv / s if ctl.position_feedback == "load" else 0 * s)
+        return (p_m * (1 + c * beta * p_l) / (1 + c * alpha * p_m) + p_l) / s
 
     def transfer_function(self, pade_order=None):
-        """G(s) from shaft torque T (N m) to -theta_d (rad) as a python-control TF.
+        """G(s) from shaft torque T (N m) to -theta_d (rad) as a python-control TF, assembled from blocks.
 
         Parameters
         ----------
@@ -126,15 +155,14 @@ class DriveLoop:
         -------
         control.TransferFunction
             Exact without dead time; with one, G with ``e^{-s delay}`` replaced by
-            its Pade approximation.
+            its Pade approximation.  The torque command is unsaturated.
         """
         import control as ct
 
-        g = self._assemble(self.controller_tf(pade_order), ct.tf("s"))
-        return ct.minreal(g, verbose=False)
+        return ct.minreal(self._assemble(self._pade(pade_order), ct.tf("s")), verbose=False)
 
     def frd(self, omega):
-        """G(jw) as a python-control ``FrequencyResponseData``, dead time exact.
+        """G(jw) as a python-control ``FrequencyResponseData`` assembled from blocks, dead time exact.
 
         Parameters
         ----------
@@ -148,18 +176,14 @@ class DriveLoop:
         import control as ct
 
         omega = _frequencies(omega)
-        delay = self.controller.delay
-        k = ct.frd(self._rational_controller(), omega)
-        if delay > 0.0:
-            k = k * ct.frd(np.exp(-1j * omega * delay), omega)
         s = ct.frd(1j * omega, omega)
-        return self._assemble(k, s)
+        return self._assemble(ct.frd(np.exp(-1j * omega * self.controller.delay), omega), s)
 
     def frequency_response(self, omega):
         """G(jw), complex, from the state-space loop with the dead time exact.
 
-        ``G(jw) = -c_x (jw I - A - e_d d e^{-jw delay})^{-1} b`` for the
-        :meth:`linear_part` matrices; vectorised over ``omega``.
+        :func:`backlash_df.system.frequency_response` of :meth:`linear_part`;
+        vectorised over ``omega``.
 
         Parameters
         ----------
@@ -171,78 +195,54 @@ class DriveLoop:
         ndarray of complex
             Same shape as ``omega``.
         """
-        omega = np.asarray(omega, dtype=float)
-        part = self.linear_part()
-        n = part.A.shape[0]
-        flat = omega.reshape(-1)
-        jw = 1j * flat[:, None, None]
-        mats = jw * np.eye(n) - part.A - np.exp(-jw * part.delay) * np.outer(part.e_d, part.d)
-        z = np.linalg.solve(mats, np.broadcast_to(part.b[:, None], (flat.size, n, 1)).astype(complex))
-        return (-(z[:, :, 0] @ part.c_x)).reshape(omega.shape)
+        return frequency_response(self.linear_part(), omega)
 
     # ------------------------------------------------------------------ time domain
 
     def linear_part(self):
-        """The same loop as a :class:`~backlash_df.simulate.LinearPart` for time simulation.
+        """The same loop as a :class:`~backlash_df.system.LinearPart`: the loop cut at the backlash.
 
-        States ``theta_d`` (rad), ``motor_speed``, ``load_speed`` (rad/s),
-        ``integrator`` (rad, the integral of the speed error), then
-        ``filtered_speed`` (rad/s) if ``speed_filter > 0`` and ``motor_torque``
-        (N m, torque-loop output) if ``torque_lag > 0``.  Inputs
-        ``speed_reference`` (rad/s) and ``load_torque`` (N m).  A dead time
-        delays the measured speed (kernel row ``d``, entering by ``e_d``).
+        States ``theta_d`` (rad), ``motor_speed``, ``load_speed`` (rad/s), then
+        ``load_angle`` (rad, cascade), ``integrator`` (rad, the integral of the
+        speed error; a finite ``ti``) or ``speed_controller_1 ..`` (a user's
+        controller), ``position_controller_1 ..`` (a user's position controller),
+        ``filtered_speed`` (rad/s) if ``speed_filter > 0`` and ``motor_torque`` (N m,
+        torque-loop output) if ``torque_lag > 0``.  Inputs ``speed_reference``
+        (rad/s; ``position_reference``, rad, for a cascade) and ``load_torque`` (N m).
+        A dead time delays the measured speed and, in a cascade, the measured
+        position (kernel rows ``d``, entering by ``e_d``).  With a torque limit the
+        part carries its :class:`~backlash_df.system.Command`.
 
         Returns
         -------
         LinearPart
         """
-        ctl, plant = self.controller, self.plant
-        names = ["theta_d", "motor_speed", "load_speed", "integrator"]
-        if ctl.speed_filter > 0.0:
-            names.append("filtered_speed")
-        if ctl.torque_lag > 0.0:
-            names.append("motor_torque")
-        n = len(names)
-        idx = {name: i for i, name in enumerate(names)}
-        # each signal is a row over [z (n), r, T_l, T, y_delayed]
-        width = n + 4
-        R, TL, T, YD = n, n + 1, n + 2, n + 3
+        return _Builder(self.plant, self.controller).linear_part()
 
-        def unit(i, scale=1.0):
-            row = np.zeros(width)
-            row[i] = scale
-            return row
+    def reference_response(self, omega, stiffness, damping=0.0):
+        """The closed loop with the gear in contact, from the reference to the load: complex, dead time exact.
 
-        measured = idx["motor_speed" if ctl.feedback == "motor" else "load_speed"]
-        y_delayed = unit(YD) if ctl.delay > 0.0 else unit(measured)
-        y_f = unit(idx["filtered_speed"]) if "filtered_speed" in idx else y_delayed
-        error = unit(R) - y_f
-        u = ctl.kp * error + ctl.ki * unit(idx["integrator"])
-        motor_torque = unit(idx["motor_torque"]) if "motor_torque" in idx else u
+        The shaft is the spring-damper ``T = k theta_d + c dtheta_d``; the
+        response is from the speed reference to the load speed (a speed loop) or
+        from the position reference to the load angle (a cascade): what the process
+        sees, the measured motor speed of a two-mass drive having a notch at the
+        anti-resonance ``sqrt(k / J_l)``.  The command unsaturated.
 
-        rates = {
-            "theta_d": unit(idx["motor_speed"]) - unit(idx["load_speed"]),
-            "motor_speed": (motor_torque - unit(T)) / plant.motor_inertia,
-            "load_speed": (unit(T) + unit(TL)) / plant.load_inertia,
-            "integrator": error,
-        }
-        if "filtered_speed" in idx:
-            rates["filtered_speed"] = (y_delayed - y_f) / ctl.speed_filter
-        if "motor_torque" in idx:
-            rates["motor_torque"] = (u - motor_torque) / ctl.torque_lag
-        table = np.array([rates[name] for name in names])
-        return LinearPart(
-            A=table[:, :n],
-            b=table[:, T],
-            E=table[:, [R, TL]],
-            c_x=unit(idx["theta_d"])[:n],
-            c_v=rates["theta_d"][:n],
-            state_names=tuple(names),
-            input_names=("speed_reference", "load_torque"),
-            delay=ctl.delay,
-            d=unit(measured)[:n],
-            e_d=table[:, YD],
-        )
+        Parameters
+        ----------
+        omega : array_like
+            Frequencies, rad/s (> 0); any shape.
+        stiffness, damping : float
+            k (N m/rad) and c (N m s/rad).
+
+        Returns
+        -------
+        ndarray of complex
+            The shape of ``omega``; dimensionless (rad/s per rad/s, or rad per rad).
+        """
+        part = self.linear_part()
+        output = part.state_names.index("load_angle" if self.controller.cascade else "load_speed")
+        return closed_loop_response(part, omega, stiffness, damping, output)
 
     def linear_poles(self, stiffness, damping=0.0):
         """Closed-loop poles with the backlash replaced by the spring ``T = k theta_d + c dtheta_d``.
@@ -255,53 +255,131 @@ class DriveLoop:
         Returns
         -------
         ndarray of complex
-            Eigenvalues (1/s) of the delay-free loop; raises if the loop has a dead time.
+            Eigenvalues (1/s) of the delay-free loop, the command unsaturated; raises
+            if the loop has a dead time.
         """
         part = self.linear_part()
         if part.delay > 0.0:
             raise ValueError("linear_poles: the loop has a dead time (infinitely many poles); use a Pade model")
-        closed = part.A + np.outer(part.b, stiffness * part.c_x + damping * part.c_v)
-        return np.linalg.eigvals(closed)
+        return np.linalg.eigvals(closed_loop_matrix(part, stiffness, damping))
+
+
+def _lti(block, s):
+    """A user's :class:`~backlash_df.config.LtiBlock` as a TF (``s`` a TF) or FRD (``s`` an FRD)."""
+    import control as ct
+
+    a, b, c, d = block.matrices()
+    if isinstance(s, ct.FrequencyResponseData):
+        return ct.frd(block.frequency_response(s.omega), s.omega)
+    return ct.tf(ct.ss(a, b, c, d)) if block.order else ct.tf(d[0, 0], 1.0)
+
+
+class _Builder:
+    """The rows of every signal of the loop over ``[z (n), r, T_l, T, delayed (k)]`` (module docs)."""
+
+    def __init__(self, plant, ctl):
+        self.plant, self.ctl = plant, ctl
+        names = ["theta_d", "motor_speed", "load_speed"]
+        if ctl.cascade:
+            names.append("load_angle")
+        if ctl.speed_controller is not None:
+            names += [f"speed_controller_{i + 1}" for i in range(ctl.speed_controller.order)]
+        elif np.isfinite(ctl.ti):
+            names.append("integrator")
+        if ctl.cascade and ctl.position_controller is not None:
+            names += [f"position_controller_{i + 1}" for i in range(ctl.position_controller.order)]
+        if ctl.speed_filter > 0.0:
+            names.append("filtered_speed")
+        if ctl.torque_lag > 0.0:
+            names.append("motor_torque")
+        self.names = names
+        self.n = len(names)
+        self.k = (2 if ctl.cascade else 1) if ctl.delay > 0.0 else 0
+        self.width = self.n + 3 + self.k
+        self.R, self.TL, self.T = self.n, self.n + 1, self.n + 2
+
+    def unit(self, i, scale=1.0):
+        row = np.zeros(self.width)
+        row[i] = scale
+        return row
+
+    def state(self, name):
+        return self.unit(self.names.index(name))
+
+    def _lti_rows(self, block, prefix, signal, rates):
+        """Rows of a user's block's output; its states' rates added to ``rates``."""
+        a, b, c, d = block.matrices()
+        states = [self.state(f"{prefix}_{i + 1}") for i in range(block.order)]
+        for i in range(block.order):
+            rates[f"{prefix}_{i + 1}"] = sum((a[i, j] * states[j] for j in range(block.order)), b[i, 0] * signal)
+        return sum((c[0, j] * states[j] for j in range(block.order)), d[0, 0] * signal)
+
+    def linear_part(self):
+        ctl, plant, n = self.ctl, self.plant, self.n
+        speed = self.state("motor_speed" if ctl.feedback == "motor" else "load_speed")
+        position = None
+        if ctl.cascade:
+            position = self.state("load_angle") + (self.state("theta_d") if ctl.position_feedback == "motor" else 0.0)
+        measured = [speed] + ([position] if ctl.cascade else [])
+        delayed = [self.unit(n + 3 + j) for j in range(self.k)] or measured
+        y_f = self.state("filtered_speed") if ctl.speed_filter > 0.0 else delayed[0]
+        rates = {}
+        if not ctl.cascade:
+            reference = self.unit(self.R)
+        elif ctl.position_controller is not None:
+            reference = self._lti_rows(ctl.position_controller, "position_controller", self.unit(self.R) - delayed[1],
+                                       rates)
+        else:
+            reference = ctl.kv * (self.unit(self.R) - delayed[1])
+        error = reference - y_f
+        integrator = -1
+        if ctl.speed_controller is not None:
+            u = self._lti_rows(ctl.speed_controller, "speed_controller", error, rates)
+        elif np.isfinite(ctl.ti):
+            integrator = self.names.index("integrator")
+            u = ctl.kp * error + ctl.ki * self.state("integrator")
+            rates["integrator"] = error
+        else:
+            u = ctl.kp * error
+        motor_torque = self.state("motor_torque") if ctl.torque_lag > 0.0 else u
+        rates.update({
+            "theta_d": self.state("motor_speed") - self.state("load_speed"),
+            "motor_speed": (motor_torque - self.unit(self.T)) / plant.motor_inertia,
+            "load_speed": (self.unit(self.T) + self.unit(self.TL)) / plant.load_inertia,
+        })
+        if ctl.cascade:
+            rates["load_angle"] = self.state("load_speed")
+        if ctl.speed_filter > 0.0:
+            rates["filtered_speed"] = (delayed[0] - y_f) / ctl.speed_filter
+        if ctl.torque_lag > 0.0:
+            rates["motor_torque"] = (u - motor_torque) / ctl.torque_lag
+        table = np.array([rates[name] for name in self.names])
+        delayed_columns = list(range(n + 3, n + 3 + self.k))
+        command = None
+        if ctl.torque_limit > 0.0:
+            column = self.state("motor_torque")[:n] / ctl.torque_lag if ctl.torque_lag > 0.0 else \
+                self.state("motor_speed")[:n] / plant.motor_inertia
+            over = [*range(n), self.R, self.TL, *delayed_columns]  # [z, w, u_d]: u does not depend on T
+            command = Command(column=column, row=u[over], limit=ctl.torque_limit, integrator=integrator,
+                              error=error[over])
+        return LinearPart(
+            A=table[:, :n],
+            b=table[:, self.T],
+            E=table[:, [self.R, self.TL]],
+            c_x=self.state("theta_d")[:n],
+            c_v=rates["theta_d"][:n],
+            state_names=tuple(self.names),
+            input_names=("position_reference" if ctl.cascade else "speed_reference", "load_torque"),
+            delay=ctl.delay,
+            d=np.array([row[:n] for row in measured]) if self.k else None,
+            e_d=table[:, delayed_columns] if self.k else None,
+            command=command,
+        )
 
 
 def drive_loop(rig):
     """The :class:`DriveLoop` of a rig (needs its ``[controller]`` table)."""
     return DriveLoop(rig.plant, rig.require_controller())
-
-
-def lti_linear_part(system):
-    """A user's python-control LTI G (shaft torque -> -theta_d) as a simulation LinearPart.
-
-    Parameters
-    ----------
-    system : control.LTI
-        SISO, continuous time, strictly proper with relative degree >= 2 (so that
-        dtheta_d is a state function, as the torque laws need it).
-
-    Returns
-    -------
-    LinearPart
-        States of ``control.ss(system)``, no external inputs.
-    """
-    import control as ct
-
-    sys_ss = ct.ss(system)
-    if sys_ss.ninputs != 1 or sys_ss.noutputs != 1 or not sys_ss.isctime():
-        raise ValueError("the linear part must be a SISO continuous-time LTI system")
-    a, b, c, d = (np.asarray(m, dtype=float) for m in (sys_ss.A, sys_ss.B, sys_ss.C, sys_ss.D))
-    scale = max(np.abs(c).max() * np.abs(b).max(), 1e-300)
-    if abs(d[0, 0]) > 0.0 or abs((c @ b)[0, 0]) > 1e-12 * scale:
-        raise ValueError("the linear part must have relative degree >= 2 (theta_d and its rate depend on the state only)")
-    n = a.shape[0]
-    return LinearPart(
-        A=a,
-        b=b[:, 0],
-        E=np.zeros((n, 0)),
-        c_x=-c[0],
-        c_v=-(c @ a)[0],
-        state_names=tuple(f"x{i}" for i in range(n)),
-        input_names=(),
-    )
 
 
 def frequency_response_of(linear, omega):

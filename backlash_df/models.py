@@ -33,6 +33,8 @@ import math
 import numba
 import numpy as np
 
+from .plotting import ResultPlot, axes_or_new
+
 __all__ = [
     "MODEL_NAMES",
     "BacklashModel",
@@ -40,6 +42,26 @@ __all__ = [
     "ExactModel",
     "make_model",
     "theta_star",
+    # law codes and the compiled scalar kernels the describing functions, the
+    # simulation, the orbits and the identification share
+    "LAW_CODES",
+    "EQUATIONS",
+    "DEAD_ZONE",
+    "DAMPED_DEAD_ZONE",
+    "REVISED_DEAD_ZONE",
+    "PHASE_PLANE",
+    "RUBBER",
+    "ELASTO_BACKLASH",
+    "EXACT",
+    "theta_star_kernel",
+    "right_mode",
+    "right_torque",
+    "static_mode",
+    "held_mode",
+    "mode_torque",
+    "static_torque",
+    "exact_torque",
+    "exact_step",
 ]
 
 DEAD_ZONE, DAMPED_DEAD_ZONE, REVISED_DEAD_ZONE, PHASE_PLANE, RUBBER, ELASTO_BACKLASH, EXACT = range(7)
@@ -128,8 +150,8 @@ def _u_newton_step(u, big_k):
 
 
 @_jit
-def _theta_star(v, k, c, alpha):
-    """Re-contact displacement theta*(v) of eq. (19) for v > 0 (rad); alpha for v <= 0."""
+def theta_star_kernel(v, k, c, alpha):
+    """Re-contact displacement theta*(v) of eq. (19) for v > 0 (rad); alpha for v <= 0 (compiled, scalar)."""
     s = c * v / k
     if s <= 0.0:
         return alpha
@@ -140,7 +162,7 @@ def _theta_star(v, k, c, alpha):
 
 @_lazy_ufunc("float64(float64, float64, float64, float64)")
 def _theta_star_ufunc(v, k, c, alpha):
-    return _theta_star(v, k, c, alpha)
+    return theta_star_kernel(v, k, c, alpha)
 
 
 def theta_star(dtheta_d, stiffness, damping, half_gap):
@@ -189,7 +211,7 @@ def right_mode(law, x, v, k, c, alpha, beta):
                 return 2
             if k * (x - alpha) + c * v < 0.0:
                 return 0
-            return 2 if x >= _theta_star(v, k, c, alpha) else 0
+            return 2 if x >= theta_star_kernel(v, k, c, alpha) else 0
         return 2 if k * (x - alpha) + c * v >= 0.0 else 0
     if law == RUBBER:
         if v > 0.0:  # (28) first line: |x - theta*| < beta / 2
@@ -197,7 +219,7 @@ def right_mode(law, x, v, k, c, alpha, beta):
                 return 2
             if x <= alpha - c * v / k - 0.5 * beta:
                 return 0
-            ts = _theta_star(v, k, c, alpha)
+            ts = theta_star_kernel(v, k, c, alpha)
             if x >= ts + 0.5 * beta:
                 return 2
             return 1 if x > ts - 0.5 * beta else 0
@@ -222,7 +244,7 @@ def right_torque(law, m, x, v, k, c, alpha, beta):
         return k * (x - alpha) + c * v  # (23), (26), (27), (33)
     # rubber band, (36) with the corrected denominator (reading notes, item 5)
     if v > 0.0:
-        ts = _theta_star(v, k, c, alpha)
+        ts = theta_star_kernel(v, k, c, alpha)
         w = x - ts + 0.5 * beta
         return (0.5 * k * w + k * (ts - alpha) + c * v) * w / beta
     lower = alpha - 0.5 * beta - 2.0 * c * v / k
@@ -429,10 +451,6 @@ class BacklashModel:
             rubber_thickness=self.rubber_thickness,
         )
 
-    def with_params(self, **changes):
-        """A copy of this model with some shaft parameters changed."""
-        return make_model(self.name, **{**self.plant_params, **changes})
-
     def __repr__(self):
         params = ", ".join(f"{key}={value!r}" for key, value in self.plant_params.items())
         return f"make_model({self.name!r}, {params})"
@@ -456,14 +474,14 @@ class BacklashModel:
 
         Returns
         -------
-        Axes
-            The axes drawn on; ``ax.figure`` holds them and the colour bar.
+        ResultPlot
+            One panel (titled with the law, its equation and the shaft on a second
+            line); the colour bar beside it.
         """
-        import matplotlib.pyplot as plt
         from matplotlib.colors import TwoSlopeNorm
 
-        if ax is None:
-            _, ax = plt.subplots(figsize=(6.5, 4.5), layout="constrained")
+        figure, axes = axes_or_new(ax, figsize=(6.5, 4.5), layout="constrained")
+        ax = axes[0]
         x_max = extent * self.half_gap
         v_max = extent * self.half_gap * (self.stiffness / self.damping if self.damping > 0.0 else 1.0)
         x, v = np.meshgrid(np.linspace(-x_max, x_max, n), np.linspace(-v_max, v_max, n))
@@ -475,9 +493,9 @@ class BacklashModel:
         ax.set_xlabel("theta_d (rad)")
         ax.set_ylabel("dtheta_d/dt (rad/s)")
         beta = f", beta = {self.rubber_thickness:.4g} rad" if self.name == "rubber" else ""
-        ax.set_title(f"{self.name} {EQUATIONS[self.name]}: k = {self.stiffness:.4g} N m/rad, "
+        ax.set_title(f"{self.name} {EQUATIONS[self.name]}\nk = {self.stiffness:.4g} N m/rad, "
                      f"c = {self.damping:.4g} N m s/rad, alpha = {self.half_gap:.4g} rad{beta}", fontsize="medium")
-        return ax
+        return ResultPlot(figure, axes)
 
     def __eq__(self, other):
         return type(self) is type(other) and self.plant_params == other.plant_params

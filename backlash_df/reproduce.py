@@ -39,13 +39,15 @@ import io
 import json
 import math
 import textwrap
+import warnings
 
 import numpy as np
 
+from ._json import json_ready
 from .config import Plant
 from .models import exact_step, make_model, mode_torque
-from .report import figure_png, write_output
-from .simulate import simulate_two_mass
+from .plotting import ResultPlot, axes_or_new, legend_beside
+from .simulation import simulate_two_mass
 
 __all__ = [
     "PAPER_PLANT",
@@ -60,8 +62,7 @@ __all__ = [
     "figure2_maps",
     "figure2",
     "figure2_summary",
-    "figure3",
-    "save_figure",
+    "LAW_NAMES",
 ]
 
 #: The Figure 3 drive of Section 2.4 (c = 0.01 k).
@@ -300,12 +301,27 @@ class TorqueComparison:
         scale = float(np.sqrt(np.mean(self.torque["exact"][:-1] ** 2)))
         return None if scale == 0.0 else 100.0 * self.rms_error(name) / scale
 
-    def plot(self, names=("exact", "phase-plane", "damped-dead-zone", "revised-dead-zone"), ax=None):
-        """Figure 3: the torques of ``names`` over the cycle; returns the axes."""
-        import matplotlib.pyplot as plt
+    def __repr__(self):
+        errors = ", ".join(f"{name} {self.error_percent(name):+.2f} %" for name in self.torque
+                           if name != "exact" and self.error_percent(name) is not None)
+        return f"<TorqueComparison {self.setup.name}, driven by {self.driver}: integral errors {errors or 'n/a'}>"
 
-        if ax is None:
-            _, ax = plt.subplots(figsize=(8, 4))
+    def to_dict(self):
+        """JSON-ready: setup, driver, the cycle (s, rad, rad/s), each law's torque (N m) and integral (N m s)."""
+        return json_ready({"setup": dataclasses.asdict(self.setup), "driver": self.driver, "dt": self.dt,
+                           "periodicity": self.periodicity, "time": self.time, "theta_d": self.theta_d,
+                           "dtheta_d": self.dtheta_d, "torque": self.torque, "integral": self.integral})
+
+    def plot(self, ax=None, names=("exact", "phase-plane", "damped-dead-zone", "revised-dead-zone")):
+        """Figure 3: the torques of ``names`` over the cycle.
+
+        Returns
+        -------
+        ResultPlot
+            One panel; the legend beside it.
+        """
+        figure, axes = axes_or_new(ax, figsize=(9.5, 4), layout="constrained")
+        ax = axes[0]
         t_ms = 1e3 * (self.time - self.time[0])
         styles = {"exact": dict(color="k", lw=2.5, alpha=0.5)}
         for name in names:
@@ -313,9 +329,9 @@ class TorqueComparison:
         ax.axhline(0.0, color="0.6", lw=0.6)
         ax.set_xlabel("time in cycle (ms)")
         ax.set_ylabel("shaft torque T (N m)")
-        ax.set_title(f"{self.setup.name}: simulated with the {self.driver} law")
-        ax.legend(fontsize=8)
-        return ax
+        ax.set_title(f"{self.setup.name}: simulated with the {self.driver} law", fontsize="medium")
+        legend = legend_beside(ax, fontsize=8)
+        return ResultPlot(figure, axes, legend)
 
 
 def compare_torques(setup="one-sided", driver="phase-plane", dt=DEFAULT_DT, warmup_cycles=40,
@@ -446,17 +462,26 @@ class TableOne:
         writer.writerows([["" if value is None else value for value in row.values()] for row in self.rows])
         return buffer.getvalue()
 
-    def to_json(self):
-        """Setups and rows as JSON text (SI units, listed under ``units``)."""
+    def to_dict(self):
+        """Setups and rows, JSON-ready (SI units, listed under ``units``): ``reproduce table1 --out x.json``."""
         setups = [dict(dataclasses.asdict(c.setup), driver=c.driver, dt=c.dt, periodicity=c.periodicity)
                   for c in self.comparisons]
         units = {"integral": "N m s", "error_percent": "%", "rms_error": "N m", "rms_error_percent": "%"}
-        return json.dumps(dict(quantity=_WHAT, units=units, setups=setups, rows=self.rows), indent=2) + "\n"
+        return dict(quantity=_WHAT, units=units, setups=setups, rows=self.rows)
+
+    def to_json(self):
+        """Deprecated: :meth:`to_dict` as JSON text (``json.dumps(table.to_dict(), indent=2)``)."""
+        warnings.warn("TableOne.to_json() is deprecated: use json.dumps(table.to_dict(), indent=2)",
+                      DeprecationWarning, stacklevel=2)
+        return json.dumps(self.to_dict(), indent=2) + "\n"
 
     def __repr__(self):
+        return f"<TableOne: {len(self.comparisons)} setups ({', '.join(c.setup.name for c in self.comparisons)})>"
+
+    def __str__(self):
         return self.to_text()
 
-    def plot(self, axes=None):
+    def plot(self, ax=None):
         """Bars of each law's error against the exact model, grouped by setup.
 
         Top: error of the cycle integral of T (the printed Table I column), per
@@ -465,13 +490,10 @@ class TableOne:
 
         Returns
         -------
-        ndarray of Axes
-            The two axes drawn on.
+        ResultPlot
+            Axes ``[integral error, RMS error]``; the legend beside the first.
         """
-        import matplotlib.pyplot as plt
-
-        if axes is None:
-            _, axes = plt.subplots(2, 1, sharex=True, figsize=(8, 6), layout="constrained")
+        figure, axes = axes_or_new(ax, (2, 1), sharex=True, figsize=(9.5, 6), layout="constrained")
         setups = [comparison.setup.name for comparison in self.comparisons]
         names = list(dict.fromkeys(row["model"] for row in self.rows if row["model"] != "exact"))
         width = 0.8 / max(len(names), 1)
@@ -487,9 +509,10 @@ class TableOne:
             ax.set_ylabel(label)
             ax.grid(True, axis="y", alpha=0.3)
         axes[1].set_xticks(np.arange(len(setups)), setups)
-        axes[0].set_title("Table I: each law along the simulated cycle against the exact model (1), (14)")
-        axes[0].legend(fontsize=8)
-        return axes
+        axes[0].set_title("Table I: each law along the simulated cycle against the exact model (1), (14)",
+                          fontsize="medium")
+        legend = legend_beside(axes[0], fontsize=8)
+        return ResultPlot(figure, axes, legend)
 
 
 _WHAT = ("Table I: integral of the shaft torque T over one disturbance cycle (N m s) of each law, "
@@ -517,17 +540,6 @@ def table1(setups=tuple(SETUPS), driver="phase-plane", dt=DEFAULT_DT, **kwargs):
     TableOne
     """
     return TableOne(tuple(compare_torques(setup, driver=driver, dt=dt, **kwargs) for setup in setups))
-
-
-def figure3(setup="one-sided", driver="phase-plane", dt=DEFAULT_DT, ax=None):
-    """Figure 3: torques of the exact, phase plane, (26) and (27) laws along one cycle.
-
-    Returns
-    -------
-    TorqueComparison, Axes
-    """
-    comparison = compare_torques(setup, driver=driver, dt=dt)
-    return comparison, comparison.plot(ax=ax)
 
 
 # --------------------------------------------------------------------------- Figure 2
@@ -603,8 +615,3 @@ def figure2_summary(maps):
     lines.append(f"(26) pulls (A1 + A2) on {100 * np.mean(maps['pull']):.1f} % of the plotted plane, "
                  f"where (5) allows no such torque")
     return "\n".join(lines)
-
-
-def save_figure(fig, path):
-    """Write a matplotlib figure as PNG atomically (a reader never sees half a file); closes it."""
-    write_output(path, figure_png(fig, dpi=120))

@@ -14,7 +14,7 @@ weighs three kinds of evidence for one rig and one torque law:
 * **time simulations** from rest disturbed by kicks of several sizes
   (``dtheta_d(0) = a w`` with theta_d(0) = 0 in the middle of the gap, so the
   shaft swings about ``a`` rad), each run until a steady state, an overflow or
-  a blow-up (:func:`~backlash_df.simulate.measure_limit_cycle`).
+  a blow-up (:func:`~backlash_df.simulation.measure_limit_cycle`).
 
 and names one of
 
@@ -38,10 +38,20 @@ simulations and says ``DF UNRELIABLE`` in its reason (``df_agrees`` False).
 
 import dataclasses
 import math
+import warnings
 
 import numpy as np
 
-__all__ = ["VERDICTS", "LinearStability", "Probe", "LoopVerdict", "linear_stability", "judge", "judge_loop"]
+from .limit_cycles import default_ranges
+from .loops import DriveLoop, drive_loop
+from .orbits import exact_orbits
+from .plotting import ResultPlot, axes_or_new, legend_beside, log_scale
+from .report import roundoff_zero, signed_percent, text_table
+from .simulation import simulated_limit_cycle
+from .system import closed_loop_matrix, lti_linear_part, with_pade
+
+__all__ = ["VERDICTS", "LinearStability", "Probe", "LoopVerdict", "linear_stability", "judge_loop", "judge",
+           "verdict_rows", "orbit_rows", "VERDICT_NOTE", "ORBIT_NOTE"]
 
 VERDICTS = ("no oscillation", "limit cycle", "bistable", "unstable", "undetermined")
 
@@ -103,6 +113,10 @@ class LinearStability:
         text = f"{pole.real:.4g}" + (f" +- {abs(pole.imag):.4g}j" if abs(pole.imag) > 0 else "")
         return f"{self.status} (rightmost pole {text} 1/s)"
 
+    def __repr__(self):
+        return (f"LinearStability({self.regime}: {self.describe()}, {self.poles.size} poles, "
+                f"Pade order {self.pade_order})")
+
     def to_dict(self, count=6):
         """JSON entry: status, the rightmost ``count`` poles as ``[re, im]`` (1/s), Pade order."""
         return {
@@ -112,21 +126,6 @@ class LinearStability:
             "poles": [[float(p.real), float(p.imag)] for p in self.poles[:count]],
             "pade_order": int(self.pade_order),
         }
-
-
-def _with_pade(part, matrix, order):
-    """Closed-loop matrix with ``u_d = d z (t - delay)`` realised by a Pade system of ``order``."""
-    import control as ct
-
-    pade = ct.ss(ct.tf(*ct.pade(part.delay, order)))
-    a_p, b_p, c_p, d_p = (np.atleast_2d(np.asarray(m, dtype=float)) for m in (pade.A, pade.B, pade.C, pade.D))
-    n, m = matrix.shape[0], a_p.shape[0]
-    out = np.zeros((n + m, n + m))
-    out[:n, :n] = matrix + d_p[0, 0] * np.outer(part.e_d, part.d)
-    out[:n, n:] = np.outer(part.e_d, c_p[0])
-    out[n:, :n] = np.outer(b_p[:, 0], part.d)
-    out[n:, n:] = a_p
-    return out
 
 
 def linear_stability(part, stiffness, damping, regime="contact", pade_order=PADE_ORDER):
@@ -142,7 +141,8 @@ def linear_stability(part, stiffness, damping, regime="contact", pade_order=PADE
     regime : str
         Label stored in the result (``"contact"`` or ``"open"``).
     pade_order : int
-        Pade order for the dead time (:func:`control.pade`).
+        Pade order for the dead time, realised by :func:`backlash_df.system.with_pade`
+        (the realisation the exact orbits use).
 
     Returns
     -------
@@ -155,11 +155,8 @@ def linear_stability(part, stiffness, damping, regime="contact", pade_order=PADE
     >>> linear_stability(loop.linear_part(), 5895.0, 3.0).status
     'stable'
     """
-    matrix = part.A + np.outer(part.b, stiffness * part.c_x + damping * part.c_v)
-    order = 0
-    if part.delay > 0.0:
-        order = int(pade_order)
-        matrix = _with_pade(part, matrix, order)
+    order = int(pade_order) if part.delay > 0.0 else 0
+    matrix = closed_loop_matrix(with_pade(part, order) if order else part, stiffness, damping)
     poles = np.linalg.eigvals(matrix)
     return LinearStability(regime, poles[np.argsort(-poles.real, kind="stable")], order)
 
@@ -199,17 +196,17 @@ class Probe:
             return "rest"
         return "diverged" if verdict == "diverged" else "unsettled"
 
+    def __repr__(self):
+        return f"Probe(disturbance={self.disturbance:.4g} rad, kick={self.kick:.4g} rad/s: {self.outcome})"
+
     def to_dict(self):
         """JSON entry: disturbance (rad), kick (rad/s), outcome, simulated cycle or null, measured verdict."""
         return {"disturbance": self.disturbance, "kick": self.kick, "outcome": self.outcome,
-                "simulated": self.measured.to_dict(), "measured": self.measured.verdict}
+                "simulated": self.measured.cycle_dict(), "measured": self.measured.verdict}
 
 
 def _probes(rig, model, prediction, linear, t_end, max_t_end, disturbances):
     """Simulations from kicks: the ladder ``disturbances * alpha`` at the shaft mode, and the stable DF cycles."""
-    from .limit_cycles import default_ranges
-    from .simulate import simulated_limit_cycle
-
     _, (_, w_hi) = default_ranges(rig)
     w_n = w_hi / 3.0
     probes = [Probe(float(c.amplitude), float(c.amplitude * c.omega), c.simulated)
@@ -265,6 +262,11 @@ class LoopVerdict:
     orbit_note : str
         Why there are no exact orbits when they were asked for (unsupported law,
         shooting failed); ``""`` otherwise.
+    saturated : bool
+        The stable cycle the simulations reached has its torque command on the
+        limit: with a contact loop that is unstable, the limit is what caps the growth.
+    prediction : LimitCyclePrediction or None
+        The (verified) DF prediction the verdict weighed.
     """
 
     model: str
@@ -280,12 +282,14 @@ class LoopVerdict:
     df_agrees: bool = None
     orbits: tuple = ()
     orbit_note: str = ""
+    saturated: bool = False
+    prediction: object = dataclasses.field(default=None, repr=False, compare=False)
 
     def __repr__(self):
         return f"LoopVerdict({self.model}: {self.verdict}; {self.reason})"
 
     def to_dict(self):
-        """The verdict fields of a ``models`` entry of the ``predict`` JSON (DESIGN.md)."""
+        """The verdict fields of a ``models`` entry of the ``predict`` JSON (contract page)."""
         return {
             "verdict": self.verdict,
             "reason": self.reason,
@@ -294,11 +298,58 @@ class LoopVerdict:
             "disturbance_to_start": self.disturbance_to_start,
             "disturbance_source": self.disturbance_source or None,
             "settles_up_to": self.settles_up_to,
-            "simulated_cycle": None if self.cycle is None else self.cycle.to_dict(),
+            "simulated_cycle": None if self.cycle is None else self.cycle.cycle_dict(),
             "df_agrees": self.df_agrees,
+            "saturated": bool(self.saturated),
             "probes": [probe.to_dict() for probe in self.probes],
             "exact_orbits": [orbit.to_dict() for orbit in self.orbits],
         }
+
+    def plot(self, ax=None):
+        """What each disturbance ended in: the probes' cycle amplitudes against their size.
+
+        Each probe (a kick from rest, :attr:`probes`) is a marker at its
+        disturbance (rad, log scale) and the amplitude A it ended on (rad; rest
+        drawn at the bottom edge, divergence at the top); the DF cycles and the
+        exact orbits are horizontal lines (solid: stable, dashed: unstable), so
+        a bistable loop shows its separating cycle between the settling and the
+        hunting kicks.
+
+        Returns
+        -------
+        ResultPlot
+            One panel; the legend beside it.
+        """
+        figure, axes = axes_or_new(ax, figsize=(9, 4), layout="constrained")
+        ax = axes[0]
+        sizes = [p.disturbance for p in self.probes]
+        levels = [p.measured.amplitude for p in self.probes if p.outcome == "cycle"]
+        levels += [c.amplitude for c in (self.prediction.cycles if self.prediction is not None else ())]
+        levels += [o.amplitude for o in self.orbits]
+        low, high = (min(levels + sizes) / 3.0, max(levels + sizes) * 3.0) if sizes else (1e-3, 1.0)
+        marks = {"cycle": ("o", "C3", "ends on a cycle"), "rest": ("v", "C2", "settles"),
+                 "diverged": ("^", "k", "diverges"), "unsettled": ("s", "0.5", "does not settle")}
+        for outcome, (marker, colour, label) in marks.items():
+            chosen = [p for p in self.probes if p.outcome == outcome]
+            if chosen:
+                y = [p.measured.amplitude if outcome == "cycle" else low if outcome == "rest" else high
+                     for p in chosen]
+                ax.plot([p.disturbance for p in chosen], y, marker, color=colour, ls="none", label=label)
+        for cycle in () if self.prediction is None else self.prediction.cycles:
+            ax.axhline(cycle.amplitude, color="C0", lw=1.0, ls="-" if cycle.stable else "--")
+        for orbit in self.orbits:
+            ax.axhline(orbit.amplitude, color="C1", lw=1.6, alpha=0.6, ls="-" if orbit.stable else "--")
+        ax.plot([], [], color="C0", label="DF cycle (dashed: unstable)")
+        if self.orbits:
+            ax.plot([], [], color="C1", lw=1.6, alpha=0.6, label="exact orbit (dashed: unstable)")
+        log_scale(ax.xaxis, min(sizes, default=low), max(sizes, default=high))
+        log_scale(ax.yaxis, low, high)
+        ax.set_ylim(low, high)
+        ax.set_xlabel("disturbance: swing of theta_d the kick starts (rad)")
+        ax.set_ylabel("amplitude A the run ends on (rad)")
+        ax.set_title(f"{self.model}: {self.verdict}", fontsize="medium")
+        legend = legend_beside(ax, fontsize=7)
+        return ResultPlot(figure, axes, legend)
 
 
 def _matching_df_cycle(prediction, measured):
@@ -332,6 +383,8 @@ def _separating(prediction, orbits, rests, cycles):
 
 
 def _df_words(prediction):
+    if prediction.note:
+        return f"no DF prediction ({prediction.note})"
     stable = prediction.stable_cycles
     if stable:
         return "the DF predicts a stable cycle at " + ", ".join(
@@ -380,12 +433,16 @@ def _decide(prediction, contact, probes, orbits=()):
             {"settles_up_to": largest, "df_agrees": True}
     cycle = min((p.measured for p in cycles), key=lambda m: m.amplitude)
     agrees = _matching_df_cycle(prediction, cycle) is not None
-    fields = {"cycle": cycle, "df_agrees": agrees}
+    fields = {"cycle": cycle, "df_agrees": agrees, "saturated": cycle.saturated}
     confirmed = "; the exact orbit confirms it" if _exact_match(orbits, cycle) is not None else ""
     agrees = "DF agrees" if agrees else f"DF UNRELIABLE here: {_df_words(prediction)}"
     agrees += confirmed
     runaway = (f"; kicks from {min(p.disturbance for p in diverged):.3g} rad diverge (contact loop "
                f"{contact.describe()})" if diverged else "")
+    if cycle.saturated:
+        runaway += (f"; the torque command is on its limit {100 * cycle.saturation:.0f} % of the cycle"
+                    + (f" and caps the growth of the loop in contact, {contact.describe()}"
+                       if runaway_in_contact else ""))
     distinct = [p.measured for p in cycles if abs(p.measured.amplitude / cycle.amplitude - 1.0) > _SAME_CYCLE]
     others = f"; another cycle at A = {distinct[0].amplitude:.4g} rad" if distinct else ""
     what = f"a stable cycle A = {cycle.amplitude:.4g} rad, w = {cycle.omega:.4g} rad/s (simulated; {agrees})"
@@ -403,9 +460,6 @@ def _decide(prediction, contact, probes, orbits=()):
 
 def _exact(rig, prediction, probes, t_end, max_t_end):
     """Exact orbits seeded by the DF cycles and the first simulated cycle, and a note if there are none."""
-    from .orbits import exact_orbits
-    from .simulate import simulated_limit_cycle
-
     seed = None
     cycling = [p for p in probes if p.measured.found]
     if cycling:  # the run again, for a state on the cycle
@@ -443,8 +497,6 @@ def judge_loop(rig, prediction, linear=None, t_end=20.0, max_t_end=160.0, distur
     -------
     LoopVerdict
     """
-    from .loops import DriveLoop, drive_loop, lti_linear_part
-
     model = rig.make_model(prediction.model)
     user_linear = linear if linear is not None and not isinstance(linear, DriveLoop) else None
     part = drive_loop(rig).linear_part() if user_linear is None else lti_linear_part(user_linear)
@@ -454,12 +506,92 @@ def judge_loop(rig, prediction, linear=None, t_end=20.0, max_t_end=160.0, distur
     orbits, note = _exact(rig, prediction, probes, t_end, max_t_end) if exact and user_linear is None else ((), "")
     verdict, reason, fields = _decide(prediction, contact, probes, orbits)
     return LoopVerdict(prediction.model, verdict, reason, contact, opened, probes, orbits=orbits, orbit_note=note,
-                       **fields)
+                       prediction=prediction, **fields)
 
 
 def judge(rig, prediction, **kwargs):
-    """A copy of ``prediction`` carrying its :class:`LoopVerdict` (``prediction.verdict``).
+    """Deprecated: a copy of ``prediction`` carrying its :class:`LoopVerdict` as ``prediction.verdict``.
 
+    Use :func:`judge_loop` (the verdict holds its prediction) or
+    :func:`backlash_df.analyse_loop` (predict, verify and judge in one call).
     Keyword arguments go to :func:`judge_loop`.
     """
+    warnings.warn("backlash_df.verdict.judge is deprecated: use judge_loop(rig, prediction) (the verdict holds "
+                  "its prediction) or backlash_df.analyse_loop", DeprecationWarning, stacklevel=2)
     return dataclasses.replace(prediction, verdict=judge_loop(rig, prediction, **kwargs))
+
+
+# --------------------------------------------------------------------------- tables
+
+
+def verdict_rows(verdicts):
+    """One row per verdict: the verdict, linear stability in contact and open, disturbance that starts hunting.
+
+    The column ``hunts beyond (rad)`` is left out where no verdict has such a
+    disturbance.
+
+    Returns
+    -------
+    header : list of str
+    rows : list of list of str
+    """
+    header = ["model", "verdict", "contact loop (k + c s)", "open loop (T = 0)", "hunts beyond (rad)",
+              "torque command"]
+    rows = []
+    for verdict in verdicts:
+        start = "" if verdict.disturbance_to_start is None else (
+            f"{verdict.disturbance_to_start:.4g} ({verdict.disturbance_source})")
+        limit = f"saturated {100 * verdict.cycle.saturation:.0f} % of the cycle" if verdict.saturated else ""
+        rows.append({"model": verdict.model, "verdict": verdict.verdict,
+                     "contact loop (k + c s)": verdict.contact_loop.describe(),
+                     "open loop (T = 0)": verdict.open_loop.describe(), "hunts beyond (rad)": start,
+                     "torque command": limit})
+    return text_table(header, rows)
+
+
+def orbit_rows(verdicts):
+    """One row per exact periodic orbit (:mod:`backlash_df.orbits`) next to the DF cycle it continues.
+
+    The DF error compares the orbit with the predicted cycle of the same
+    stability nearest in amplitude; the DF columns are left out where no orbit
+    has such a cycle.  The bias is the orbit's mean of theta_d, round-off
+    printed as 0 (:func:`~backlash_df.report.roundoff_zero`): 0 by symmetry
+    without a load torque.
+
+    Returns
+    -------
+    header : list of str
+    rows : list of list of str
+    """
+    header = ["model", "A exact (rad)", "peak (rad)", "bias (rad)", "period (s)", "w (rad/s)", "Floquet",
+              "|mu| max", "A DF (rad)", "A DF error", "w DF error"]
+    rows = []
+    for verdict in verdicts:
+        cycles = verdict.prediction.cycles if verdict.prediction is not None else ()
+        for orbit in verdict.orbits:
+            same = [c for c in cycles if c.stable == orbit.stable]
+            df = min(same, key=lambda c: abs(math.log(c.amplitude / orbit.amplitude)), default=None)
+            row = {"model": verdict.model, "A exact (rad)": f"{orbit.amplitude:.6g}",
+                   "peak (rad)": f"{orbit.peak:.6g}", "bias (rad)": f"{roundoff_zero(orbit.bias, orbit.amplitude):.4g}",
+                   "period (s)": f"{orbit.period:.6g}", "w (rad/s)": f"{orbit.omega:.6g}",
+                   "Floquet": "stable" if orbit.stable else "unstable", "|mu| max": f"{orbit.max_multiplier:.4f}"}
+            if df is not None:
+                row.update({"A DF (rad)": f"{df.amplitude:.5g}",
+                            "A DF error": signed_percent(df.amplitude / orbit.amplitude - 1.0),
+                            "w DF error": signed_percent(df.omega / orbit.omega - 1.0)})
+            rows.append(row)
+    return text_table(header, rows)
+
+
+#: What the verdict table of a report holds (HTML).
+VERDICT_NOTE = (
+    "<p>Contact loop: the PI loop with the shaft as the spring-damper k + c s (large motions); open loop: "
+    "shaft torque 0 (inside the gap); poles from the state matrix, dead time by its Pade approximant. "
+    "The verdict also weighs simulations from rest with kicks of several sizes (JSON: <code>probes</code>).</p>"
+)
+#: What the orbit table of a report holds (HTML).
+ORBIT_NOTE = (
+    "<p>Periodic orbits of the piecewise-smooth loop by shooting, switching events located exactly; "
+    "stability from the Floquet multipliers (saltation matrices at contact and release). "
+    "The DF errors are those of the predicted cycle of the same stability nearest in amplitude.</p>"
+)

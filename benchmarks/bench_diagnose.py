@@ -65,7 +65,7 @@ class Case(NamedTuple):
 
 
 def _found(result):
-    keys = [cause["effect"] + (f"@{cause['side']}" if cause["side"] else "") for cause in result.causes]
+    keys = [cause.key for cause in result.causes]
     return tuple(sorted(keys))
 
 
@@ -79,10 +79,9 @@ def one_case(args):
     seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
     estimates = []
     for cause in result.causes:
-        key = cause["effect"] + (f"@{cause['side']}" if cause["side"] else "")
-        if key in record.effects:
-            parameter = cause["parameters"][cause["effect"]]
-            estimates.append((key, record.effects[key], parameter["value"], parameter["ci95"]))
+        if cause.key in record.effects:
+            parameter = cause.parameters[cause.effect]
+            estimates.append((cause.key, record.effects[cause.key], parameter.value, parameter.ci95))
     return Case(tuple(sorted(effects)), seed, _found(result), estimates, seconds, cpu,
                 min(result.extended.ahead_fit_percent.values()), any(" absorbs " in w for w in result.warnings),
                 result.structure)
@@ -167,10 +166,10 @@ def rigid_body_fit(measurements, inertia, window=slice(None)):
 
 
 def _causes_text(causes, sides=True):
-    return "; ".join(f"{c['effect']}" + (f" ({c['side']})" if sides and c["side"] else "")
-                     + f" {p['value']:.4g} {p['unit']} [{p['ci95'][0]:.4g}, {p['ci95'][1]:.4g}]"
-                     + ("" if c.get("determined", True) else " (not determined)")
-                     for c in causes for p in c["parameters"].values()) or "none"
+    return "; ".join(f"{c.effect}" + (f" ({c.side})" if sides and c.side else "")
+                     + f" {p.value:.4g} {p.unit} [{p.ci95[0]:.4g}, {p.ci95[1]:.4g}]"
+                     + ("" if c.determined else " (not determined)")
+                     for c in causes for p in c.parameters.values()) or "none"
 
 
 def kuka(angles):

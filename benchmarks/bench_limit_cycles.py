@@ -43,7 +43,7 @@ from backlash_df import load_rig, simulate
 from backlash_df.sweeps import design_map
 from backlash_df.loops import drive_loop
 from backlash_df.models import exact_torque, held_mode, mode_torque, static_torque
-from backlash_df.simulate import _initial_state, default_step
+from backlash_df.simulation import default_step, initial_state
 from switched import phase_plane_guards, solve_switched
 from timing import best_of
 
@@ -63,7 +63,7 @@ class Loop:
         self.law = self.model.law
         self.params = self.model.params
         self.a, self.b, self.c_x, self.c_v = part.A, part.b, part.c_x, part.c_v
-        self.z0 = _initial_state(part, None, KICK)
+        self.z0 = initial_state(part, None, KICK)
 
     def xv(self, z):
         return self.c_x @ z, self.c_v @ z
@@ -293,7 +293,7 @@ def design_map_sweep(path, kp, ti):
               f"agree {np.mean(predicted == simulated):6.1%} "
               f"(predicted only {np.sum(predicted & ~simulated)}, simulated only {np.sum(simulated & ~predicted)})")
     (ROOT / "build").mkdir(exist_ok=True)
-    dmap.plot()[0, 0].figure.savefig(ROOT / "build" / f"design_map_{path.stem}.png", dpi=100, bbox_inches="tight")
+    dmap.plot().figure.savefig(ROOT / "build" / f"design_map_{path.stem}.png", dpi=100, bbox_inches="tight")
 
 
 def main():

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from backlash_df.identify import load_measurements, measurements_from_arrays, write_measurements
-from backlash_df.identify.measurements import _read_columns
+from backlash_df.identify.measurements import read_columns
 
 import timing
 
@@ -63,7 +63,7 @@ def parse_genfromtxt(path):
 
 
 def parse_backlash_df(path):
-    return _read_columns(Path(path))
+    return read_columns(Path(path))
 
 
 def relative_error(parsed, exact):

@@ -35,7 +35,7 @@ import numpy as np
 
 from backlash_df import rig_from_dict
 from backlash_df.limit_cycles import default_ranges, predict_limit_cycles, verify_limit_cycles
-from backlash_df.simulate import simulated_limit_cycle
+from backlash_df.simulation import simulated_limit_cycle
 from backlash_df.sweeps import prediction_verdict
 from backlash_df.verdict import VERDICTS, Probe, judge_loop
 

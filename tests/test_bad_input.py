@@ -21,14 +21,14 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-import backlash_df.continuation
-import backlash_df.identify
-import backlash_df.limit_cycles
+import backlash_df.analysis
+import backlash_df.cli.diagnose
+import backlash_df.cli.sweeps
 import backlash_df.reproduce
-import backlash_df.sweeps
 from backlash_df.cli import main
-from backlash_df.report import Outputs
-from rig_texts import PLANT_TOML
+from backlash_df.cli.outputs import Outputs
+from backlash_df.identify.measurements import OPTIONAL_COLUMNS, REQUIRED_COLUMNS
+from conftest import DOCS, EXAMPLES, PLANT_TOML
 
 RIG = PLANT_TOML + """
 [controller]
@@ -59,13 +59,13 @@ def work(tmp_path, monkeypatch):
 @pytest.fixture
 def no_computation(monkeypatch):
     """Fail the test if a command gets as far as its heavy stage."""
-    monkeypatch.setattr(backlash_df.limit_cycles, "predict_limit_cycles", _never)
-    monkeypatch.setattr(backlash_df.identify, "diagnose", _never)
+    monkeypatch.setattr(backlash_df.analysis, "predict_limit_cycles", _never)
+    monkeypatch.setattr(backlash_df.cli.diagnose, "run_diagnosis", _never)
     monkeypatch.setattr(backlash_df.reproduce, "table1", _never)
     monkeypatch.setattr(backlash_df.reproduce, "compare_torques", _never)
     monkeypatch.setattr(backlash_df.reproduce, "figure2_maps", _never)
-    monkeypatch.setattr(backlash_df.sweeps, "design_map", _never)
-    monkeypatch.setattr(backlash_df.continuation, "continue_limit_cycles", _never)
+    monkeypatch.setattr(backlash_df.cli.sweeps, "design_map", _never)
+    monkeypatch.setattr(backlash_df.cli.sweeps, "continue_limit_cycles", _never)
 
 
 def rig_with(old, new):
@@ -320,6 +320,57 @@ def test_diagnose_refuses_bad_input(work, no_computation, csv_text, rig, words):
         (work / "rig.toml").write_text(rig)
     result = CliRunner().invoke(main, ["diagnose", data, "--rig", rig_file, "--json", "d.json", "--report", "d.html"])
     assert_refused(result, words, work)
+
+
+def _misspelled_rubber_record(folder):
+    """examples/diagnose_rubber.csv with ``load_torque`` spelt ``load_trq`` (issue 23), as data.csv."""
+    text = (EXAMPLES / "diagnose_rubber.csv").read_text()
+    assert text.startswith("time,motor_torque,motor_speed,load_speed,load_torque\n")
+    (folder / "data.csv").write_text(text.replace("load_torque", "load_trq", 1))
+    (folder / "rig.toml").write_text((EXAMPLES / "diagnose_rig.toml").read_text())
+
+
+NOTICE = "data.csv: load_trq: not a known column; did you mean load_torque?"
+
+
+def test_diagnose_strict_refuses_a_misspelled_column_in_one_line(work, no_computation):
+    _misspelled_rubber_record(work)
+    result = CliRunner().invoke(main, ["diagnose", "data.csv", "--rig", "rig.toml", "--strict", "--json", "d.json"])
+    assert_refused(result, [f"backlash-df: error: {NOTICE}"], work)
+
+
+def test_diagnose_names_a_misspelled_column_and_goes_on(work):
+    _misspelled_rubber_record(work)
+    result = CliRunner().invoke(main, ["diagnose", "data.csv", "--rig", "rig.toml", "--json", "d.json"])
+    assert result.exit_code == 0, result.output
+    assert f"note: {NOTICE}" in result.stderr.splitlines()
+    assert result.stdout.startswith("cause: ")  # the diagnosis ran
+    assert NOTICE in json.loads((work / "d.json").read_text())["warnings"]
+
+
+def test_diagnose_help_has_the_contract_table_of_columns():
+    """Each column of the contract page's CSV table in the help: its unit, side and whether it is required."""
+    page = (DOCS / "contract.md").read_text().split("## The measurement CSV", 1)[1].split("\n\n**", 1)[0]
+    contract = {}
+    for line in (line for line in page.splitlines() if line.startswith("| `")):
+        name, unit, side, required = [cell.strip().strip("`") for cell in line.strip("|").split("|")][:4]
+        contract[name] = (unit, side, required)
+    assert list(contract) == [*REQUIRED_COLUMNS, *OPTIONAL_COLUMNS]
+    result = CliRunner().invoke(main, ["diagnose", "--help"])
+    assert result.exit_code == 0
+    helped = {}
+    for line in result.output.splitlines():  # "  name:  unit[, side side][, required]; holds"
+        name, _, rest = line.strip().partition(": ")
+        if name in contract:
+            unit, *more = rest.split(";")[0].split(", ")
+            side = next((item.removesuffix(" side") for item in more if item.endswith(" side")), "")
+            helped[name] = (unit.strip(), side, "yes" if "required" in more else "no")
+    assert helped == contract
+    text = " ".join(result.output.split())
+    for words in ("gear_ratio n (torque times n, speed and angle divided by n)", "positive motor_torque drives the "
+                  "motor forward", "positive load_torque drives the load forward", "derivative of its angle",
+                  "did you mean load_torque?", "--strict"):
+        assert words in text, words
 
 
 MAP_CASES = {

@@ -3,7 +3,7 @@
 import pytest
 
 from backlash_df import RigError, load_rig, rig_from_dict
-from rig_texts import PLANT_TOML
+from conftest import PLANT_TOML
 
 PLANT = dict(motor_inertia=0.4, load_inertia=5.6, stiffness=5895.0, damping=3.0, half_gap=0.05)
 
@@ -145,7 +145,7 @@ def test_a_shaft_mode_no_drive_has_is_refused(changes, mode):
 
 def test_simulation_longer_than_the_step_budget_is_refused_before_allocating():
     from backlash_df import simulate
-    from backlash_df.simulate import MAX_STEPS
+    from backlash_df.simulation import MAX_STEPS
 
     rig = rig_from_dict({"plant": PLANT, "controller": {"kp": 30.0, "ti": 0.5}})
     with pytest.raises(ValueError, match=r"t_end = 10000 s at dt = 0\.0001 s is 1e\+08 steps, more than 2e\+07"):

@@ -20,7 +20,6 @@ of the cycling region, where a small error in the delay shows in the amplitude.
 
 import dataclasses
 import math
-from pathlib import Path
 
 import numba
 import numpy as np
@@ -28,9 +27,9 @@ import pytest
 
 from backlash_df import load_rig, simulate
 from backlash_df.models import PHASE_PLANE, held_mode, mode_torque
-from backlash_df.simulate import measure_limit_cycle
+from backlash_df.simulation import measure_limit_cycle
+from conftest import EXAMPLES
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
 def critical_rig():

@@ -7,7 +7,7 @@ import pytest
 from click.testing import CliRunner
 
 from backlash_df.cli import main
-from rig_texts import PLANT_TOML
+from conftest import PLANT_TOML
 
 RIG = PLANT_TOML
 
@@ -108,3 +108,35 @@ def test_help_lists_the_valid_models():
     text = " ".join(result.output.split())
     for name in ("dead-zone", "damped-dead-zone", "phase-plane", "rubber", "exact", "elasto-backlash"):
         assert name in text
+
+
+def _text_rows(output):
+    """The table rows of the df text as lists of numbers (after the title and the column names)."""
+    return [[float(cell) for cell in line.split()] for line in output.splitlines()[2:] if line.strip()]
+
+
+def test_rubber_header_names_beta_and_the_other_laws_have_none(tmp_path):
+    path = tmp_path / "rubber.toml"
+    path.write_text(RIG + "rubber_thickness = 0.02\n")
+    rubber = run("df", "--rig", path, "--model", "rubber", "--amplitude", "0.1", "--omega", "10")
+    plain = run("df", "--rig", path, "--model", "phase-plane", "--amplitude", "0.1", "--omega", "10")
+    assert rubber.exit_code == 0 and plain.exit_code == 0, rubber.output + plain.output
+    assert rubber.output.splitlines()[0] == ("describing function of rubber (k = 5895 N m/rad, c = 3 N m s/rad, "
+                                             "alpha = 0.05 rad, beta = 0.02 rad, bias = 0 rad)")
+    assert "beta" not in plain.output
+
+
+def test_phase_round_off_prints_as_zero_and_the_json_keeps_the_computed_value(rig, tmp_path):
+    """A static law (w = 0) has no phase: round-off below 1e-12 rad prints 0.0000, never -0.0000."""
+    out = tmp_path / "df.json"
+    result = run("df", "--rig", rig, "--model", "phase-plane", "--amplitude", "0.06,0.3,1e3", "--omega", "0,100",
+                 "--json", out)
+    assert result.exit_code == 0, result.output
+    points = json.loads(out.read_text())["points"]
+    rows = _text_rows(result.output)
+    assert "-0.0000" not in result.output
+    for point, row in zip(points, rows, strict=True):
+        if point["omega"] == 0.0:
+            assert abs(np.radians(point["phase_deg"])) <= 1e-12 and row[5] == 0.0
+        else:  # (23) leads: the phase prints as computed
+            assert row[5] == pytest.approx(point["phase_deg"], abs=5e-5) and row[5] > 0.5

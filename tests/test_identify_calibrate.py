@@ -9,7 +9,7 @@ import pytest
 from backlash_df import load_rig, rig_from_dict
 from backlash_df.identify import (calibrate, fit_percent, get_effect, load_measurements, measurements_from_arrays,
                                   predict, replay, synthesize)
-from backlash_df.identify.calibrate import (_Model, _parallel_jacobian, _robust_stderr, _Shooting,
+from backlash_df.identify.calibrate import (Shooting, TwoMassModel, cluster_robust_stderr, parallel_jacobian,
                                             integrated_displacement, nominal_values, segment_bounds,
                                             shaft_resolution)
 from backlash_df.identify.effects import smoothing_speeds
@@ -80,10 +80,10 @@ def test_shooting_jacobian_equals_column_by_column_differences():
     its own segment only); the prior's rows are the identity times their weight."""
     rig = _rig()
     record = synthesize(rig, {"torque_offset": 3.0}, seed=4, duration=0.6, encoder_counts=2**20)
-    model = _Model(record.measurements, rig)
+    model = TwoMassModel(record.measurements, rig)
     starts, stops = segment_bounds(30, 530, 100)
     measured = record.measurements.speeds[30:530]
-    shooting = _Shooting(record.measurements, starts, stops, residual_rms=0.3)
+    shooting = Shooting(record.measurements, starts, stops, residual_rms=0.3)
     values = nominal_values(rig) | _true_values(record)
 
     def residual(x):  # x: the offset (N m), then the corrections
@@ -92,7 +92,7 @@ def test_shooting_jacobian_equals_column_by_column_differences():
         return np.concatenate([data, shooting.penalty(x[1:])])
 
     x = np.concatenate([[2.5], np.random.default_rng(1).normal(size=shooting.size)])
-    jacobian = _parallel_jacobian(residual, 1, shooting, np.full(x.size, np.inf), workers=2)(x).toarray()
+    jacobian = parallel_jacobian(residual, 1, shooting, np.full(x.size, np.inf), workers=2)(x).toarray()
     f0 = residual(x)
     for i in range(x.size):
         step = 1e-6 * max(1.0, abs(x[i]))
@@ -220,7 +220,7 @@ def test_quasi_static_starts_tend_to_the_rigid_body_as_the_shaft_stiffens():
     for factor in (0.3, 1.0, 3.0, 10.0):
         plant = dataclasses.replace(rig.plant, stiffness=factor * rig.plant.stiffness,
                                     damping=factor * rig.plant.damping)
-        assert _Model(record, dataclasses.replace(rig, plant=plant)).quasi_static
+        assert TwoMassModel(record, dataclasses.replace(rig, plant=plant)).quasi_static
         two_mass = predict(record, dataclasses.replace(rig, plant=plant),
                            values | {"stiffness": plant.stiffness, "damping": plant.damping}).simulated
         gaps.append(float(np.sqrt(np.mean((two_mass - rigid) ** 2))))
@@ -235,7 +235,7 @@ def test_cluster_robust_standard_error_of_a_mean():
     groups, size = 40, 25
     residual = np.repeat(rng.normal(size=groups), size)
     clusters = np.repeat(np.arange(groups), size)
-    stderr, quantile = _robust_stderr(np.ones((residual.size, 1)), residual, clusters, np.ones(1))
+    stderr, quantile = cluster_robust_stderr(np.ones((residual.size, 1)), residual, clusters, np.ones(1))
     sums = residual.reshape(groups, size).sum(axis=1)
     assert stderr[0] == pytest.approx(np.sqrt(groups / (groups - 1) * np.sum(sums**2)) / residual.size)
     assert quantile == pytest.approx(2.0227, abs=1e-3)  # Student t, 39 dof

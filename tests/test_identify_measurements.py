@@ -3,7 +3,6 @@
 import codecs
 import importlib.util
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,7 +10,8 @@ import pytest
 from backlash_df.config import Plant, load_rig
 from backlash_df.identify import load_measurements, measurements_from_arrays, write_measurements
 from backlash_df.identify.measurements import MAX_DECIMATED_INTERVAL, MIN_SAMPLES
-from backlash_df.simulate import simulate_two_mass
+from backlash_df.simulation import simulate_two_mass
+from conftest import EXAMPLES, KUKA
 
 N = 400
 DT = 1e-3
@@ -282,17 +282,74 @@ def test_decimation_keeps_the_side_and_ratio():
     assert record.motor_torque[1] == pytest.approx(columns["motor_torque"][2:4].mean() * 4.0, rel=1e-14)
 
 
-def test_extra_columns_are_ignored_even_text(tmp_path):
+def test_extra_columns_are_not_read_even_text_and_are_named_in_a_note(tmp_path):
     columns = _columns()
     path = _write(tmp_path / "extra.csv", columns | {"note": np.full(N, "ok", dtype=object)})
     loaded = load_measurements(path)
     assert list(loaded.columns()) == list(columns)
     np.testing.assert_array_equal(loaded.motor_angle, columns["motor_angle"])
+    known = "time, motor_torque, motor_speed, load_speed, load_torque, motor_angle, load_angle"
+    assert loaded.notes == (f"{path}: note: not a known column; known: {known}",)
+
+
+# ---- unknown columns: one notice line with the closest known name; strict=True refuses with that line
+
+
+def _misspelled(tmp_path, old, new):
+    """examples/diagnose_rubber.csv with one header name changed."""
+    text = (EXAMPLES / "diagnose_rubber.csv").read_text()
+    header, body = text.split("\n", 1)
+    assert old in header.split(",")
+    path = tmp_path / "misspelled.csv"
+    path.write_text(",".join(new if name == old else name for name in header.split(",")) + "\n" + body)
+    return path
+
+
+def test_a_misspelled_column_is_named_with_the_closest_known_name(tmp_path):
+    path = _misspelled(tmp_path, "load_torque", "load_trq")
+    right = load_measurements(EXAMPLES / "diagnose_rubber.csv")
+    loaded = load_measurements(path)
+    line = f"{path}: load_trq: not a known column; did you mean load_torque?"
+    assert right.notes == () and loaded.notes == (line,)
+    assert loaded.load_torque is None and right.load_torque is not None  # the column is not read
+    np.testing.assert_array_equal(loaded.load_speed, right.load_speed)
+    with pytest.raises(ValueError) as info:
+        load_measurements(path, strict=True)
+    assert str(info.value) == line
+    assert load_measurements(EXAMPLES / "diagnose_rubber.csv", strict=True).notes == ()
+
+
+def test_several_unknown_columns_are_one_line(tmp_path):
+    # case ignored in the match; a name matching nothing gets the known list; an unnamed column is numbered
+    columns = _columns()
+    columns = {"Load_Speed" if name == "load_speed" else name: values for name, values in columns.items()}
+    path = _write(tmp_path / "odd.csv", columns | {"temperature": np.full(N, 20.0), "": np.zeros(N)})
+    (note,) = load_measurements(path).notes
+    assert note == (f"{path}: not known columns: Load_Speed (did you mean load_speed?), temperature, column 9 "
+                    "(no name); known: time, motor_torque, motor_speed, load_speed, load_torque, motor_angle, "
+                    "load_angle")
+    with pytest.raises(ValueError) as info:
+        load_measurements(path, strict=True)
+    assert str(info.value) == note
+
+
+def test_a_known_name_present_is_not_suggested(tmp_path):
+    path = _write(tmp_path / "both.csv", _columns() | {"load_torq": np.zeros(N)})
+    assert load_measurements(path).notes[0].endswith("load_torq: not a known column; known: time, motor_torque, "
+                                                     "motor_speed, load_speed, load_torque, motor_angle, load_angle")
+
+
+def test_a_misspelled_required_column_is_named_in_the_refusal(tmp_path):
+    path = _misspelled(tmp_path, "motor_speed", "motor_sped")
+    with pytest.raises(ValueError) as info:
+        load_measurements(path)
+    assert str(info.value) == (f"{path}: missing column motor_speed; the header must name time, motor_torque, "
+                               "motor_speed (optional: load_speed, load_torque, motor_angle, load_angle); "
+                               "motor_sped: not a known column; did you mean motor_speed?")
 
 
 # ---- the real record: KUKA KR300 axis 1 (examples/kuka)
 
-KUKA = Path(__file__).resolve().parent.parent / "examples" / "kuka"
 
 
 def _converter():
@@ -336,7 +393,7 @@ CLI_CASES = {
 
 @pytest.mark.parametrize("case", list(CLI_CASES))
 def test_diagnose_command_refuses_bad_records(tmp_path, monkeypatch, case):
-    import backlash_df.identify
+    import backlash_df.cli.diagnose
     from click.testing import CliRunner
 
     from backlash_df.cli import main
@@ -344,7 +401,7 @@ def test_diagnose_command_refuses_bad_records(tmp_path, monkeypatch, case):
     def never(*args, **kwargs):
         raise AssertionError("diagnosis reached although the record is bad")
 
-    monkeypatch.setattr(backlash_df.identify, "diagnose", never)
+    monkeypatch.setattr(backlash_df.cli.diagnose, "run_diagnosis", never)
     change, words = CLI_CASES[case]
     data = _write(tmp_path / "data.csv", change(_columns()))
     result = CliRunner().invoke(main, ["diagnose", str(data), "--rig", str(KUKA / "kuka_rig.toml")])

@@ -115,7 +115,7 @@ def load_rig_example():
 
 def test_simulation_is_converged_under_step_halving(load_rig_example):
     rig = load_rig_example
-    from backlash_df.simulate import default_step
+    from backlash_df.simulation import default_step
 
     model = rig.make_model("phase-plane")
     dt = default_step(drive_loop(rig).linear_part(), model)

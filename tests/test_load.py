@@ -2,17 +2,17 @@
 
 import dataclasses
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import backlash_df as bd
-from backlash_df.describing import _evaluate
-from backlash_df.loaded import dc_bias, load_limit, predict_loaded
-from backlash_df.simulate import _upward_crossings
+from backlash_df.describing import dual_input_describing_function
+from backlash_df.describing import dc_bias
+from backlash_df.loaded import load_limit, predict_loaded
+from backlash_df.simulation import upward_crossings
+from conftest import EXAMPLES
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 RIG = bd.load_rig(EXAMPLES / "load_feedback.toml")
 LOAD = 100.0  # N m
 
@@ -32,7 +32,7 @@ def test_bias_solves_the_dc_balance_and_flips_with_the_load():
     model = RIG.make_model("phase-plane")
     amplitude, omega = np.geomspace(0.01, 1.0, 7)[:, None], np.array([[20.0, 98.0, 300.0]])
     bias = dc_bias(model, amplitude, omega, LOAD)
-    _, mean = _evaluate(model, amplitude, omega, bias, "auto")
+    _, mean = dual_input_describing_function(model, amplitude, omega, bias)
     np.testing.assert_allclose(mean, -LOAD, rtol=1e-9)
     # the laws are odd: the opposite load mirrors the bias
     np.testing.assert_allclose(dc_bias(model, amplitude, omega, -LOAD), -bias, rtol=1e-9, atol=1e-13)
@@ -67,7 +67,7 @@ def test_biased_cycle_agrees_with_simulation(loaded_cycle):
 def test_mean_shaft_torque_carries_the_load_exactly(loaded_cycle):
     _, measured, result = loaded_cycle
     tail = result.time > 0.5 * result.time[-1]
-    edges = _upward_crossings(result.time[tail], result.theta_d[tail] - measured.bias)
+    edges = upward_crossings(result.time[tail], result.theta_d[tail] - measured.bias)
     window = (result.time >= edges[0]) & (result.time <= edges[-1])
     mean = np.trapezoid(result.torque[window], result.time[window]) / (result.time[window][-1] - result.time[window][0])
     assert mean == pytest.approx(-LOAD, rel=2e-3)  # the window ends within one sample of a period

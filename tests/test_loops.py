@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from backlash_df import Controller, DriveLoop, Plant
-from backlash_df.loops import frequency_response_of, lti_linear_part
+from backlash_df.loops import frequency_response_of
+from backlash_df.system import lti_linear_part
 
 PLANT = Plant(motor_inertia=0.4, load_inertia=5.6, stiffness=5895.0, half_gap=0.05, damping=3.0)
 OMEGA = np.array([0.07, 0.9, 3.3, 17.0, 125.7, 900.0])

@@ -2,12 +2,13 @@
 
 import json
 import math
+import re
 
 import pytest
 from click.testing import CliRunner
 
 from backlash_df.cli import main
-from rig_texts import PLANT_TOML
+from conftest import EXAMPLES, PLANT_TOML
 
 GOOD = PLANT_TOML + """
 [controller]
@@ -90,3 +91,107 @@ def test_exact_adds_the_orbits_next_to_the_df(tmp_path):
     assert abs(orbit["period"] * orbit["omega"] - 2.0 * math.pi) < 1e-9
     header = [line for line in result.output.splitlines() if line.startswith("model") and "A exact (rad)" in line]
     assert len(header) == 1
+
+
+# ---- the text a person reads, on the bundled examples (issue 23): columns line up, none is empty in every
+# ---- row, round-off prints as 0; the JSON of the same run is the reference
+
+
+@pytest.fixture(scope="module")
+def predicted(tmp_path_factory):
+    """``predict EXAMPLE --exact --json``: the standard output and the JSON, one run per example."""
+    runs = {}
+
+    def run_example(name):
+        if name not in runs:
+            out = tmp_path_factory.mktemp(name) / "out.json"
+            result = CliRunner().invoke(main, ["predict", str(EXAMPLES / f"{name}.toml"), "--exact", "--json",
+                                               str(out)])
+            assert result.exit_code == 0, result.output
+            runs[name] = result.stdout, json.loads(out.read_text())
+        return runs[name]
+    return run_example
+
+
+def text_tables(text):
+    """The tables of the text as ``{first header cell after model: (header, rows as dicts)}``.
+
+    A table is a block starting ``model  ``; a column starts where its header cell
+    starts, and every cell must start there too, two blanks after the cell before it.
+    """
+    tables = {}
+    for block in text.split("\n\n"):
+        lines = block.splitlines()
+        if not lines or not lines[0].startswith("model  "):
+            continue
+        found = list(re.finditer(r"\S+(?: \S+)*", lines[0]))
+        header, starts = [match.group() for match in found], [match.start() for match in found]
+        rows = []
+        for line in lines[1:]:
+            for start in starts[1:]:
+                assert len(line) <= start - 2 or line[start - 2:start] == "  ", (start, line)
+            cells = [line[start:end].rstrip() for start, end in zip(starts, [*starts[1:], None])]
+            assert not any(cell.startswith(" ") for cell in cells), line
+            rows.append(dict(zip(header, cells)))
+        tables[header[1]] = header, rows
+    return tables
+
+
+def assert_no_empty_column(tables):
+    for header, rows in tables.values():
+        for name in header:
+            assert any(row[name] for row in rows), (name, header)
+
+
+def test_text_of_a_cycle_without_near_miss_or_hunting_disturbance(predicted):
+    text, data = predicted("load_feedback")
+    tables = text_tables(text)
+    assert_no_empty_column(tables)
+    (entry,) = data["models"]
+    assert entry["near_misses"] == [] and entry["disturbance_to_start"] is None
+    header, rows = tables["A pred (rad)"]
+    assert header == ["model", "A pred (rad)", "w pred (rad/s)", "Loeb", "A sim (rad)", "w sim (rad/s)", "A error",
+                      "w error"]  # no near miss, no load: no closest miss, no bias
+    (cycle,) = data["limit_cycles"]
+    assert rows == [{"model": "phase-plane", "A pred (rad)": f"{cycle['amplitude']:.5g}",
+                     "w pred (rad/s)": f"{cycle['omega']:.5g}", "Loeb": "stable",
+                     "A sim (rad)": f"{cycle['simulated']['amplitude']:.5g}",
+                     "w sim (rad/s)": f"{cycle['simulated']['omega']:.5g}",
+                     "A error": f"{100 * (cycle['amplitude'] / cycle['simulated']['amplitude'] - 1):+.2f} %",
+                     "w error": f"{100 * (cycle['omega'] / cycle['simulated']['omega'] - 1):+.2f} %"}]
+    assert tables["verdict"][0] == ["model", "verdict", "contact loop (k + c s)", "open loop (T = 0)"]
+    header, (row,) = tables["A exact (rad)"]
+    (orbit,) = entry["exact_orbits"]
+    # without load the orbit is symmetric: its computed mean is round-off, printed 0, kept in the JSON
+    assert abs(orbit["bias"]) <= 1e-12 * orbit["amplitude"] and row["bias (rad)"] == "0"
+    assert row["A exact (rad)"] == f"{orbit['amplitude']:.6g}"
+
+
+def test_text_without_a_cycle_lines_up(predicted):
+    text, data = predicted("motor_feedback")
+    tables = text_tables(text)
+    assert_no_empty_column(tables)
+    (entry,) = data["models"]
+    assert data["limit_cycles"] == [] and entry["exact_orbits"] == [] and entry["verdict"] == "no oscillation"
+    assert tables["A pred (rad)"] == (["model", "A pred (rad)", "A sim (rad)"],
+                                      [{"model": "phase-plane", "A pred (rad)": "none",
+                                        "A sim (rad)": "no limit cycle"}])
+    assert "A exact (rad)" not in tables  # no orbit: no table, the sentence says why
+    assert "(exact orbits: shooting found no periodic orbit" in text
+
+
+def test_text_under_load_shows_the_bias_of_the_df_and_of_the_orbits(predicted):
+    text, data = predicted("loaded_feedback")
+    tables = text_tables(text)
+    assert_no_empty_column(tables)
+    header, rows = tables["A pred (rad)"]
+    assert header[:4] == ["model", "A pred (rad)", "w pred (rad/s)", "bias pred (rad)"]
+    cycles = data["limit_cycles"]
+    assert [row["bias pred (rad)"] for row in rows] == [f"{cycle['bias']:.4g}" for cycle in cycles]
+    assert [row["A sim (rad)"] for row in rows] == [
+        "" if cycle["simulated"] is None else f"{cycle['simulated']['amplitude']:.5g}" for cycle in cycles]
+    assert all(cycle["bias"] < -0.01 for cycle in cycles)  # the load of 100 N m pushes theta_d to the left flank
+    header, rows = tables["A exact (rad)"]
+    orbits = data["models"][0]["exact_orbits"]
+    assert [row["bias (rad)"] for row in rows] == [f"{orbit['bias']:.4g}" for orbit in orbits]
+    assert all(orbit["bias"] < -0.01 for orbit in orbits)

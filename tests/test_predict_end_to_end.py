@@ -9,7 +9,6 @@ Every comparison prints its errors (``pytest -s``), inside tolerance or not.
 """
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,9 +16,9 @@ import pytest
 from backlash_df import load_rig, simulated_limit_cycle
 from backlash_df.limit_cycles import predict_limit_cycles, verify_limit_cycles
 from backlash_df.loops import drive_loop
-from backlash_df.simulate import default_step
+from backlash_df.simulation import default_step
+from conftest import EXAMPLES
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 AMPLITUDE_TOL, OMEGA_TOL = 0.15, 0.05
 FIRST_HARMONIC_SHARE = 0.95  # DF hypothesis: theta_d nearly sinusoidal, first harmonic >= 95 % of the peak
 

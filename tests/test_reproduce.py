@@ -124,7 +124,7 @@ def test_table_one_plot_draws_the_table(comparisons):
     import matplotlib.pyplot as plt
 
     table = TableOne((comparisons[("one-sided", DT)], comparisons[("crossing", DT)]))
-    axes = table.plot()
+    axes = table.plot().axes
     try:
         assert len(axes) == 2
         for ax, key in zip(axes, ("error_percent", "rms_error_percent")):

@@ -11,7 +11,7 @@ from scipy.integrate import solve_ivp
 
 from backlash_df import make_model, theta_star
 from backlash_df.config import Plant
-from backlash_df.simulate import simulate_two_mass
+from backlash_df.simulation import simulate_two_mass
 
 K = 5895.0
 JM, JL = 0.4, 5.6
@@ -221,11 +221,11 @@ def loop_reference(rig, law, kick, t_end, time):
     """The same loop by solve_ivp (DOP853, tight tolerances) on the memoryless law, or (14) for the exact model."""
     from backlash_df.loops import drive_loop
     from backlash_df.models import exact_torque, static_torque
-    from backlash_df.simulate import _initial_state
+    from backlash_df.simulation import initial_state
 
     part, model = drive_loop(rig).linear_part(), rig.make_model(law)
     k, c, alpha, beta = model.params
-    z0 = _initial_state(part, None, kick)
+    z0 = initial_state(part, None, kick)
 
     def rhs(t, z):
         x, v = part.c_x @ z[:-1], part.c_v @ z[:-1]
@@ -281,7 +281,8 @@ def test_coulomb_and_breakaway_friction_against_solve_ivp():
     """A load coasting in the gap (no shaft torque) under Coulomb plus breakaway friction,
     ``J dw/dt = -(F_c + F_s exp(-(w/w_s)^2)) tanh(w/eps)``, against solve_ivp of that equation;
     the breakaway part slows the last stretch to rest, where exp(-(w/w_s)^2) is near 1."""
-    from backlash_df.simulate import LinearPart, simulate_linear
+    from backlash_df.simulation import simulate_linear
+    from backlash_df.system import LinearPart
 
     coulomb, breakaway, w_s, eps = 2.0, 3.0, 0.2, 0.01
     system = LinearPart(A=np.zeros((3, 3)), b=np.array([0.0, -1.0 / JM, 1.0 / JL]), E=np.zeros((3, 0)),

@@ -49,7 +49,7 @@ is one segment over the whole window.
 per cent off), the offset ``theta_d0`` and the effect parameters by bounded
 nonlinear least squares (:func:`scipy.optimize.least_squares`, trust region
 reflective) of the k-step prediction error on an estimation window.  It is a
-multiple-shooting fit (:class:`_Shooting`) of the two-mass model: each
+multiple-shooting fit (:class:`Shooting`) of the two-mass model: each
 segment's initial speeds are corrected too, with the data's state as a
 measurement of them, so that the noise of that state does not bias the values
 (errors in the variables), and, where the twist is integrated from the speeds,
@@ -71,7 +71,9 @@ from concurrent.futures import ThreadPoolExecutor
 import numba
 import numpy as np
 
+from .._json import json_ready
 from ..models import LAW_CODES, PHASE_PLANE, RUBBER, held_mode, mode_torque
+from ..plotting import ResultPlot, axes_or_new, legend_beside
 from .effects import get_effect, smoothing_speeds
 
 __all__ = [
@@ -96,6 +98,11 @@ __all__ = [
     "shaft_resolution",
     "RESOLVED_SNR",
     "integrated_displacement",
+    "TwoMassModel",
+    "RigidBodyModel",
+    "Shooting",
+    "parallel_jacobian",
+    "cluster_robust_stderr",
 ]
 
 #: Plant values of the rig file that calibration adjusts.
@@ -349,20 +356,33 @@ class Replay:
         window = slice(start, stop)
         return {name: float(np.sqrt(np.mean(self.residual[window, j] ** 2))) for j, name in enumerate(self.names)}
 
-    def plot(self, axes=None, label=None):
-        """Measured against simulated speeds; returns the axes (one per speed)."""
-        import matplotlib.pyplot as plt
+    def __repr__(self):
+        fits = ", ".join(f"{name} {value:.1f} %" for name, value in self.fit_percent().items())
+        return f"<Replay {self.mode}: {self.time.size} samples, fit {fits}>"
 
-        if axes is None:
-            _, axes = plt.subplots(len(self.names), 1, sharex=True, figsize=(8, 2.2 * len(self.names)), squeeze=False)
-            axes = axes[:, 0]
+    def to_dict(self):
+        """JSON-ready: mode, fit percentages, and the simulated and measured speeds (s, rad/s)."""
+        return json_ready({"mode": self.mode, "names": list(self.names), "fit_percent": self.fit_percent(),
+                           "time": self.time, "simulated": self.simulated, "measured": self.measured,
+                           "theta_d": self.theta_d, "torque": self.torque})
+
+    def plot(self, ax=None, label=None):
+        """Measured against simulated speeds, one panel per speed.
+
+        Returns
+        -------
+        ResultPlot
+            One panel per speed; the legend beside the first.
+        """
+        figure, axes = axes_or_new(ax, (len(self.names), 1), sharex=True, figsize=(9.5, 2.2 * len(self.names)),
+                                   layout="constrained")
         for j, name in enumerate(self.names):
             axes[j].plot(self.time, self.measured[:, j], color="0.6", lw=1.0, label="measured")
             axes[j].plot(self.time, self.simulated[:, j], lw=1.0, label=label or self.mode)
             axes[j].set_ylabel(f"{name} (rad/s)")
-            axes[j].legend(loc="upper right", fontsize="small")
+        legend_beside(axes[0])
         axes[-1].set_xlabel("time (s)")
-        return axes
+        return ResultPlot(figure, axes)
 
 
 def nominal_values(rig):
@@ -483,8 +503,27 @@ def segment_bounds(start, stop, horizon):
     return starts, np.append(starts[1:], stop)
 
 
-class _Model:
-    """The two-mass model of a record, ready to predict any window with any values (the kernel's inputs cached)."""
+class TwoMassModel:
+    """The two-mass model of a record, ready to predict any window with any values (the kernel's inputs cached).
+
+    :func:`predict` and :func:`calibrate` build one per record; it is public so that
+    a test can run the very model a fit runs (:meth:`run`).
+
+    Parameters
+    ----------
+    measurements : Measurements
+        The record.
+    rig : Rig
+        Plant and torque law.
+
+    Attributes
+    ----------
+    quasi_static : bool
+        Segments start on the rigid body's state (module docs): no angle columns and the
+        shaft's mode not resolved (:func:`shaft_resolution`).
+    drifting : bool
+        The twist is integrated from both speeds, its drift fitted (:class:`Shooting`).
+    """
 
     structure = "two_mass"
 
@@ -499,7 +538,7 @@ class _Model:
         self.twist_measured = getattr(measurements, "twist", None) is not None
         #: segments start on the rigid body's state (module docs): no angles, the shaft's mode not resolved
         self.quasi_static = not self.twist_measured and not shaft_resolution(measurements, rig).resolved
-        #: the twist integrated from both speeds, whose drift the k-step fits correct (:class:`_Shooting`)
+        #: the twist integrated from both speeds, whose drift the k-step fits correct (:class:`Shooting`)
         self.drifting = not self.twist_measured and not self.quasi_static and measurements.load_speed is not None
 
     def motor_torque(self, delay):
@@ -509,7 +548,7 @@ class _Model:
 
     def run(self, values, starts, stops, corrections=None):
         """Simulate segments from the data's states (plus ``corrections``, shape (segments, 3), the
-        multiple-shooting corrections of :class:`_Shooting`); (states, torque) on the whole record's
+        multiple-shooting corrections of :class:`Shooting`); (states, torque) on the whole record's
         grid (rows outside the segments are zero)."""
         p = np.array([float(values[name]) for name in MODEL_PARAMETERS] + [self.measurements.dt])
         p[5] = min(p[5], 2.0 * p[4])
@@ -553,9 +592,11 @@ class _Model:
         return np.column_stack([twist, w, w])
 
 
-class _RigidModel(_Model):
-    """The rigid-body model of a record (module docs): the same interface as :class:`_Model`, whose
-    states it returns as ``(0, w, w)`` (no twist, one speed for both measured speeds)."""
+class RigidBodyModel(TwoMassModel):
+    """The rigid-body model of a record (module docs): the same interface and parameters as
+    :class:`TwoMassModel`, whose states it returns as ``(0, w, w)`` (no twist, one speed for both
+    measured speeds, the momentum-weighted speed ``(J_m w_m + J_l w_l) / (J_m + J_l)`` of the data at a
+    segment's start)."""
 
     structure = "rigid_body"
 
@@ -566,7 +607,7 @@ class _RigidModel(_Model):
                                            * self.speeds[:, -1]) / (plant.motor_inertia + plant.load_inertia))
 
     def run(self, values, starts, stops, corrections=None):
-        """Simulate segments from the data's momentum-weighted speed; (states, torque) as :meth:`_Model.run`
+        """Simulate segments from the data's momentum-weighted speed; (states, torque) as :meth:`TwoMassModel.run`
         (the shaft torque is zero: the rigid body has no shaft)."""
         p = np.array([float(values["inertia"])] + [
             float(values[f"{name}_motor"] + values[f"{name}_load"])
@@ -589,10 +630,10 @@ def _friction_of(w, viscous, coulomb, breakaway, model):
 
 
 def _model_of(measurements, rig, structure):
-    """The :class:`_Model` (``two_mass``) or :class:`_RigidModel` (``rigid_body``) of a record."""
+    """The :class:`TwoMassModel` (``two_mass``) or :class:`RigidBodyModel` (``rigid_body``) of a record."""
     if structure not in STRUCTURES:
         raise ValueError(f"unknown model structure {structure!r}; one of {', '.join(STRUCTURES)}")
-    return _RigidModel(measurements, rig) if structure == "rigid_body" else _Model(measurements, rig)
+    return RigidBodyModel(measurements, rig) if structure == "rigid_body" else TwoMassModel(measurements, rig)
 
 
 def _horizon_samples(measurements, horizon):
@@ -695,7 +736,7 @@ class Calibration:
     success : bool
     message : str
     shooting_segments : int
-        Segments whose initial speeds were fitted too (multiple shooting, :class:`_Shooting`; 0: none).
+        Segments whose initial speeds were fitted too (multiple shooting, :class:`Shooting`; 0: none).
     structure : str
         ``two_mass`` or ``rigid_body`` (module docs).
     """
@@ -751,10 +792,20 @@ class Calibration:
         return (f"<Calibration {' + '.join(self.effects) or 'none'}: RSS {self.rss:.4g}, "
                 f"BIC {self.bic:.6g}, {self.n_free} parameters>")
 
+    def to_dict(self):
+        """JSON-ready: effects, parameters (:meth:`FitParameter.to_dict`) and the fit statistics."""
+        return json_ready({
+            "effects": list(self.effects),
+            "parameters": {name: parameter.to_dict() for name, parameter in self.parameters.items()},
+            "window": list(self.window), "horizon": self.horizon, "n_residuals": self.n_residuals,
+            "n_clusters": self.n_clusters, "rss": self.rss, "aic": self.aic, "bic": self.bic, "nfev": self.nfev,
+            "success": self.success, "message": self.message, "shooting_segments": self.shooting_segments,
+        })
+
 
 def _free_parameters(model, effects, values0, window, free_run):
-    """(name, start, lower, upper, scale, nominal, unit) of the fitted parameters of ``model`` (:class:`_Model`
-    or :class:`_RigidModel`).
+    """(name, start, lower, upper, scale, nominal, unit) of the fitted parameters of ``model`` (:class:`TwoMassModel`
+    or :class:`RigidBodyModel`).
 
     ``nominal`` is the rig file's value (plant), the null value (effects) or the
     data's value (initial speeds of a free run, fitted only then).
@@ -829,8 +880,28 @@ def theta_d0_range(measurements, rig):
     return (0.0 if twist is None else -float(np.mean(twist))), reach
 
 
-def _robust_stderr(jacobian, residual, clusters, scales):
-    """Cluster-robust standard errors (sandwich over segments) and the t quantile of G - 1 dof."""
+def cluster_robust_stderr(jacobian, residual, clusters, scales):
+    """Cluster-robust standard errors (sandwich over segments) and the t quantile of G - 1 dof.
+
+    Parameters
+    ----------
+    jacobian : ndarray, shape (n, p)
+        Jacobian of the (scaled) residual in the scaled parameters.
+    residual : ndarray, shape (n,)
+        The residual at the solution.
+    clusters : ndarray of int, shape (n,)
+        Cluster (segment) of each row, ``0 .. G - 1``.
+    scales : ndarray, shape (p,)
+        Parameter scales: the errors are returned in the parameters' units.
+
+    Returns
+    -------
+    stderr : ndarray, shape (p,)
+        ``sqrt(diag(B M B))`` times ``scales``, ``B = (J^T J)^+`` and ``M = G/(G-1) sum_g s_g s_g^T``
+        with ``s_g`` the sum of ``J_i r_i`` over the cluster's rows.
+    quantile : float
+        The 97.5 % quantile of Student's t with ``G - 1`` degrees of freedom.
+    """
     from scipy.stats import t as student
 
     bread = np.linalg.pinv(jacobian.T @ jacobian)
@@ -974,7 +1045,7 @@ def refine(measurements, rig, calibration, workers=1, max_nfev=None, fixed=()):
     return dataclasses.replace(result, parameters=parameters)
 
 
-class _Shooting:
+class Shooting:
     """Multiple shooting: corrections of the k-step segments' initial speeds (and of the integrated twist's
     drift), fitted with the model.
 
@@ -990,7 +1061,7 @@ class _Shooting:
     only, so the Jacobian columns of one speed across all segments cost one
     evaluation.
 
-    With ``drift`` (the twist integrated from the speeds, :attr:`_Model.drifting`)
+    With ``drift`` (the twist integrated from the speeds, :attr:`TwoMassModel.drifting`)
     the twist at each segment's start is corrected too, as a random walk: the
     integral of the speeds' white noise, whose step over a segment of ``k``
     samples has the standard deviation ``sigma_rw = dt sqrt(k (sigma_m^2 +
@@ -1000,6 +1071,17 @@ class _Shooting:
     The fitted drift is kept in the values (``twist_drift``: the segments' first
     samples and the drift there), so that a prediction beyond the window (the
     validation part) starts from its last value.
+
+    Parameters
+    ----------
+    measurements : Measurements
+        The record (its speeds' noise sets the prior's weights).
+    starts, stops : ndarray of int
+        The segments' first and one-past-last samples (:func:`segment_bounds`).
+    residual_rms : float
+        RMS of the data's scaled residual without corrections (the prior rows' scale).
+    drift : bool
+        Correct the integrated twist's drift too (random walk).
     """
 
     def __init__(self, measurements, starts, stops, residual_rms, drift=False):
@@ -1059,7 +1141,7 @@ def _fit(model, effects, window, values0, horizon, workers, max_nfev, fixed=()):
     """One bounded least-squares fit of the prediction error over ``window``; a :class:`Calibration`.
 
     A k-step fit of the two-mass model corrects every segment's initial speeds
-    (:class:`_Shooting`), and without angle columns the integrated twist's drift,
+    (:class:`Shooting`), and without angle columns the integrated twist's drift,
     from the solution without corrections; the corrections are nuisance
     parameters, not reported, but their uncertainty is in every reported interval
     (the sandwich is over all fitted values).  Quasi-static starts (a shaft the
@@ -1096,24 +1178,24 @@ def _fit(model, effects, window, values0, horizon, workers, max_nfev, fixed=()):
         x0 = np.clip(x0 + _MIN_START_NORM, lower, upper)
     # from the data's states first; from that solution the corrections converge in a few steps
     solution = least_squares(residual, x0, bounds=(lower, upper),
-                             jac=_parallel_jacobian(residual, g, None, upper, workers), method="trf", max_nfev=max_nfev)
+                             jac=parallel_jacobian(residual, g, None, upper, workers), method="trf", max_nfev=max_nfev)
     nfev = int(solution.nfev) + int(solution.njev or 0) * g
     jacobian = solution.jac
     blocks = segment_bounds(start, stop, k or _horizon_samples(measurements, DEFAULT_HORIZON))
     clusters = np.tile(np.repeat(np.arange(blocks[0].size), blocks[1] - blocks[0]), measured.shape[1])
     if k is not None and model.structure == "two_mass" and not model.quasi_static:
-        shooting = _Shooting(measurements, starts, stops, math.sqrt(float(np.mean(solution.fun**2))), model.drifting)
+        shooting = Shooting(measurements, starts, stops, math.sqrt(float(np.mean(solution.fun**2))), model.drifting)
         free = np.full(shooting.size, np.inf)
         scales = np.concatenate([scales, shooting.scale])
         upper = np.concatenate([upper, free])
         solution = least_squares(residual, np.concatenate([solution.x, np.zeros(shooting.size)]),
-                                 jac=_parallel_jacobian(residual, g, shooting, upper, workers),
+                                 jac=parallel_jacobian(residual, g, shooting, upper, workers),
                                  bounds=(np.concatenate([lower, -free]), upper), method="trf", x_scale="jac",
                                  max_nfev=max_nfev, tr_solver="lsmr")
         nfev += int(solution.nfev) + int(solution.njev or 0) * (g + len(shooting.states))
         jacobian = solution.jac.toarray()
         clusters = np.concatenate([clusters, shooting.segment_of_correction])  # a prior row per correction
-    stderr, quantile = _robust_stderr(jacobian, solution.fun, clusters, scales)
+    stderr, quantile = cluster_robust_stderr(jacobian, solution.fun, clusters, scales)
     parameters = {
         name: FitParameter(name, float(value), float(err), float(row[5]), float(row[2]), float(row[3]), row[6],
                            quantile)
@@ -1139,14 +1221,34 @@ def information_criterion(rss, n, n_free, kind="aic"):
     return float(n * math.log(max(rss, 1e-300) / n) + penalty)
 
 
-def _parallel_jacobian(residual, n_global, shooting, upper, workers, rel_step=1e-6):
+def parallel_jacobian(residual, n_global, shooting, upper, workers, rel_step=1e-6):
     """Forward-difference Jacobian whose columns run in ``workers`` threads.
 
     The first ``n_global`` columns one evaluation each; with ``shooting``
-    (:class:`_Shooting`), each speed's corrections of all segments in one
+    (:class:`Shooting`), each speed's corrections of all segments in one
     evaluation (a correction moves its own segment's rows only), returned as a
     sparse matrix with the prior's rows exact (the weight times
-    :meth:`_Shooting.prior_matrix`).
+    :meth:`Shooting.prior_matrix`).
+
+    Parameters
+    ----------
+    residual : callable
+        ``residual(x)``: the data rows, then (with ``shooting``) the prior's rows.
+    n_global : int
+        Number of leading entries of ``x`` that are model values (the rest: the corrections).
+    shooting : Shooting or None
+        The corrections' layout.
+    upper : ndarray
+        Upper bounds of ``x``: a step that would cross one is taken backwards.
+    workers : int
+        Threads.
+    rel_step : float
+        Relative forward-difference step.
+
+    Returns
+    -------
+    callable
+        ``x -> J``, an ndarray, or a sparse matrix with ``shooting``.
     """
 
     groups = [np.array([i]) for i in range(n_global)]

@@ -60,26 +60,33 @@ the motor speed rises above its noise, as on a stiff robot gear), the causes
 are named from the rigid-body stage, and the two-mass stage, which then starts
 its segments on the rigid body's state where no angles are recorded, is the
 cross-check: an effect both name whose 95 % intervals do not overlap is named
-without a value, and the diagnosis says why (:func:`_disagreements`).  Elsewhere
+without a value, and the diagnosis says why (:func:`stage_disagreements`).  Elsewhere
 the two-mass stage names the causes and the rigid-body stage is reported beside
 it (a rigid body cannot express the shaft there).
 """
 
 import dataclasses
 import functools
+import html
 import json
 import math
+import warnings
 
 import numpy as np
 
+from .._json import json_ready
+from ..plotting import ResultPlot, axes_or_new, legend_beside
+from ..report import figure_html, html_page, table_html
 from .calibrate import (DEFAULT_HORIZON, PLANT_PARAMETERS, RIGID_PARAMETERS, calibrate, data_states, predict, refine,
                         segment_bounds, shaft_resolution, single_threaded_blas, speed_noise)
 from .effects import EFFECT_NAMES, get_effect
 from .residuals import residual_analysis
 
-__all__ = ["CandidateResult", "Stage", "Diagnosis", "diagnose", "check_speed_units", "check_excitation", "MIN_GAIN",
+__all__ = ["CandidateResult", "Cause", "Stage", "Diagnosis", "diagnose", "check_speed_units", "check_excitation",
+           "MIN_GAIN",
            "MIN_T", "BASELINE_MIN_FIT", "VALIDATION_HORIZON", "MIN_TORQUE_SHARE", "MIN_RUBBER_SHARE",
-           "EXTENDED_MIN_AHEAD_FIT", "MIN_SEGMENTS", "RIGID_BODY_EFFECTS", "MIN_SKEW_SHARE"]
+           "EXTENDED_MIN_AHEAD_FIT", "MIN_SEGMENTS", "RIGID_BODY_EFFECTS", "MIN_SKEW_SHARE",
+           "stage_disagreements"]
 
 #: Smallest relative decrease of the validation RSS of an accepted effect.
 MIN_GAIN = 0.05
@@ -204,15 +211,76 @@ def _parameter_dict(parameter):
             "unit": parameter.unit}
 
 
-def _clean(obj):
-    """JSON-safe copy: NaN and infinities become null."""
-    if isinstance(obj, dict):
-        return {key: _clean(value) for key, value in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(value) for value in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
+@dataclasses.dataclass(frozen=True, repr=False)
+class Cause:
+    """One named cause: an effect of the catalogue, its side and its fitted parameter.
+
+    Attributes
+    ----------
+    effect : str
+        Catalogue name (``"coulomb_friction"``, ``"rubber"``, ...).
+    side : str or None
+        ``"motor"`` or ``"load"`` for a friction, None where the effect has no side.
+    parameters : dict of str to FitParameter
+        The effect's fitted parameter(s), with value, 95 % interval and unit.
+    gain : float
+        Share of the validation RSS the effect removed when it was added (0 .. 1).
+    structure : str
+        The model whose value it is: ``"two_mass"`` or ``"rigid_body"`` (module docs, "Two structures").
+    determined : bool
+        False where the two structures disagree on its value beyond their 95 % intervals: the effect is
+        named, its value is not (:attr:`Diagnosis.disagreements`).
+    """
+
+    effect: str
+    side: str | None
+    parameters: dict
+    gain: float
+    structure: str = "two_mass"
+    determined: bool = True
+
+    @property
+    def key(self):
+        """Catalogue key: ``effect@side``, or ``effect`` without a side."""
+        return self.effect + (f"@{self.side}" if self.side else "")
+
+    def to_dict(self):
+        """The ``causes`` entry of the ``diagnose`` JSON: effect, side, gain, ``{name: {"value", "ci95", "unit"}}``,
+        structure, determined."""
+        return {"effect": self.effect, "side": self.side, "gain": self.gain,
+                "parameters": {name: {"value": p.value, "ci95": list(p.ci95), "unit": p.unit}
+                               for name, p in self.parameters.items()},
+                "structure": self.structure, "determined": self.determined}
+
+    def summary(self):
+        """``effect (side): value unit (low .. high)``, the side left out on the rigid body (one inertia) and the
+        value where it is not :attr:`determined`."""
+        parameter = self.parameters[self.effect]
+        low, high = parameter.ci95
+        side = f" ({self.side} side)" if self.side and self.structure != "rigid_body" else ""
+        value = f"{parameter.value:.4g}" if self.determined else "not determined"
+        return f"{self.effect}{side}: {value} {parameter.unit} ({low:.4g} .. {high:.4g})"
+
+    def describe(self):
+        """The cause in a sentence a person can act on (:meth:`.effects.Effect.describe`), or, where the two
+        structures disagree on its value, that the drive has it but the record does not determine its size."""
+        if not self.determined:
+            return (f"The drive has {self.effect.replace('_', ' ')}, but this record does not determine its size: "
+                    f"the rigid-body and the two-mass model disagree beyond their intervals (see the warnings).")
+        parameter = self.parameters[self.effect]
+        return get_effect(self.key).describe(parameter.value, *parameter.ci95, rigid=self.structure == "rigid_body")
+
+    def __repr__(self):
+        values = ", ".join(f"{name} = {f'{p.value:.4g}' if self.determined else 'not determined'} {p.unit} "
+                           f"(95 % CI {p.ci95[0]:.4g} .. {p.ci95[1]:.4g})" for name, p in self.parameters.items())
+        return f"<Cause {self.key} ({_STRUCTURE_NAMES[self.structure]}): {values}; gain {100 * self.gain:.1f} %>"
+
+    def __getitem__(self, key):
+        """Deprecated: the JSON entry's fields (``cause["effect"]``); use the attributes or :meth:`to_dict`."""
+        warnings.warn("indexing a Cause like the JSON dict it was is deprecated: use its attributes "
+                      "(cause.effect, cause.parameters[name].value) or cause.to_dict()", DeprecationWarning,
+                      stacklevel=2)
+        return self.to_dict()[key]
 
 
 def _model_dict(candidate):
@@ -228,8 +296,8 @@ class Stage:
     ----------
     structure : str
         ``two_mass`` or ``rigid_body``.
-    causes : list of dict
-        The causes this structure names, as :attr:`Diagnosis.causes`.
+    causes : list of Cause
+        The causes this structure names, by decreasing gain.
     baseline, extended : CandidateResult
         Its nominal structure and selected set, refined.
     candidates : list of CandidateResult
@@ -255,21 +323,17 @@ class Stage:
     @property
     def keys(self):
         """Catalogue keys of the named causes, in order."""
-        return [_cause_key(cause) for cause in self.causes]
+        return [cause.key for cause in self.causes]
 
     def to_dict(self):
         """JSON-ready ``{"structure", "causes", "baseline", "extended", "candidates", "warnings"}``."""
-        return {"structure": self.structure, "causes": self.causes, "baseline": _model_dict(self.baseline),
-                "extended": _model_dict(self.extended), "candidates": [c.to_dict() for c in self.candidates],
-                "warnings": self.warnings}
+        return json_ready({"structure": self.structure, "causes": [cause.to_dict() for cause in self.causes],
+                           "baseline": _model_dict(self.baseline), "extended": _model_dict(self.extended),
+                           "candidates": [c.to_dict() for c in self.candidates], "warnings": self.warnings})
 
     def __repr__(self):
         return (f"<Stage {self.structure}: causes {', '.join(self.keys) or 'none'}; validation k-step fit "
                 f"{self.baseline.mean_fit_percent:.1f} % -> {self.extended.mean_fit_percent:.1f} %>")
-
-
-def _cause_key(cause):
-    return cause["effect"] + (f"@{cause['side']}" if cause["side"] else "")
 
 
 @dataclasses.dataclass(frozen=True, repr=False)
@@ -278,12 +342,10 @@ class Diagnosis:
 
     Attributes
     ----------
-    causes : list of dict
-        ``{"effect", "side", "parameters": {name: {"value", "ci95", "unit"}}, "gain", "structure",
-        "determined"}``, ordered by gain (empty: the nominal structure explains the data);
-        ``structure`` says which stage's value it is (:attr:`structure`), ``determined`` is False
-        where the two stages disagree beyond their intervals (:attr:`disagreements`): the effect is
-        named, its value is not.
+    causes : list of Cause
+        The named causes, by decreasing gain (empty: the nominal structure explains the data);
+        :attr:`Cause.structure` says which stage's value it is (:attr:`structure`), :attr:`Cause.determined`
+        is False where the two stages disagree beyond their intervals (:attr:`disagreements`).
     sentence : str
         The causes in sentences a person can act on.
     baseline, extended : CandidateResult
@@ -303,13 +365,13 @@ class Diagnosis:
         resolve the shaft's mode (:attr:`shaft`).
     shaft : ShaftResolution
         The shaft's mode frequency against the band the record resolves.
-    two_mass_causes : list of dict
+    two_mass_causes : list of Cause
         The causes the two-mass stage names (the same as :attr:`causes` when it is the answer).
     rigid_body : Stage
         The rigid-body stage.
     disagreements : list of dict
-        ``{"effect", "two_mass", "rigid_body"}`` (each ``{"value", "ci95", "unit"}``) for every effect
-        both stages name with disjoint 95 % intervals, where the rigid-body stage is the answer.
+        :func:`stage_disagreements` of the rigid-body stage against the two-mass stage where the rigid-body
+        stage is the answer (empty otherwise).
     encoder_skew : FitParameter or None
         How much later the load encoder is read than the motor encoder (s), fitted with the two-mass
         baseline where both angle columns are given (:attr:`Stage.encoder_skew`); None without them.
@@ -337,7 +399,7 @@ class Diagnosis:
     @property
     def cause(self):
         """The first cause's effect name, ``none`` when there is none."""
-        return self.causes[0]["effect"] if self.causes else "none"
+        return self.causes[0].effect if self.causes else "none"
 
     @property
     def prediction_mode(self):
@@ -347,17 +409,17 @@ class Diagnosis:
                 f"both scored on the validation part only")
 
     def __repr__(self):
-        names = ", ".join(_cause_key(c) for c in self.causes) or "none"
+        names = ", ".join(c.key for c in self.causes) or "none"
         stage = self.rigid_body if self.structure == "rigid_body" else self
         return (f"<Diagnosis causes ({_STRUCTURE_NAMES[self.structure]}): {names}; validation k-step fit "
                 f"{stage.baseline.mean_fit_percent:.1f} % -> {stage.extended.mean_fit_percent:.1f} %>")
 
     def to_dict(self):
-        """The JSON document of ``backlash-df diagnose --json`` (DESIGN.md)."""
+        """The JSON document of ``backlash-df diagnose --json`` (contract page)."""
         time = self.measurements.time
-        return _clean({
+        return json_ready({
             "cause": self.cause,
-            "causes": self.causes,
+            "causes": [cause.to_dict() for cause in self.causes],
             "sentence": self.sentence,
             "warnings": self.warnings,
             "prediction": self.prediction_mode,
@@ -369,7 +431,7 @@ class Diagnosis:
             "candidates": [candidate.to_dict() for candidate in self.candidates],
             "structure": self.structure,
             "shaft": self.shaft.to_dict() if self.shaft else None,
-            "two_mass_causes": list(self.two_mass_causes),
+            "two_mass_causes": [cause.to_dict() for cause in self.two_mass_causes],
             "rigid_body": self.rigid_body.to_dict() if self.rigid_body else None,
             "disagreements": list(self.disagreements),
             "encoder_skew": self._skew_dict(),
@@ -396,18 +458,23 @@ class Diagnosis:
                 f"twist is taken as measured.")
 
     def to_json(self):
-        """:meth:`to_dict` as indented JSON text."""
+        """Deprecated: :meth:`to_dict` as indented JSON text (``json.dumps(d.to_dict(), indent=2)``)."""
+        warnings.warn("Diagnosis.to_json() is deprecated: use json.dumps(diagnosis.to_dict(), indent=2)",
+                      DeprecationWarning, stacklevel=2)
         return json.dumps(self.to_dict(), indent=2)
 
-    def plot(self, axes=None):
-        """Measured against the k-step predictions (validation part) of the two-mass baseline and extended
-        model, and of the rigid-body model where it names causes; returns the axes."""
-        import matplotlib.pyplot as plt
+    def plot(self, ax=None):
+        """Measured against the k-step predictions (validation part) of the two-mass baseline and extended model,
+        and of the rigid-body model where it names causes, one panel per speed.
 
+        Returns
+        -------
+        ResultPlot
+            One panel per speed; the legend beside the first.
+        """
         names = self.measurements.speed_names
-        if axes is None:
-            _, axes = plt.subplots(len(names), 1, sharex=True, figsize=(9, 2.4 * len(names)), squeeze=False)
-            axes = axes[:, 0]
+        figure, axes = axes_or_new(ax, (len(names), 1), sharex=True, figsize=(9.5, 2.4 * len(names)),
+                                   layout="constrained")
         base, ext = self.baseline.prediction, self.extended.prediction
         for j, name in enumerate(names):
             axes[j].plot(base.time, base.measured[:, j], color="0.55", lw=1.2, label="measured")
@@ -420,71 +487,73 @@ class Diagnosis:
                 axes[j].plot(rigid.time, rigid.simulated[:, j], lw=1.0, ls=":",
                              label=f"rigid body ({' + '.join(self.rigid_body.extended.effects)})")
             axes[j].set_ylabel(f"{name} (rad/s)")
-            axes[j].legend(loc="upper right", fontsize="small")
+        legend_beside(axes[0])
         axes[-1].set_xlabel(f"time (s), validation part, {base.mode}")
-        return axes
+        return ResultPlot(figure, axes)
 
-    def report_html(self):
-        """A self-contained HTML report: verdict, warnings, overlays, residuals, search, parameters."""
-        import html
+    def report_html(self, title="", rig_text=""):
+        """A self-contained HTML report: verdict, warnings, overlays, residuals, search, parameters.
 
-        import matplotlib.pyplot as plt
-
-        from ..report import figure_html, html_page, table_html
-
-        fig, axes = plt.subplots(len(self.measurements.speed_names), 1, sharex=True, squeeze=False,
-                                 figsize=(9, 2.4 * len(self.measurements.speed_names)))
-        self.plot(axes[:, 0])
-        overlay = figure_html(fig, "Validation part: measured speeds against the k-step predictions, "
-                                   "before (baseline) and after (extended) the extension.")
+        Parameters
+        ----------
+        title : str
+            Page title (default "Diagnosis of" and the record's source).
+        rig_text : str
+            The rig file's text, shown as it is (not shown when empty).
+        """
+        overlay = figure_html(self.plot().figure, "Validation part: measured speeds against the k-step predictions, "
+                                                  "before (baseline) and after (extended) the extension.")
         residual_figures = []
         for label, analysis in (("baseline", self.residuals_baseline), ("extended", self.residuals_extended)):
-            fig = plt.figure(figsize=(10, 7))
-            analysis.plot(fig)
-            fig.suptitle(f"Residuals of the {label} model")
+            fig = analysis.plot(title=f"Residuals of the {label} model").figure
             residual_figures.append(figure_html(
                 fig, f"{label}: residual over time, against theta_d and shaft torque, spectrum, "
                      f"autocorrelation and cross-correlation with the motor torque (99 % band grey)."))
-        search = [[" + ".join(c.effects) or "none", f"{c.mean_fit_percent:.2f}",
-                   " / ".join(f"{v:.2f}" for v in c.fit_percent.values()),
-                   " / ".join(f"{v:.2f}" for v in c.ahead_fit_percent.values()),
-                   " / ".join(f"{v:.2f}" for v in c.free_run_fit_percent.values()),
-                   f"{100 * c.gain:.1f}", f"{c.t_statistic:.1f}", _format_parameter(c.parameter),
-                   "yes" if c.accepted else "no", c.reason] for c in self.candidates]
-        search_table = table_html(
-            ["model", "k-step fit % (mean)", "k-step fit % per speed", f"{VALIDATION_HORIZON:g} s ahead fit % per speed",
-             "free-run fit % per speed", "gain %", "t", "added parameter (95 % CI)", "accepted", "why"], search,
-            text_columns=(0, 7, 8, 9))
+        search = [[str(step), _effects_name(c), f"{c.mean_fit_percent:.2f}", f"{100 * c.gain:.1f}",
+                   f"{c.t_statistic:.1f}", _format_parameter(c.parameter), "yes" if c.accepted else "no"]
+                  for step, c in enumerate(self.candidates, start=1)]
+        search_table = table_html(["#", "model", "k-step fit % (mean)", "gain %", "t", "added parameter (95 % CI)",
+                                   "accepted"], search, text_columns=(1, 5, 6))
+        why = "".join(f"<li><b>{html.escape(_effects_name(c))}</b>: {html.escape(c.reason)}</li>"
+                      for c in self.candidates)
+        search_table += f"<p>Why each model was accepted or not (numbered as in the table):</p><ol>{why}</ol>"
+        speeds = list(self.candidates[0].fit_percent) if self.candidates else []
+        kinds = (("k-step", "fit_percent"), (f"{VALIDATION_HORIZON:g} s ahead", "ahead_fit_percent"),
+                 ("free run", "free_run_fit_percent"))
+        fits = [[str(step), *(f"{getattr(c, key)[name]:.2f}" for name in speeds for _, key in kinds)]
+                for step, c in enumerate(self.candidates, start=1)]
+        fit_table = table_html(["#", *(f"{name}: {kind}" for name in speeds for kind, _ in kinds)],
+                               fits, text_columns=())
         parameter_rows = [[name, f"{p.nominal:.5g}", f"{p.value:.5g}", f"{p.stderr:.3g}",
                            f"{p.ci95[0]:.5g} .. {p.ci95[1]:.5g}", f"{p.lower:.4g} .. {p.upper:.4g}", p.unit]
                           for name, p in self.extended.calibration.parameters.items()]
         parameters = table_html(["parameter", "start (rig file)", "fitted", "std. error", "95 % CI", "bounds", "unit"],
                                 parameter_rows, text_columns=(0, 6))
-        structures = self._structures_html(table_html)
+        structures = self._structures_html()
         warnings = "".join(f"<li>{html.escape(w)}</li>" for w in self.warnings)
         summary = (f'<p class="summary"><b>Causes: {html.escape(self._cause_list())}.</b> '
                    f"{html.escape(self.sentence)}</p>"
                    + (f"<p><b>Warnings</b></p><ul>{warnings}</ul>" if warnings else "")
                    + f"<p>Prediction mode: {html.escape(self.prediction_mode)}.</p>")
-        return html_page(f"Diagnosis of {self.measurements.source}", [
-            ("", summary),
+        rig = [("Rig", f"<pre>{html.escape(rig_text)}</pre>")] if rig_text else []
+        return html_page(title or f"Diagnosis of {self.measurements.source}", [
+            ("", summary), *rig,
             ("Measured against predicted", overlay),
             ("Two-mass and rigid-body model", structures),
             ("Forward selection and backward check (two-mass model)", search_table + f"<p>{html.escape(RULE)}</p>"),
+            ("Validation fit per speed (%) of each model searched, numbered as above", fit_table),
             ("What the model gets wrong", "\n".join(residual_figures)),
             ("Calibrated parameters of the extended model (start = rig file value; effects start at 0)", parameters),
         ])
 
-    def _structures_html(self, table_html):
+    def _structures_html(self):
         """The shaft's resolution, which stage names the causes, and both stages' causes and fits side by side."""
-        import html
-
         if self.rigid_body is None:
             return ""
         rows = []
         for label, causes, stage in (("two-mass", self.two_mass_causes, self),
                                      ("rigid body", self.rigid_body.causes, self.rigid_body)):
-            named = "; ".join(_cause_text(cause) for cause in causes) or "none"
+            named = "; ".join(cause.summary() for cause in causes) or "none"
             fits = " / ".join(f"{v:.2f}" for v in stage.extended.fit_percent.values())
             ahead = " / ".join(f"{v:.2f}" for v in stage.extended.ahead_fit_percent.values())
             rows.append([label, named, fits, ahead])
@@ -494,8 +563,7 @@ class Diagnosis:
         return f"<p>{html.escape(_resolution_sentence(self.shaft, self.measurements))}</p>" + skew + table
 
     def _cause_list(self):
-        return ", ".join(f"{c['effect']}" + (f" ({c['side']} side)" if c["side"] else "") for c in self.causes) \
-            or "none"
+        return ", ".join(c.effect + (f" ({c.side} side)" if c.side else "") for c in self.causes) or "none"
 
 
 RULE = (f"an effect is added (forward selection, then backward elimination) if the validation RSS falls by at "
@@ -507,15 +575,6 @@ RULE = (f"an effect is added (forward selection, then backward elimination) if t
         f"no cause is named when the baseline's validation fit is below {BASELINE_MIN_FIT:g} % on a speed")
 
 
-def _cause_text(cause):
-    """``effect (side): value unit (low .. high)`` of a cause dictionary."""
-    parameter = cause["parameters"][cause["effect"]]
-    low, high = parameter["ci95"]
-    side = f" ({cause['side']} side)" if cause["side"] and cause.get("structure") != "rigid_body" else ""
-    value = f"{parameter['value']:.4g}" if cause.get("determined", True) else "not determined"
-    return f"{cause['effect']}{side}: {value} {parameter['unit']} ({low:.4g} .. {high:.4g})"
-
-
 def _skew_shown(skew, measurements):
     """Whether the record shows the encoder skew ``skew`` (FitParameter, s): its 95 % interval excludes zero and
     the twist it explains, ``|skew|`` times the RMS load speed, is at least :data:`MIN_SKEW_SHARE` of the
@@ -524,6 +583,11 @@ def _skew_shown(skew, measurements):
     speed = float(np.sqrt(np.mean(measurements.speeds[:, -1] ** 2)))
     return bool((low > 0.0 or high < 0.0)
                 and abs(skew.value) * speed >= MIN_SKEW_SHARE * float(np.std(measurements.twist)))
+
+
+def _effects_name(candidate):
+    """A candidate model by its effects ("rubber + torque_offset"; "none" for the baseline)."""
+    return " + ".join(candidate.effects) or "none"
 
 
 def _format_parameter(parameter):
@@ -862,16 +926,12 @@ def _includes_null(parameter, key):
 
 
 def _causes(extended, order, structure):
-    """The ``causes`` list: each effect of the set with its parameter, in the given order."""
+    """The causes of one stage (``structure``): each effect of the set with its parameter, by decreasing gain."""
     causes = []
     for key, gain in sorted(order, key=lambda item: -item[1]):
         effect = get_effect(key)
         parameter = extended.calibration.effect_parameter(key)
-        low, high = parameter.ci95
-        causes.append({"effect": effect.name, "side": effect.side, "gain": gain,
-                       "parameters": {effect.parameter: {"value": parameter.value, "ci95": [low, high],
-                                                         "unit": parameter.unit}},
-                       "structure": structure, "determined": True})
+        causes.append(Cause(effect.name, effect.side, {effect.parameter: parameter}, gain, structure))
     return causes
 
 
@@ -957,21 +1017,38 @@ def _resolution_sentence(shaft, measurements):
             f"named from the rigid-body model, with the two-mass model{start} as the cross-check.")
 
 
-def _disagreements(answer, other):
-    """Each effect both stages name whose 95 % intervals do not overlap: ``{"effect", structure: {"value", "ci95",
-    "unit"}, ...}``.  A friction the other stage names on both sides is compared as their sum (on a stiff shaft
-    they act as one), its interval the sum of the ends."""
+def stage_disagreements(answer, other):
+    """The effects two stages both name with disjoint 95 % intervals.
+
+    A friction ``other`` names on both sides is compared as their sum (on a stiff
+    shaft they act as one), its interval the sum of the ends.
+
+    Parameters
+    ----------
+    answer, other : Stage
+        The stage whose causes are named and the one that cross-checks it (anything with ``structure``,
+        ``"two_mass"`` or ``"rigid_body"``, and ``causes``, a list of :class:`Cause`).
+
+    Returns
+    -------
+    list of dict
+        ``{"effect", "two_mass", "rigid_body", "note"}``, each structure's entry ``{"value", "ci95", "unit"}``,
+        ``note`` both fits in a sentence (the diagnosis' warning).
+    """
     found = []
     for cause in answer.causes:
-        name = cause["effect"]
-        theirs = [c["parameters"][name] for c in other.causes if c["effect"] == name]
+        name = cause.effect
+        theirs = [c.parameters[name] for c in other.causes if c.effect == name]
         if not theirs:
             continue
-        mine = cause["parameters"][name]
-        summed = {"value": sum(p["value"] for p in theirs), "unit": mine["unit"],
-                  "ci95": [sum(p["ci95"][0] for p in theirs), sum(p["ci95"][1] for p in theirs)]}
-        if mine["ci95"][1] < summed["ci95"][0] or summed["ci95"][1] < mine["ci95"][0]:
-            found.append({"effect": name, answer.structure: dict(mine), other.structure: summed})
+        mine = cause.parameters[name]
+        summed = {"value": sum(p.value for p in theirs), "unit": mine.unit,
+                  "ci95": [sum(p.ci95[0] for p in theirs), sum(p.ci95[1] for p in theirs)]}
+        if mine.ci95[1] < summed["ci95"][0] or summed["ci95"][1] < mine.ci95[0]:
+            found.append({"effect": name, answer.structure: {"value": mine.value, "ci95": list(mine.ci95),
+                                                             "unit": mine.unit},
+                          other.structure: summed})
+            found[-1]["note"] = _disagreement_note(found[-1])
     return found
 
 
@@ -1003,13 +1080,7 @@ def _sentence(answer, causes, shaft, measurements):
                          + "; an effect smaller than this record's noise and length can show may still be present.")
         return " ".join(sentences) + gain
     for cause in causes:
-        effect, parameter = get_effect(_cause_key(cause)), cause["parameters"][cause["effect"]]
-        if cause["determined"]:
-            sentences.append(effect.describe(parameter["value"], *parameter["ci95"], rigid=rigid))
-        else:
-            sentences.append(f"The drive has {effect.name.replace('_', ' ')}, but this record does not determine its "
-                             f"size: the rigid-body and the two-mass model disagree beyond their intervals (see the "
-                             f"warnings).")
+        sentences.append(cause.describe())
     if answer.absorbed:
         pairs = "; ".join(f"{kept} absorbs {dropped}" for kept, dropped, _ in answer.absorbed)
         sentences.append(f"Not separated from another effect by this record ({pairs}; see the warnings): the "
@@ -1045,7 +1116,7 @@ def _select(search, keys):
 def _cross_check_keys(rigid, keys):
     """The two-mass stage's candidates where it cross-checks the rigid body (a shaft the record does not
     resolve): the effects the rigid-body stage names, friction on either side, among ``keys``."""
-    names = {cause["effect"] for cause in rigid.causes}
+    names = {cause.effect for cause in rigid.causes}
     return [key for key in keys if get_effect(key).name in names]
 
 
@@ -1112,13 +1183,13 @@ def _diagnose(measurements, rig, candidates, estimation_fraction, transient_frac
     shaft = shaft_resolution(measurements, rig)
     two_mass = _select(search("two_mass"), keys if shaft.resolved else _cross_check_keys(rigid, keys))
     answer = two_mass if shaft.resolved else rigid
-    disagreements = [] if shaft.resolved else _disagreements(rigid, two_mass)
+    disagreements = [] if shaft.resolved else stage_disagreements(rigid, two_mass)
     undetermined = {disagreement["effect"] for disagreement in disagreements}
-    causes = [cause | {"determined": cause["effect"] not in undetermined} for cause in answer.causes]
+    causes = [dataclasses.replace(cause, determined=cause.effect not in undetermined) for cause in answer.causes]
     warnings = list(two_mass.warnings)
     if answer is rigid:
         warnings += [f"rigid-body model: {warning}" for warning in rigid.warnings]
-        warnings += [_disagreement_note(disagreement) for disagreement in disagreements]
+        warnings += [disagreement["note"] for disagreement in disagreements]
 
     def analysis(candidate):
         p = candidate.prediction

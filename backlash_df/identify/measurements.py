@@ -1,6 +1,6 @@
 """Measurement files of a drive: loading, reflection through the gear, checks, writing.
 
-The file is a CSV with a header row, SI units and uniform sampling (DESIGN.md):
+The file is a CSV with a header row, SI units and uniform sampling (the contract page of the documentation):
 
 =================  ======  ===========  ==============================================
 column             unit    side (file)  holds
@@ -28,22 +28,31 @@ ratio than the rig's.  With gear ratio 1 (the default) nothing changes.
 Encoders are zeroed independently, so it holds up to a constant offset.
 
 A file with bad rows is refused with one line naming the file, the column and the
-file lines; it is never silently trimmed.  A record longer than
+file lines; it is never silently trimmed.  A header name that is no column of the
+table above is not read: one line in :attr:`Measurements.notes` lists every such
+name with the closest known one (``load_trq: not a known column; did you mean
+load_torque?``), and ``load_measurements(..., strict=True)`` refuses the file with
+that line instead.  A record longer than
 :data:`MAX_SAMPLES` is decimated by block means, with a note in
 :attr:`Measurements.notes`, or refused when decimation would sample it too slowly.
 """
 
 import csv
 import dataclasses
+import difflib
 import math
 import warnings
 from pathlib import Path
 
 import numpy as np
 
+from .._json import json_ready
+from ..plotting import ResultPlot, axes_or_new, legend_beside
+
 __all__ = [
     "Measurements",
     "load_measurements",
+    "read_columns",
     "measurements_from_arrays",
     "write_measurements",
     "REQUIRED_COLUMNS",
@@ -104,7 +113,8 @@ class Measurements:
     gear_ratio : float
         Motor turns per load turn n used to reflect the motor columns (1: none).
     notes : tuple of str
-        What was done to the record on loading (decimation), for reports.
+        What was done to the record on loading (unknown columns ignored,
+        decimation), for reports.
     """
 
     time: np.ndarray
@@ -212,13 +222,22 @@ class Measurements:
             f"gear_ratio={self.gear_ratio:g}, columns={list(self.columns())})"
         )
 
-    def plot(self, axes=None):
-        """Plot torques, speeds and (if measured) the twist against time, load side; returns the axes."""
-        import matplotlib.pyplot as plt
+    def to_dict(self):
+        """JSON-ready: source, sampling, gear ratio, notes and every column (load side, SI units)."""
+        return json_ready({"source": str(self.source), "n_samples": self.n_samples, "dt": self.dt,
+                           "gear_ratio": self.gear_ratio, "notes": list(self.notes),
+                           "columns": {name: values for name, values in self.columns().items()}})
 
+    def plot(self, ax=None):
+        """Torques, speeds and (if measured) the twist against time, load side.
+
+        Returns
+        -------
+        ResultPlot
+            One panel per quantity, each with its legend beside it.
+        """
         rows = 3 if self.twist is not None else 2
-        if axes is None:
-            _, axes = plt.subplots(rows, 1, sharex=True, figsize=(8, 2.2 * rows))
+        figure, axes = axes_or_new(ax, (rows, 1), sharex=True, figsize=(9.5, 2.2 * rows), layout="constrained")
         axes[0].plot(self.time, self.motor_torque, label="motor_torque")
         if self.load_torque is not None:
             axes[0].plot(self.time, self.load_torque, label="load_torque")
@@ -230,9 +249,9 @@ class Measurements:
             axes[2].plot(self.time, 1e3 * self.twist, label="twist")
             axes[2].set_ylabel("twist (mrad)")
         axes[-1].set_xlabel("time (s)")
-        for ax in axes:
-            ax.legend(loc="upper right", fontsize="small")
-        return axes
+        for panel in axes:
+            legend_beside(panel)
+        return ResultPlot(figure, axes)
 
 
 def _num(value):
@@ -412,16 +431,61 @@ def measurements_from_arrays(time, motor_torque, motor_speed, load_speed=None, l
     return _bounded(Measurements(source=source, gear_ratio=float(gear_ratio), **reflected), max_samples)
 
 
+def _unknown_columns(header):
+    """The header's names that are no known column, each with the closest known name absent from the header.
+
+    Returns
+    -------
+    dict of str to str or None
+        Name (``column N (no name)`` for an empty one) -> suggestion, None where
+        no known name is close (:func:`difflib.get_close_matches`, case ignored).
+    """
+    known = REQUIRED_COLUMNS + OPTIONAL_COLUMNS
+    absent = [name for name in known if name not in header]
+    unknown = {}
+    for index, name in enumerate(header):
+        if name not in known:
+            matches = difflib.get_close_matches(name.lower(), absent, n=1)
+            unknown[name or f"column {index + 1} (no name)"] = matches[0] if matches else None
+    return unknown
+
+
+def _unknown_columns_text(header):
+    """What the notice on the header's unknown columns says ("" if there are none), without the file name.
+
+    ``load_trq: not a known column; did you mean load_torque?`` for one column;
+    for several, ``not known columns: load_trq (did you mean load_torque?), temp;
+    known: time, ...``.  The known names are listed where a column matches none.
+
+    Examples
+    --------
+    >>> _unknown_columns_text(["time", "motor_torque", "motor_speed", "load_trq"])
+    'load_trq: not a known column; did you mean load_torque?'
+    """
+    unknown = _unknown_columns(header)
+    if not unknown:
+        return ""
+    known = f"known: {', '.join(REQUIRED_COLUMNS + OPTIONAL_COLUMNS)}"
+    if len(unknown) == 1:
+        ((name, match),) = unknown.items()
+        return f"{name}: not a known column; " + (f"did you mean {match}?" if match else known)
+    names = ", ".join(name if match is None else f"{name} (did you mean {match}?)" for name, match in unknown.items())
+    return f"not known columns: {names}" + (f"; {known}" if None in unknown.values() else "")
+
+
 def _check_header(header, path):
+    """Refuse a header without the required columns (naming a close unknown name) or with a name twice."""
     missing = [name for name in REQUIRED_COLUMNS if name not in header]
     separator = next((sep for sep in (";", "\t") if len(header) == 1 and sep in header[0]), None)
     if missing and separator:
         raise ValueError(f"{path}: the columns are separated by {separator!r}; the format is comma-separated "
                          f"with a decimal point (save as CSV with ',' as separator)")
     if missing:
+        unknown = _unknown_columns_text(header)
         raise ValueError(
             f"{path}: missing column{'s' if len(missing) > 1 else ''} {', '.join(missing)}; "
             f"the header must name {', '.join(REQUIRED_COLUMNS)} (optional: {', '.join(OPTIONAL_COLUMNS)})"
+            + (f"; {unknown}" if unknown else "")
         )
     duplicated = sorted({name for name in header if header.count(name) > 1})
     if duplicated:
@@ -448,11 +512,33 @@ def _parse_rows(reader, header, known, path):
     return data
 
 
-def _read_columns(path):
-    """The known columns of a CSV file as arrays: numpy's C parser, the slow path to locate errors."""
+def read_columns(path):
+    """The known columns of a CSV file as arrays, unchecked beyond the header (:func:`load_measurements` checks).
+
+    numpy's C parser reads the table; where it fails, a row-by-row parse names the
+    bad cell.
+
+    Parameters
+    ----------
+    path : Path
+
+    Returns
+    -------
+    dict of str to ndarray
+        The columns of the module docs that the header holds, in file units.
+    """
+    return _read_table(path, strict=False)[0]
+
+
+def _read_table(path, strict):
+    """The known columns (as :func:`read_columns`) and the notice on unknown ones, refused first if ``strict``."""
     with path.open(newline="", encoding="utf-8-sig") as handle:
         header = [name.strip() for name in next(csv.reader([handle.readline()]), [])]
         _check_header(header, path)
+        unknown = _unknown_columns_text(header)
+        notice = f"{path}: {unknown}" if unknown else ""
+        if notice and strict:
+            raise ValueError(notice)
         known = [name for name in REQUIRED_COLUMNS + OPTIONAL_COLUMNS if name in header]
         try:
             with warnings.catch_warnings():
@@ -460,28 +546,32 @@ def _read_columns(path):
                 table = np.loadtxt(handle, delimiter=",", comments=None, ndmin=2, dtype=float)
             if table.size == 0:  # a header without rows: too few samples, said below
                 table = np.empty((0, len(header)))
-            return {name: table[:, header.index(name)] for name in known}
+            return {name: table[:, header.index(name)] for name in known}, notice
         except ValueError:  # a bad cell, a short row, a text column: find and name it
             handle.seek(0)
             reader = csv.reader(handle)
             next(reader)
-            return _parse_rows(reader, header, known, path)
+            return _parse_rows(reader, header, known, path), notice
 
 
-def load_measurements(path, gear_ratio=1.0, max_samples=MAX_SAMPLES):
+def load_measurements(path, gear_ratio=1.0, max_samples=MAX_SAMPLES, strict=False):
     """Read and check a measurement CSV file and reflect it to the load side.
 
     Parameters
     ----------
     path : str or Path
         CSV file (UTF-8, a byte-order mark is accepted) with a header row; the
-        columns are in the module docs, extra columns are ignored.
+        columns are in the module docs.
     gear_ratio : float
         The rig's ``[plant] gear_ratio`` (motor turns per load turn): the motor
         columns are reflected through it.  Pass ``rig.plant.gear_ratio``.
     max_samples : int
         Longer records are decimated by block means, with a note (see
         :func:`measurements_from_arrays`).
+    strict : bool
+        Refuse a header name that is no known column.  Otherwise such a column is
+        not read, and :attr:`Measurements.notes` starts with one line naming
+        every such column and the closest known name (the module docs).
 
     Returns
     -------
@@ -492,18 +582,20 @@ def load_measurements(path, gear_ratio=1.0, max_samples=MAX_SAMPLES):
     ------
     ValueError
         One line naming the file and the problem: unreadable or not UTF-8,
-        missing or duplicated columns, a cell that is not a number, and every
-        problem :func:`measurements_from_arrays` names.
+        missing or duplicated columns (a missing one with the close unknown
+        name, if any), an unknown column with ``strict``, a cell that is not a
+        number, and every problem :func:`measurements_from_arrays` names.
     """
     path = Path(path)
     try:
-        columns = _read_columns(path)
+        columns, notice = _read_table(path, strict)
     except OSError as error:
         raise ValueError(f"{path}: cannot read measurement file ({error.strerror})") from None
     except UnicodeDecodeError as error:
         raise ValueError(f"{path}: not a UTF-8 text file (byte {error.object[error.start]:#04x} cannot be "
                          f"decoded); save it as UTF-8 CSV") from None
-    return measurements_from_arrays(source=str(path), gear_ratio=gear_ratio, max_samples=max_samples, **columns)
+    record = measurements_from_arrays(source=str(path), gear_ratio=gear_ratio, max_samples=max_samples, **columns)
+    return dataclasses.replace(record, notes=(notice, *record.notes)) if notice else record
 
 
 def write_measurements(path, measurements, precision=9):

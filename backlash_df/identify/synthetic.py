@@ -24,7 +24,7 @@ step than the record's (``oversample`` sub-steps a sample):
   applied torque (not to the recorded one), an actuator dead time, rubber in
   the coupling.
 
-The simulation is the compiled kernel of :mod:`backlash_df.simulate` with the
+The simulation is the compiled kernel of :mod:`backlash_df.simulation` with the
 controller states in the linear part.
 """
 
@@ -35,7 +35,8 @@ import numpy as np
 
 from ..config import Plant
 from ..models import make_model
-from ..simulate import LinearPart, simulate_linear
+from ..simulation import simulate_linear
+from ..system import LinearPart
 from .effects import COULOMB_SMOOTHING, STRIBECK_SPEED, get_effect
 from .measurements import measurements_from_arrays
 

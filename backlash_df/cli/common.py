@@ -1,0 +1,103 @@
+"""What every command shares: one-line errors with exit code 2, option types, plain-text tables."""
+
+import math
+import sys
+from pathlib import Path
+
+import click
+
+from ..models import MODEL_NAMES
+
+__all__ = ["Group", "fail", "FINITE", "MODEL", "numbers", "echo_table", "read_text"]
+
+
+def fail(message, code=2):
+    """Print ``message`` as one ``backlash-df: error:`` line and exit with ``code``."""
+    click.echo(f"backlash-df: error: {' '.join(str(message).split())}", err=True)
+    sys.exit(code)
+
+
+_NO_ARGS_IS_HELP = getattr(click.exceptions, "NoArgsIsHelpError", ())  # click >= 8.2
+
+
+class Group(click.Group):
+    """A click group whose errors are one line: ``ValueError`` and usage errors, exit code 2."""
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        try:
+            value = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except _NO_ARGS_IS_HELP as error:  # the bare group: its help, as click prints it
+            error.show()
+            sys.exit(error.exit_code)
+        except click.ClickException as error:
+            command = error.ctx.command_path if getattr(error, "ctx", None) else "backlash-df"
+            hint = f" (see '{command} --help')" if isinstance(error, click.UsageError) else ""
+            fail(f"{error.format_message()}{hint}", error.exit_code)
+        except click.Abort:
+            fail("aborted", 1)
+        sys.exit(value if isinstance(value, int) else 0)
+
+    def invoke(self, ctx):
+        from threadpoolctl import threadpool_limits
+
+        try:
+            # one BLAS thread: the kernels' small matrices run 1.3-1.4x slower on two
+            # (benchmarks/bench_startup.py)
+            with threadpool_limits(1, user_api="blas"):
+                return super().invoke(ctx)
+        except ValueError as error:
+            fail(error)
+
+
+#: A torque-law name (``--model``).
+MODEL = click.Choice(MODEL_NAMES)
+
+
+class _FiniteFloat(click.ParamType):
+    """A finite float (click's FLOAT accepts nan and inf)."""
+
+    name = "float"
+
+    def convert(self, value, param, ctx):
+        number = click.FLOAT.convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"must be finite, got {value}", param, ctx)
+        return number
+
+
+#: A finite float option type.
+FINITE = _FiniteFloat()
+
+
+def numbers(positive):
+    """A click callback: finite numbers from repeated options, each possibly comma-separated.
+
+    ``positive``: each must be > 0 (else >= 0).  A bad item is a usage error naming the option.
+    """
+    def parse(ctx, param, values):
+        found = []
+        for item in (item.strip() for value in values for item in str(value).split(",")):
+            try:
+                number = float(item)
+            except ValueError:
+                raise click.BadParameter(f"not a number: {item!r}") from None
+            if not math.isfinite(number) or number < 0.0 or (positive and number == 0.0):
+                raise click.BadParameter(f"must be {'> 0' if positive else '>= 0'} and finite, got {item}")
+            found.append(number)
+        return found
+    return parse
+
+
+def echo_table(header, rows):
+    """A plain-text table, columns padded to their widest cell, a blank line after it."""
+    widths = [max(len(str(cell)) for cell in column) for column in zip(header, *rows)]
+    for row in [header] + rows:
+        click.echo("  ".join(str(cell).ljust(width) for cell, width in zip(row, widths)).rstrip())
+    click.echo("")
+
+
+def read_text(path):
+    """The text of a file the command already read successfully (the rig file, for a report)."""
+    return Path(path).read_text(encoding="utf-8")

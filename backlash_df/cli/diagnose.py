@@ -1,0 +1,85 @@
+"""``backlash-df diagnose``: what the rig's model gets wrong in a measurement record, and why."""
+
+import json
+import os
+import sys
+
+import click
+from tqdm import tqdm
+
+from ..config import load_rig
+from ..identify import diagnose as run_diagnosis
+from ..identify import load_measurements
+from .outputs import Outputs
+
+__all__ = ["diagnose_command"]
+
+
+@click.command("diagnose")
+@click.argument("data", type=click.Path(dir_okay=False))
+@click.option("--rig", "rig_file", required=True, type=click.Path(dir_okay=False), help="Rig file (TOML).")
+@click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="Write the diagnosis as JSON.")
+@click.option("--report", "report_out", type=click.Path(dir_okay=False), default=None,
+              help="Write a self-contained HTML report.")
+@click.option("--strict", is_flag=True, help="Refuse a CSV whose header names a column not listed above.")
+def diagnose_command(data, rig_file, json_out, report_out, strict):
+    """Name the physical cause of what the rig's model gets wrong in the measurement CSV DATA.
+
+    DATA: UTF-8, comma-separated with a decimal point, one header row naming the
+    columns in any order, SI units, uniformly sampled, at least 200 rows:
+
+    \b
+    time:          s, required; sample instants, increasing, uniform
+    motor_torque:  N m, motor side, required; torque commanded to the motor
+    motor_speed:   rad/s, motor side, required; measured motor speed
+    load_speed:    rad/s, load side; measured load speed
+    load_torque:   N m, load side; known torque on the load (else 0)
+    motor_angle:   rad, motor side; motor encoder angle
+    load_angle:    rad, load side; load (secondary) encoder angle
+
+    Sides: the motor columns are reflected to the load side through the rig's
+    [plant] gear_ratio n (torque times n, speed and angle divided by n).  Signs:
+    a positive motor_torque drives the motor forward, a positive load_torque
+    drives the load forward, each speed is the derivative of its angle, and the
+    twist is theta_d = motor_angle / n - load_angle.  A header name not in this
+    list is not read: a note names it with the closest known column
+    (load_trq: not a known column; did you mean load_torque?); --strict refuses
+    the file instead.
+    """
+    outputs = Outputs({"--json": json_out, "--report": report_out})
+    rig = load_rig(rig_file)
+    measurements = load_measurements(data, gear_ratio=rig.plant.gear_ratio, strict=strict)
+    for note in measurements.notes:
+        click.echo(f"note: {note}", err=True)
+    with tqdm(desc="diagnose: fits", unit="fit", file=sys.stderr, leave=False) as bar:
+        result = run_diagnosis(measurements, rig, workers=min(2, os.cpu_count() or 1),
+                               progress=lambda label: (bar.set_postfix_str(label[:40]), bar.update()))
+    shaft = result.shaft
+    click.echo(f"cause: {result.cause} (from the {result.structure.replace('_', '-')} model; shaft mode "
+               f"{shaft.mode_frequency:.3g} Hz, resolved band {shaft.resolved_frequency:.3g} Hz)")
+    for cause in result.causes:
+        side = f" ({cause.side} side)" if cause.side and cause.structure == "two_mass" else ""
+        for name, parameter in cause.parameters.items():
+            low, high = parameter.ci95
+            value = f"{parameter.value:.4g}" if cause.determined else "not determined"
+            click.echo(f"  {cause.effect}{side}: {name} = {value} {parameter.unit} "
+                       f"(95 % CI {low:.4g} .. {high:.4g}), gain {100 * cause.gain:.1f} %")
+    for label, causes in (("two-mass", result.two_mass_causes), ("rigid-body", result.rigid_body.causes)):
+        click.echo(f"  {label} model names: {'; '.join(cause.summary() for cause in causes) or 'none'}")
+    click.echo(result.sentence)
+    if result.encoder_skew is not None:
+        click.echo(f"  {result.skew_sentence()}")
+    for label, model in (("", result.baseline), ("", result.extended), ("rigid body: ", result.rigid_body.baseline),
+                         ("rigid body: ", result.rigid_body.extended)):
+        label += " + ".join(model.effects) or "none (baseline)"
+        fits = ", ".join(f"{name} {model.fit_percent[name]:.1f} % k-step / {model.ahead_fit_percent[name]:.1f} % ahead "
+                         f"/ {model.free_run_fit_percent[name]:.1f} % free run" for name in model.fit_percent)
+        click.echo(f"  validation fit of {label}: {fits}")
+    for warning in result.warnings:
+        click.echo(f"warning: {warning}")
+    texts = {}
+    if "--json" in outputs:
+        texts["--json"] = json.dumps(result.to_dict(), indent=2) + "\n"
+    if "--report" in outputs:
+        texts["--report"] = result.report_html()
+    outputs.write(texts)

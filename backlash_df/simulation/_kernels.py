@@ -1,0 +1,574 @@
+"""Compiled kernels of the closed-loop simulation (private to :mod:`backlash_df.simulation`).
+
+Two kernels integrate ``dz/dt = A z + b T + E w(t) + e_d u_d(t - delay) - e_f F(f z)``
+(:class:`~backlash_df.system.LinearPart`) closed through a backlash torque law, on a
+fixed grid with the law's mode frozen over each step and every change of mode located
+by bisection (:mod:`backlash_df.simulation` explains both):
+
+* :func:`run_rk4`, classical RK4 for any law and for friction;
+* :func:`run_exact`, exact discretisation of a loop that is affine inside every mode,
+  stepping with the ladders ``exp(M dt 2^-j)`` of :func:`backlash_df.system.exp_ladder`.
+
+With a torque limit (:class:`~backlash_df.system.Command`) a run carries a second
+mode, the command's (:data:`~backlash_df.system.COMMAND_MODES`: linear, saturated,
+integrator clamped, sliding on the limit), switched and located like the backlash's.
+The command is ``cmd = (column, row, error, limit, integrator)``; ``limit = 0``: none.
+"""
+
+import math
+
+import numpy as np
+
+from .._jit import copy_into as _copy
+from .._jit import jit as _jit
+from ..models import EXACT, exact_step, held_mode, mode_torque
+from ..system import command_index, command_mode_of, initial_command_mode
+
+__all__ = ["run_rk4", "run_exact", "LEVELS", "BLOW_UP"]
+
+_MAX_EVENTS_PER_STEP = 32
+_BISECTIONS = 52
+#: Dyadic sub-steps dt 2^-j, j < LEVELS, of the exact-discretisation kernel.
+LEVELS = 42
+
+
+# --------------------------------------------------------------------------- RK4 kernel (any law)
+
+
+@_jit
+def _lerp(series, position, col):
+    """Linear interpolation of column ``col`` of ``series`` (rows on a uniform grid) at a fractional row."""
+    last = series.shape[0] - 1
+    if position <= 0.0:
+        return series[0, col]
+    if position >= last:
+        return series[last, col]
+    i = int(position)
+    frac = position - i
+    return series[i, col] + frac * (series[i + 1, col] - series[i, col])
+
+
+@_jit
+def _history(hist, position, last, col):
+    """Delayed signal ``col`` at a fractional row of ``hist`` whose newest recorded row is ``last``.
+
+    Cubic through rows ``j - 1 .. j + 2`` around ``j = floor(position)`` (rows
+    before 0 repeat row 0: the history is constant before t = 0), the quadratic
+    through ``j - 1 .. j + 1`` while row ``j + 2`` is not recorded yet: an
+    interpolation error O(dt^4) (O(dt^3)) where linear interpolation leaves O(dt^2),
+    which showed as a 1e-3 amplitude error of a cycle with a 0.5 ms dead time
+    (tests/test_delay.py).
+    """
+    if position <= 0.0:
+        return hist[0, col]
+    j = int(position)
+    if j >= last:
+        return hist[last, col]
+    u = position - j
+    f0, f1, f2 = hist[max(j - 1, 0), col], hist[j, col], hist[j + 1, col]
+    if j + 2 > last:
+        return f1 + 0.5 * u * (f2 - f0) + 0.5 * u * u * (f2 - 2.0 * f1 + f0)
+    f3 = hist[j + 2, col]
+    return (-u * (u - 1.0) * (u - 2.0) * f0 + 3.0 * (u + 1.0) * (u - 1.0) * (u - 2.0) * f1
+            - 3.0 * (u + 1.0) * u * (u - 2.0) * f2 + (u + 1.0) * u * (u - 1.0) * f3) / 6.0
+
+
+@_jit
+def _torque(law, mode, x, v, p):
+    if law == EXACT:
+        if mode > 0:
+            return p[0] * (x - p[2]) + p[1] * v
+        if mode < 0:
+            return p[0] * (x + p[2]) + p[1] * v
+        return 0.0
+    return mode_torque(law, mode, x, v, p[0], p[1], p[2], p[3])
+
+
+@_jit
+def _signals(t, sys, W, hist, dt, wvals, dvals):
+    """The inputs ``w(t)`` into ``wvals`` and the delayed signals ``u_d(t)`` into ``dvals``."""
+    delay = sys[7]
+    # W spans the run uniformly: one row per output step, or two (half steps)
+    w_row = t / dt * (W.shape[0] - 1) / (hist.shape[0] - 1)
+    for j in range(W.shape[1]):
+        wvals[j] = _lerp(W, w_row, j)
+    if delay > 0.0:
+        last = max(math.ceil(t / dt) - 1, 0)
+        for j in range(dvals.shape[0]):
+            dvals[j] = _history(hist, (t - delay) / dt, last, j)
+
+
+@_jit
+def _row_value(row, z, wvals, dvals):
+    """``row . [z, w, u_d]``: the command or the error of a :class:`~backlash_df.system.Command`."""
+    n, m = z.shape[0], wvals.shape[0]
+    acc = 0.0
+    for j in range(n):
+        acc += row[j] * z[j]
+    for j in range(m):
+        acc += row[n + j] * wvals[j]
+    for j in range(dvals.shape[0]):
+        acc += row[n + m + j] * dvals[j]
+    return acc
+
+
+@_jit
+def _deriv(z, t, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, out):
+    a_mat, b_t, e_mat, c_x, c_v, d_rows, e_d, delay, f_row, e_f, f_level, f_eps, f_break, f_ws = sys
+    x, v = _xv(z, c_x, c_v)
+    torque = _torque(law, mode, x, v, p)
+    _signals(t, sys, W, hist, dt, wvals, dvals)
+    fr = 0.0
+    if f_level > 0.0 or f_break > 0.0:
+        s = 0.0
+        for j in range(z.shape[0]):
+            s += f_row[j] * z[j]
+        fr = (f_level + f_break * math.exp(-((s / f_ws) ** 2))) * math.tanh(s / f_eps)
+    for i in range(z.shape[0]):
+        acc = b_t[i] * torque
+        for j in range(e_d.shape[1]):
+            acc += e_d[i, j] * dvals[j]
+        out[i] = acc - e_f[i] * fr
+    for j in range(W.shape[1]):
+        w = wvals[j]
+        for i in range(z.shape[0]):
+            out[i] += e_mat[i, j] * w
+    for i in range(z.shape[0]):
+        acc = out[i]
+        for j in range(z.shape[0]):
+            acc += a_mat[i, j] * z[j]
+        out[i] = acc
+    if cmode != 0:  # saturated: +-limit in place of u; clamped (and sliding, projected after the step)
+        column, row, _, limit, integrator = cmd
+        gap = (limit if cmode > 0 else -limit) - _row_value(row, z, wvals, dvals)
+        for i in range(z.shape[0]):
+            out[i] += column[i] * gap
+        if abs(cmode) >= 2 and integrator >= 0:
+            out[integrator] = 0.0
+
+
+@_jit
+def _rk4(z, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, wvals, dvals, out):
+    k1, k2, k3, k4, tmp = work[0], work[1], work[2], work[3], work[4]
+    _deriv(z, t, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k1)
+    for i in range(z.shape[0]):
+        tmp[i] = z[i] + 0.5 * h * k1[i]
+    _deriv(tmp, t + 0.5 * h, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k2)
+    for i in range(z.shape[0]):
+        tmp[i] = z[i] + 0.5 * h * k2[i]
+    _deriv(tmp, t + 0.5 * h, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k3)
+    for i in range(z.shape[0]):
+        tmp[i] = z[i] + h * k3[i]
+    _deriv(tmp, t + h, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k4)
+    for i in range(z.shape[0]):
+        out[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+
+
+@_jit
+def _command_mode_rk4(mode, cmode, z, t, sys, cmd, law, p, W, hist, dt, work, wvals, dvals):
+    """The command mode of state ``z`` at ``t`` reached in ``cmode`` (``du/dt`` by the clamped field
+    and by differences of the inputs and delayed signals over half a step)."""
+    column, row, error, limit, integrator = cmd
+    if limit == 0.0:
+        return 0
+    _signals(t, sys, W, hist, dt, wvals, dvals)
+    u = _row_value(row, z, wvals, dvals)
+    e = _row_value(error, z, wvals, dvals)
+    side = (1 if cmode > 0 else -1) if cmode != 0 else (1 if u > limit else (-1 if u < -limit else 0))
+    if side == 0:
+        return 0
+    rate = work[5]
+    _deriv(z, t, mode, 2 * side if integrator >= 0 else side, sys, cmd, law, p, W, hist, dt, wvals, dvals, rate)
+    clamped = 0.0
+    for j in range(z.shape[0]):
+        clamped += row[j] * rate[j]
+    n, m = z.shape[0], wvals.shape[0]
+    h = 0.5 * dt
+    _signals(t + h, sys, W, hist, dt, wvals, dvals)
+    ahead_w, ahead_d = wvals.copy(), dvals.copy()
+    _signals(max(t - h, 0.0), sys, W, hist, dt, wvals, dvals)
+    span = t + h - max(t - h, 0.0)
+    for j in range(m):
+        clamped += row[n + j] * (ahead_w[j] - wvals[j]) / span
+    for j in range(dvals.shape[0]):
+        clamped += row[n + m + j] * (ahead_d[j] - dvals[j]) / span
+    integrating = clamped + (row[integrator] * e if integrator >= 0 else 0.0)
+    return command_mode_of(cmode, u, e, clamped, integrating, limit, integrator >= 0)
+
+
+@_jit
+def _xv(z, c_x, c_v):
+    x = 0.0
+    v = 0.0
+    for j in range(c_x.shape[0]):
+        x += c_x[j] * z[j]
+        v += c_v[j] * z[j]
+    return x, v
+
+
+@_jit
+def _mode_of(law, p, mode, x, v, theta_b):
+    """Mode at a state reached in ``mode``: the law's region, or the exact model's contact."""
+    if law != EXACT:
+        return held_mode(law, mode, x, v, p[0], p[1], p[2], p[3])
+    if theta_b >= p[2] and p[0] * (x - p[2]) + p[1] * v >= 0.0:
+        return 1
+    if theta_b <= -p[2] and p[0] * (x + p[2]) + p[1] * v <= 0.0:
+        return -1
+    return 0
+
+
+@_jit
+def _must_leave(law, p, mode, x, v, theta_b):
+    """True if a state reached with ``mode`` frozen lies outside that mode (release, contact, or region)."""
+    if law != EXACT:
+        return held_mode(law, mode, x, v, p[0], p[1], p[2], p[3]) != mode
+    if mode > 0:
+        return p[0] * (x - p[2]) + p[1] * v < 0.0
+    if mode < 0:
+        return p[0] * (x + p[2]) + p[1] * v > 0.0
+    return abs(theta_b) >= p[2]
+
+
+@_jit
+def _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, wvals, dvals, z_out):
+    """One frozen-mode step; returns (theta_b at the end, True if the backlash or the command mode must change).
+
+    On the limit (sliding) the step is the clamped one with the integrator then
+    projected back onto ``u = +-limit``: with the command saturated the rest of the
+    loop does not see the integrator.
+    """
+    _rk4(z, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, wvals, dvals, z_out)
+    if abs(cmode) == 3:
+        column, row, _, limit, integrator = cmd
+        _signals(t + h, sys, W, hist, dt, wvals, dvals)
+        z_out[integrator] += ((limit if cmode > 0 else -limit) - _row_value(row, z_out, wvals, dvals)) / row[integrator]
+    c_x, c_v = sys[3], sys[4]
+    x1, v1 = _xv(z_out, c_x, c_v)
+    command_leaves = cmd[3] > 0.0 and _command_mode_rk4(mode, cmode, z_out, t + h, sys, cmd, law, p, W, hist, dt,
+                                                         work, wvals, dvals) != cmode
+    if law != EXACT:
+        return theta_b, command_leaves or _must_leave(law, p, mode, x1, v1, theta_b)
+    if mode != 0:
+        return p[2] if mode > 0 else -p[2], command_leaves or _must_leave(law, p, mode, x1, v1, theta_b)
+    x0, v0 = _xv(z, c_x, c_v)
+    theta_new = exact_step(theta_b, x0, v0, x1, v1, h, p[0], p[1], p[2])
+    return theta_new, command_leaves or abs(theta_new) >= p[2]
+
+
+@_jit
+def _record(i, z, theta_b, mode, cmode, law, p, c_x, c_v, d_rows, Z, T, THETA, MODES, CMODES, hist):
+    """Store sample ``i`` of a run: state, shaft torque, theta_b, modes and the delayed signals."""
+    x, v = _xv(z, c_x, c_v)
+    _copy(z, Z[i])
+    T[i] = _torque(law, mode, x, v, p)
+    THETA[i] = theta_b
+    MODES[i] = mode
+    CMODES[i] = cmode
+    for k in range(d_rows.shape[0]):
+        u = 0.0
+        for j in range(z.shape[0]):
+            u += d_rows[k, j] * z[j]
+        hist[i, k] = u
+
+
+#: |state| beyond it: the run has diverged (measure_limit_cycle names it).
+BLOW_UP = 1e150
+
+
+@_jit
+def _diverged(i, z, Z, T, THETA, MODES, CMODES):
+    """True when state ``z`` of sample ``i`` has blown up; the later samples are then NaN.
+
+    Stepping on would overflow to inf and NaN, and a division by them inside a
+    kernel raises; a diverged run ends here instead, and is named by
+    :func:`measure_limit_cycle`.
+    """
+    for value in z:
+        if not abs(value) <= BLOW_UP:  # NaN fails the test too
+            for j in range(i + 1, Z.shape[0]):
+                for col in range(Z.shape[1]):
+                    Z[j, col] = np.nan
+                T[j] = np.nan
+                THETA[j] = np.nan
+                MODES[j] = MODES[i]
+                CMODES[j] = CMODES[i]
+            return True
+    return False
+
+
+@_jit
+def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, CMODES):
+    """RK4 run of ``n_steps`` steps ``dt`` from ``z0``, filling ``Z``, ``T``, ``THETA``, the modes; returns the event count.
+
+    ``sys`` is :meth:`~backlash_df.system.LinearPart.kernel_arrays`, ``cmd`` the
+    command (module docs), ``W`` the inputs on the output grid or at half steps,
+    ``p`` the law's ``(k, c, alpha, beta)``.
+    """
+    n = z0.shape[0]
+    d_rows = sys[5]
+    hist = np.zeros((n_steps + 1, d_rows.shape[0]))
+    work = np.empty((6, n))
+    wvals = np.zeros(W.shape[1])
+    dvals = np.zeros(d_rows.shape[0])
+    z = z0.copy()
+    z_new = np.empty(n)
+    z_try = np.empty(n)
+    theta_b = theta_b0
+    x, v = _xv(z, sys[3], sys[4])
+    mode = _mode_of(law, p, 0, x, v, theta_b)
+    cmode = 0
+    _record(0, z, theta_b, mode, cmode, law, p, sys[3], sys[4], d_rows, Z, T, THETA, MODES, CMODES, hist)
+    if cmd[3] > 0.0:  # the command mode of the initial state
+        _signals(0.0, sys, W, hist, dt, wvals, dvals)
+        cmode = initial_command_mode(_row_value(cmd[1], z, wvals, dvals), _row_value(cmd[2], z, wvals, dvals), cmd[3],
+                                     cmd[4] >= 0)
+    events = 0
+    for i in range(n_steps + 1):
+        _record(i, z, theta_b, mode, cmode, law, p, sys[3], sys[4], d_rows, Z, T, THETA, MODES, CMODES, hist)
+        if i == n_steps or _diverged(i, z, Z, T, THETA, MODES, CMODES):
+            break
+        t = i * dt
+        remaining = dt
+        for _ in range(_MAX_EVENTS_PER_STEP):
+            theta_end, changed = _advance(z, theta_b, t, remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
+                                          wvals, dvals, z_new)
+            if not changed:
+                _copy(z_new, z)
+                theta_b = theta_end
+                remaining = 0.0
+                break
+            # bisect for the first fraction of the remaining step where a mode changes
+            lo = 0.0
+            hi = 1.0
+            for _b in range(_BISECTIONS):
+                mid = 0.5 * (lo + hi)
+                _, ch = _advance(z, theta_b, t, mid * remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
+                                 wvals, dvals, z_try)
+                if ch:
+                    hi = mid
+                else:
+                    lo = mid
+            h = hi * remaining
+            theta_try, _ = _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, wvals, dvals,
+                                    z_try)
+            x, v = _xv(z_try, sys[3], sys[4])
+            if law == EXACT and mode == 0:
+                theta_try = p[2] if theta_try > 0.0 else -p[2]
+            new_mode = _mode_of(law, p, mode, x, v, theta_try)
+            new_cmode = _command_mode_rk4(new_mode, cmode, z_try, t + h, sys, cmd, law, p, W, hist, dt, work, wvals,
+                                          dvals)
+            if new_mode == mode and new_cmode == cmode:  # grazing or round-off at a boundary: no real switch
+                break
+            _copy(z_try, z)
+            theta_b = theta_try
+            mode = new_mode
+            cmode = new_cmode
+            t += h
+            remaining -= h
+            events += 1
+            if remaining <= 1e-14 * dt:
+                break
+        if remaining > 1e-14 * dt:
+            theta_b, _ = _advance(z, theta_b, t, remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work, wvals,
+                                  dvals, z_new)
+            _copy(z_new, z)
+    return events
+
+
+# --------------------------------------------------------------------------- exact-discretisation kernel
+
+
+@_jit
+def _mode_index(mode):
+    """Row of a mode's matrices: 0 left contact, 1 free, 2 right contact."""
+    return 0 if mode < 0 else (2 if mode > 0 else 1)
+
+
+@_jit
+def _apply(phi, q, out, rows):
+    """``out = phi q`` on the first ``rows`` rows; the other entries copied from ``q``."""
+    size = q.shape[0]
+    for i in range(rows):
+        acc = 0.0
+        for j in range(size):
+            acc += phi[i, j] * q[j]
+        out[i] = acc
+    for i in range(rows, size):
+        out[i] = q[i]
+
+
+@_jit
+def _set_inputs(q, base, f0, fm, f1, dt):
+    """Value, slope and curvature of the quadratic through samples at 0, dt/2, dt."""
+    q[base] = f0
+    q[base + 1] = (4.0 * fm - 3.0 * f0 - f1) / dt
+    q[base + 2] = 4.0 * (f0 - 2.0 * fm + f1) / (dt * dt)
+
+
+@_jit
+def _advance_exactly(ladder, q, fraction, out, tmp):
+    """``q`` advanced by ``fraction * dt`` with the dyadic ladder (residual < 2^-levels dt dropped)."""
+    _copy(q, out)
+    for j in range(ladder.shape[0]):
+        s = 0.5**j
+        if fraction >= s:
+            _apply(ladder[j], out, tmp, q.shape[0])
+            _copy(tmp, out)
+            fraction -= s
+
+
+@_jit
+def _dot(row, q):
+    acc = 0.0
+    for j in range(q.shape[0]):
+        acc += row[j] * q[j]
+    return acc
+
+
+@_jit
+def _command_mode_exact(mode, cmode, q, rows, limit, clamps):
+    """The command mode of augmented state ``q`` reached in ``cmode``; ``rows = (u, e, rates)``
+    of :func:`~backlash_df.system.command_matrices`."""
+    u_row, e_row, rates = rows
+    u = _dot(u_row, q)
+    side = (1 if cmode > 0 else -1) if cmode != 0 else (1 if u > limit else (-1 if u < -limit else 0))
+    if side == 0:
+        return 0
+    b, s = _mode_index(mode), 0 if side > 0 else 1
+    return command_mode_of(cmode, u, _dot(e_row, q), _dot(rates[b, s, 0], q), _dot(rates[b, s, 1], q), limit, clamps)
+
+
+@_jit
+def _leaves(law, p, mode, cmode, q, c_x, c_v, rows, limit, clamps):
+    """True if ``q``, reached with both modes frozen, lies outside the backlash mode or the command mode."""
+    n = c_x.shape[0]
+    x, v = _xv(q, c_x, c_v)
+    if _must_leave(law, p, mode, x, v, q[n]):
+        return True
+    return limit > 0.0 and _command_mode_exact(mode, cmode, q, rows, limit, clamps) != cmode
+
+
+@_jit
+def _locate(ladder, q, left, law, p, mode, cmode, c_x, c_v, rows, limit, clamps, q_lo, trial, q_hi):
+    """Bisect for the first time the frozen-mode trajectory must leave its modes; returns it (fraction of dt).
+
+    Binary search on the dyadic ladder from ``q`` (a sub-step ``dt 2^-j`` is kept
+    while the trajectory stays in its modes); ``q_hi`` must already hold the state
+    at ``left``, outside them, and ends as the earliest state found outside.
+    """
+    size = q.shape[0]
+    _copy(q, q_lo)
+    lo = 0.0
+    hi = left
+    for j in range(1, ladder.shape[0]):
+        s = 0.5**j
+        if lo + s >= hi:
+            continue
+        _apply(ladder[j], q_lo, trial, size)
+        if _leaves(law, p, mode, cmode, trial, c_x, c_v, rows, limit, clamps):
+            _copy(trial, q_hi)
+            hi = lo + s
+        else:
+            _copy(trial, q_lo)
+            lo += s
+    return hi
+
+
+@_jit
+def _set_step_inputs(q, i, W, hist, delay, dt, n):
+    """Quadratics in time over step ``i`` of the varying inputs and of the delayed signals."""
+    rows_per_step = (W.shape[0] - 1) / (hist.shape[0] - 1)
+    row = i * rows_per_step
+    for j in range(W.shape[1]):
+        f0, fm, f1 = _lerp(W, row, j), _lerp(W, row + 0.5 * rows_per_step, j), _lerp(W, row + rows_per_step, j)
+        _set_inputs(q, n + 2 + 3 * j, f0, fm, f1, dt)
+    if delay > 0.0:
+        row = i - delay / dt
+        for k in range(hist.shape[1]):
+            f0, fm, f1 = _history(hist, row, i, k), _history(hist, row + 0.5, i, k), _history(hist, row + 1.0, i, k)
+            _set_inputs(q, n + 2 + 3 * (W.shape[1] + k), f0, fm, f1, dt)
+
+
+@_jit
+def _ladder_of(ladders, mode, cmode):
+    """The ladder of a backlash mode and a command mode (one command mode without a limit)."""
+    per_backlash = ladders.shape[0] // 3
+    return ladders[_mode_index(mode) * per_backlash + (command_index(cmode) if per_backlash > 1 else 0)]
+
+
+@_jit
+def _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, rows, limit, clamps, work):
+    """Advance ``q`` by one step ``dt``, switching modes at every located event; returns (mode, cmode, events)."""
+    n, size = c_x.shape[0], q.shape[0]
+    q_new, q_lo, trial, q_hi = work[0], work[1], work[2], work[3]
+    # z and theta_b only: the other entries are constant or reset every step (all of them when the
+    # command, which reads the inputs and delayed signals, can switch)
+    first_rows = n + 1 if limit == 0.0 else size
+    left = 1.0  # fraction of the step still to go
+    events = 0
+    for _ in range(_MAX_EVENTS_PER_STEP):
+        ladder = _ladder_of(ladders, mode, cmode)
+        if left == 1.0:
+            _apply(ladder[0], q, q_new, first_rows)
+        else:
+            _advance_exactly(ladder, q, left, q_new, trial)
+        if not _leaves(law, p, mode, cmode, q_new, c_x, c_v, rows, limit, clamps):
+            _copy(q_new, q)
+            return mode, cmode, events
+        if left == 1.0:
+            _apply(ladder[0], q, q_hi, size)
+        else:
+            _copy(q_new, q_hi)
+        h = _locate(ladder, q, left, law, p, mode, cmode, c_x, c_v, rows, limit, clamps, q_lo, trial, q_hi)
+        if law == EXACT and mode == 0:
+            q_hi[n] = p[2] if q_hi[n] > 0.0 else -p[2]
+        x, v = _xv(q_hi, c_x, c_v)
+        new_mode = _mode_of(law, p, mode, x, v, q_hi[n])
+        new_cmode = _command_mode_exact(new_mode, cmode, q_hi, rows, limit, clamps) if limit > 0.0 else 0
+        if new_mode == mode and new_cmode == cmode:  # grazing or round-off at a boundary: no real switch
+            break
+        _copy(q_hi, q)
+        mode = new_mode
+        cmode = new_cmode
+        left -= h
+        events += 1
+        if left <= 1e-14:
+            return mode, cmode, events
+    _advance_exactly(_ladder_of(ladders, mode, cmode), q, left, q_new, trial)
+    _copy(q_new, q)
+    return mode, cmode, events
+
+
+@_jit
+def run_exact(ladders, rows, limit, clamps, law, p, W, z0, theta_b0, delay, d_rows, c_x, c_v, dt, n_steps, Z, T, THETA,
+              MODES, CMODES):
+    """Exact-discretisation run on the augmented state of :func:`~backlash_df.system.mode_matrices`.
+
+    ``ladders`` holds :func:`~backlash_df.system.exp_ladder` of the left-contact,
+    free and right-contact matrices (each by command mode with a limit,
+    :func:`~backlash_df.system.command_matrices`, whose ``rows`` it switches on);
+    returns the event count.
+    """
+    n = z0.shape[0]
+    hist = np.zeros((n_steps + 1, d_rows.shape[0]))
+    q = np.zeros(ladders.shape[2])
+    work = np.empty((4, q.shape[0]))
+    _copy(z0, q[:n])
+    q[n] = theta_b0
+    q[n + 1] = 1.0
+    x, v = _xv(q, c_x, c_v)
+    mode = _mode_of(law, p, 0, x, v, theta_b0)
+    cmode = 0
+    events = 0
+    for i in range(n_steps + 1):
+        _record(i, q[:n], q[n], mode, cmode, law, p, c_x, c_v, d_rows, Z, T, THETA, MODES, CMODES, hist)
+        if i == n_steps or _diverged(i, q[:n], Z, T, THETA, MODES, CMODES):
+            break
+        _set_step_inputs(q, i, W, hist, delay, dt, n)
+        if i == 0 and limit > 0.0:  # the command mode of the initial state, its inputs set
+            cmode = initial_command_mode(_dot(rows[0], q), _dot(rows[1], q), limit, clamps)
+            CMODES[0] = cmode
+        mode, cmode, found = _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, rows, limit, clamps, work)
+        events += found
+    return events

@@ -1,0 +1,337 @@
+"""Simulation of a linear part closed through a backlash torque law, and its result.
+
+:func:`simulate_linear` integrates a :class:`~backlash_df.system.LinearPart` with
+any law of :func:`~backlash_df.make_model`; :func:`simulate_two_mass` drives the open
+two-mass system with given torques; :func:`default_step` picks a step from the loop's
+fastest dynamics.  The kernels are those of :mod:`backlash_df.simulation`.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+
+from .._json import json_ready
+from ..models import (DAMPED_DEAD_ZONE, DEAD_ZONE, EXACT, PHASE_PLANE, REVISED_DEAD_ZONE, RUBBER, BacklashModel,
+                      make_model)
+from ..plotting import ResultPlot, axes_or_new
+from ..system import closed_loop_matrix, command_matrices, exp_ladder, mode_matrices, two_mass_system
+from ._kernels import LEVELS, run_exact, run_rk4
+
+__all__ = ["SimulationResult", "simulate_linear", "simulate_two_mass", "default_step", "MAX_STEPS"]
+
+
+@dataclasses.dataclass(frozen=True)
+class SimulationResult:
+    """Time response of a drive with backlash.
+
+    Attributes
+    ----------
+    time : ndarray
+        Output grid, s.
+    states : ndarray
+        State trajectory, shape (len(time), n), columns named by ``state_names``.
+    theta_d, dtheta_d : ndarray
+        Displacement (rad) and its rate (rad/s).
+    torque : ndarray
+        Shaft torque T (N m).
+    theta_b : ndarray
+        Backlash angle of the exact model (rad); NaN for static laws.
+    mode : ndarray
+        Contact mode at each sample (0 free, +-1 rubber band or exact contact,
+        +-2 steel contact).
+    events : int
+        Number of located mode changes (of the backlash and of the command).
+    model : BacklashModel
+        The torque law simulated.
+    state_names : tuple of str
+    command : ndarray or None
+        With a torque limit: the torque command ``clip(u, -limit, limit)`` at each sample (N m).
+    command_mode : ndarray or None
+        With a torque limit: the command's mode at each sample
+        (:data:`~backlash_df.system.COMMAND_MODES`: 0 linear, +-1 saturated,
+        +-2 the integrator clamped, +-3 sliding on the limit).
+    """
+
+    time: np.ndarray
+    states: np.ndarray
+    theta_d: np.ndarray
+    dtheta_d: np.ndarray
+    torque: np.ndarray
+    theta_b: np.ndarray
+    mode: np.ndarray
+    events: int
+    model: BacklashModel
+    state_names: tuple
+    command: np.ndarray | None = dataclasses.field(default=None, repr=False)
+    command_mode: np.ndarray | None = dataclasses.field(default=None, repr=False)
+
+    @property
+    def saturated(self):
+        """Share of the samples with the torque command on its limit (0 without a limit)."""
+        return 0.0 if self.command_mode is None else float(np.mean(self.command_mode != 0))
+
+    def state(self, name):
+        """One state's trajectory by name (for example ``"motor_speed"``)."""
+        try:
+            return self.states[:, self.state_names.index(name)]
+        except ValueError:
+            raise ValueError(f"no state {name!r}; states are: {', '.join(self.state_names)}") from None
+
+    def __repr__(self):
+        limit = "" if self.command_mode is None else f", command saturated {100 * self.saturated:.0f} % of the time"
+        return (f"<SimulationResult {self.model.name}: {self.time.size} samples, t = {self.time[0]:g} .. "
+                f"{self.time[-1]:g} s, {self.events} mode changes, states {', '.join(self.state_names)}{limit}>")
+
+    def to_dict(self):
+        """JSON-ready: the sampled trajectory (s, rad, rad/s, N m), mode codes and event count.
+
+        ``theta_b`` is null for a static law; NaN samples of a diverged run are null.
+        """
+        return json_ready({
+            "model": self.model.name,
+            "state_names": list(self.state_names),
+            "events": int(self.events),
+            "time": self.time.tolist(),
+            "states": self.states.tolist(),
+            "theta_d": self.theta_d.tolist(),
+            "dtheta_d": self.dtheta_d.tolist(),
+            "torque": self.torque.tolist(),
+            "theta_b": None if self.model.is_static else self.theta_b.tolist(),
+            "mode": self.mode.tolist(),
+            "command": None if self.command is None else self.command.tolist(),
+            "command_mode": None if self.command_mode is None else self.command_mode.tolist(),
+        })
+
+    def plot(self, ax=None):
+        """theta_d and the shaft torque against time.
+
+        Parameters
+        ----------
+        ax : sequence of 2 matplotlib Axes, optional
+
+        Returns
+        -------
+        ResultPlot
+            Axes ``[theta_d(t), T(t)]``.
+        """
+        figure, axes = axes_or_new(ax, (2, 1), sharex=True, figsize=(7, 4.5), layout="constrained")
+        axes[0].plot(self.time, self.theta_d)
+        axes[0].set_ylabel("theta_d (rad)")
+        axes[1].plot(self.time, self.torque)
+        axes[1].set_ylabel("shaft torque T (N m)")
+        axes[1].set_xlabel("time (s)")
+        axes[0].set_title(f"{self.model.name}")
+        return ResultPlot(figure, axes)
+
+
+
+def _piecewise_affine(system, model):
+    """True if the loop is linear within every mode: no friction, torque affine in (theta_d, dtheta_d)."""
+    if system.friction > 0.0 or system.breakaway > 0.0:
+        return False
+    if model.law == RUBBER:
+        return model.rubber_thickness == 0.0
+    return model.law in (DEAD_ZONE, DAMPED_DEAD_ZONE, REVISED_DEAD_ZONE, PHASE_PLANE, EXACT)
+
+
+
+def _simulate_exactly(system, model, w, z0, theta_b0, dt, n_steps, outputs):
+    """Fill the outputs with the exact-discretisation kernel; returns the number of events."""
+    states, torque, theta_b, modes, cmodes = outputs
+    law = DEAD_ZONE if model.law == EXACT and model.damping == 0.0 else model.law
+    varying = [j for j in range(w.shape[1]) if np.ptp(w[:, j]) > 0.0]
+    constant = np.delete(w[0], varying)
+    matrices = mode_matrices(system, model, law, varying, constant)
+    size = matrices.shape[1]
+    rows, limit, clamps = (np.zeros(size), np.zeros(size), np.zeros((3, 2, 2, size))), 0.0, False
+    if system.command is not None:
+        per_mode, u_row, e_row, rates = command_matrices(system, matrices, varying, constant)
+        matrices = per_mode.reshape(-1, size, size)
+        rows, limit, clamps = (u_row, e_row, rates), system.command.limit, system.command.integrator >= 0
+    ladders = np.stack([exp_ladder(m_aug, dt, LEVELS) for m_aug in matrices])
+    events = run_exact(
+        ladders, rows, float(limit), clamps, law, model.params, np.ascontiguousarray(w[:, varying]), z0, theta_b0,
+        float(system.delay), system.d, system.c_x, system.c_v, dt, n_steps, states, torque, theta_b, modes, cmodes,
+    )
+    if law != model.law:  # the exact model without damping is the dead-zone (Remark 2)
+        modes //= 2
+        theta_b[:] = np.clip(states @ system.c_x, -model.half_gap, model.half_gap)
+    return events
+
+
+def _command_arrays(system):
+    """The command as the RK4 kernel takes it: ``(column, row, error, limit, integrator)``, limit 0 for none."""
+    command = system.command
+    if command is None:
+        width = system.n_states + system.E.shape[1] + system.n_delayed
+        return np.zeros(system.n_states), np.zeros(width), np.zeros(width), 0.0, -1
+    return command.column, command.row, command.error, float(command.limit), int(command.integrator)
+
+
+def _command_trace(system, time, states, w_grid):
+    """``clip(u, -limit, limit)`` at every sample (N m), the delayed signals interpolated from the record."""
+    command = system.command
+    n, m = system.n_states, system.E.shape[1]
+    with np.errstate(over="ignore", invalid="ignore"):
+        u = states @ command.row[:n] + w_grid @ command.row[n:n + m]
+        if system.n_delayed:
+            signals = states @ system.d.T
+            delayed = np.column_stack([np.interp(time - system.delay, time, signals[:, j])
+                                       for j in range(system.n_delayed)])
+            u = u + delayed @ command.row[n + m:]
+    return np.clip(u, -command.limit, command.limit)
+
+
+#: Most steps of one simulation: every sample is stored (about 80 bytes a step), and the
+#: bundled rigs need at most 2e6 (160 s at the default step of 1e-4 s).
+MAX_STEPS = 20_000_000
+
+
+def simulate_linear(system, model, t_end, dt, inputs=None, z0=None, theta_b0=0.0):
+    """Simulate a linear part closed through a backlash torque law.
+
+    Parameters
+    ----------
+    system : LinearPart
+    model : BacklashModel
+        Any law from :func:`~backlash_df.make_model`, the exact model included.
+    t_end, dt : float
+        Final time and output/integration step, s.
+    inputs : array_like or callable, optional
+        External inputs ``w``: an array of shape (N, m) on the grid
+        ``arange(N) * dt`` (N = number of output samples), or a callable
+        ``w(t) -> (len(t), m)``, sampled at half steps ``arange(2 N - 1) * dt / 2``
+        (the RK4 stage times).  Default: zero.
+    z0 : array_like, optional
+        Initial state (default zero).
+    theta_b0 : float
+        Initial backlash angle of the exact model, rad.
+
+    Returns
+    -------
+    SimulationResult
+
+    Raises
+    ------
+    ValueError
+        A step or duration that is not finite and positive, a step longer than
+        the delay, or more than :data:`MAX_STEPS` steps.
+    """
+    if not (dt > 0.0 and math.isfinite(dt)):
+        raise ValueError(f"dt must be finite and > 0, got {dt!r}")
+    if not (t_end > 0.0 and math.isfinite(t_end)):
+        raise ValueError(f"t_end must be finite and > 0, got {t_end!r}")
+    if 0.0 < system.delay < dt:
+        raise ValueError(f"dt = {dt!r} s must not exceed the delay {system.delay!r} s")
+    n_steps = int(round(t_end / dt))
+    if n_steps < 1:
+        raise ValueError(f"t_end = {t_end!r} s must be at least one step dt = {dt!r} s")
+    if n_steps > MAX_STEPS:
+        raise ValueError(f"t_end = {t_end:g} s at dt = {dt:.3g} s is {n_steps:.3g} steps, more than {MAX_STEPS:.0e}: "
+                         f"the loop's fastest dynamics need that step; check the rig's units (stiffness, damping, inertias, kp)")
+    time = np.arange(n_steps + 1) * dt
+    n, m = system.E.shape
+    if inputs is None:
+        w = np.zeros((n_steps + 1, m))
+    elif callable(inputs):
+        w = np.asarray(inputs(np.arange(2 * n_steps + 1) * (0.5 * dt)), dtype=float).reshape(2 * n_steps + 1, m)
+    else:
+        w = np.asarray(inputs, dtype=float)
+        if w.ndim == 1 and m == 1:
+            w = w[:, None]
+        if w.shape != (n_steps + 1, m):
+            raise ValueError(f"inputs must have shape ({n_steps + 1}, {m}) for channels {system.input_names}, got {w.shape}")
+    if not np.all(np.isfinite(w)):
+        raise ValueError("inputs must be finite")
+    z0 = np.zeros(n) if z0 is None else np.asarray(z0, dtype=float).copy()
+    if z0.shape != (n,) or not np.all(np.isfinite(z0)):
+        raise ValueError(f"z0 must be {n} finite numbers for states {system.state_names}")
+    if abs(theta_b0) > model.half_gap:
+        raise ValueError(f"theta_b0 must lie in [-half_gap, half_gap], got {theta_b0!r}")
+    states = np.empty((n_steps + 1, n))
+    torque = np.empty(n_steps + 1)
+    theta_b = np.empty(n_steps + 1)
+    modes = np.empty(n_steps + 1, dtype=np.int64)
+    cmodes = np.zeros(n_steps + 1, dtype=np.int64)
+    w = np.ascontiguousarray(w)
+    if _piecewise_affine(system, model):
+        events = _simulate_exactly(system, model, w, z0, float(theta_b0), float(dt), n_steps,
+                                   (states, torque, theta_b, modes, cmodes))
+    else:
+        events = run_rk4(system.kernel_arrays(), _command_arrays(system), model.law, model.params, w, z0,
+                         float(theta_b0), float(dt), n_steps, states, torque, theta_b, modes, cmodes)
+    if model.is_static:
+        theta_b[:] = np.nan
+    with np.errstate(over="ignore", invalid="ignore"):  # a diverged run is named by measure_limit_cycle
+        theta_d, dtheta_d = states @ system.c_x, states @ system.c_v
+    command = None
+    if system.command is not None:
+        command = _command_trace(system, time, states, w[::2] if w.shape[0] == 2 * n_steps + 1 else w)
+    return SimulationResult(
+        time=time,
+        states=states,
+        theta_d=theta_d,
+        dtheta_d=dtheta_d,
+        torque=torque,
+        theta_b=theta_b,
+        mode=modes,
+        events=int(events),
+        model=model,
+        state_names=system.state_names,
+        command=command,
+        command_mode=None if system.command is None else cmodes,
+    )
+
+
+
+def simulate_two_mass(plant, model, t_end, dt, motor_torque=0.0, load_torque=0.0, z0=None, theta_b0=0.0):
+    """Open-loop two-mass drive with backlash under given external torques.
+
+    Parameters
+    ----------
+    plant : Plant
+        Inertias (and the shaft, unless ``model`` is given as an object).
+    model : str or BacklashModel
+        A law name (built from ``plant``'s shaft) or a model object.
+    t_end, dt : float
+        Final time and step, s.
+    motor_torque, load_torque : float, array_like or callable
+        T_m and T_l (N m): constants, arrays on the grid, or functions of time.
+    z0 : array_like, optional
+        Initial ``(theta_d, motor_speed, load_speed)``.
+    theta_b0 : float
+        Initial backlash angle of the exact model, rad.
+
+    Returns
+    -------
+    SimulationResult
+    """
+    if isinstance(model, str):
+        model = make_model(model, **plant.shaft)
+    system = two_mass_system(plant.motor_inertia, plant.load_inertia)
+
+    def inputs(time):
+        columns = []
+        for value in (motor_torque, load_torque):
+            column = value(time) if callable(value) else value
+            columns.append(np.broadcast_to(np.asarray(column, dtype=float), time.shape))
+        return np.stack(columns, axis=1)
+
+    return simulate_linear(system, model, t_end, dt, inputs=inputs, z0=z0, theta_b0=theta_b0)
+
+
+
+def default_step(system, model):
+    """A step (s) resolving the fastest closed-loop dynamics: ``0.05 / max|eigenvalue|``.
+
+    The eigenvalues are those of the loop with the shaft in full contact
+    (``T = k theta_d + c dtheta_d``); the step never exceeds the dead time.
+    """
+    closed = closed_loop_matrix(system, model.stiffness, model.damping)
+    fastest = max(np.abs(np.linalg.eigvals(closed)).max(), 1e-3)
+    dt = 0.05 / fastest
+    if system.delay > 0.0:
+        dt = min(dt, system.delay / math.ceil(system.delay / dt))
+    return dt
+

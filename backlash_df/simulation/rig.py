@@ -1,0 +1,129 @@
+"""Closed-loop runs of a rig's loop, and runs until the motion has settled."""
+
+import numpy as np
+
+from ..loops import drive_loop
+from ..models import BacklashModel
+from ..system import lti_linear_part
+from .cycles import measure_limit_cycle
+from .linear import default_step, simulate_linear
+
+__all__ = ["simulate_rig", "simulated_limit_cycle", "initial_state"]
+
+
+def initial_state(system, initial=None, kick=0.0):
+    """Initial state of a run: named values, plus the least-norm state with theta_d = 0, dtheta_d = kick.
+
+    Parameters
+    ----------
+    system : LinearPart
+    initial : dict, optional
+        Values by state name (rad, rad/s, ...); a name the system lacks is a ``ValueError``.
+    kick : float
+        Initial rate dtheta_d, rad/s (for the PI loop: motor and load speeds at +-kick/2).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    rows = np.array([system.c_x, system.c_v])
+    z0 = np.linalg.pinv(rows) @ np.array([0.0, float(kick)])
+    for name, value in (initial or {}).items():
+        if name not in system.state_names:
+            raise ValueError(f"initial: no state {name!r}; states are: {', '.join(system.state_names)}")
+        z0[system.state_names.index(name)] = float(value)
+    return z0
+
+
+
+def simulate_rig(rig, model=None, t_end=20.0, dt=None, speed_reference=0.0, load_torque=None,
+                 initial=None, kick=0.0, linear=None):
+    """Closed-loop time simulation of a rig's PI speed loop with a backlash torque law.
+
+    Public as :func:`backlash_df.simulate`.  The loop is that of
+    :mod:`backlash_df.loops` (states ``theta_d``, ``motor_speed``,
+    ``load_speed``, ``integrator`` and, when present, ``filtered_speed`` and
+    ``motor_torque``), integrated by :func:`~backlash_df.simulation.simulate_linear`.
+
+    Parameters
+    ----------
+    rig : Rig
+        Plant and ``[controller]`` (the shaft parameters build ``model`` if a name).
+    model : str or BacklashModel, optional
+        Torque law (default: the rig's ``[model] backlash``); the exact model included.
+    t_end : float
+        Simulated time, s.
+    dt : float, optional
+        Step, s (default :func:`default_step`).
+    speed_reference, load_torque : float or callable
+        r (rad/s) and T_l (N m): constants or functions of time (default
+        ``load_torque``: the rig's ``[load] torque``).
+    initial : dict, optional
+        Initial values by state name, e.g. ``{"motor_speed": 0.5}``; others 0.
+    kick : float
+        Initial rate dtheta_d (rad/s) added as the least-norm state with
+        ``theta_d = 0`` (for the PI loop: motor and load speeds at +-kick/2).
+    linear : control.LTI, optional
+        A user's linear part G (shaft torque -> -theta_d) replacing the rig's loop;
+        then the loop has no external inputs and ``initial`` names ``x0, x1, ...``.
+
+    Returns
+    -------
+    SimulationResult
+
+    Examples
+    --------
+    >>> from backlash_df import rig_from_dict, simulate
+    >>> rig = rig_from_dict({"plant": {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0,
+    ...     "damping": 3.0, "half_gap": 0.05}, "controller": {"kp": 30.0, "ti": 0.5, "feedback": "motor"}})
+    >>> result = simulate(rig, "phase-plane", t_end=1.0, initial={"motor_speed": 1.0})
+    >>> result.state_names
+    ('theta_d', 'motor_speed', 'load_speed', 'integrator')
+    """
+    if not isinstance(model, BacklashModel):
+        model = rig.make_model(model)
+    system = drive_loop(rig).linear_part() if linear is None else lti_linear_part(linear)
+    dt = default_step(system, model) if dt is None else dt
+    z0 = initial_state(system, initial, kick)
+    load_torque = rig.load.torque if load_torque is None else load_torque
+    inputs = None
+    if system.E.shape[1] == 2:
+
+        def inputs(time):
+            columns = []
+            for value in (speed_reference, load_torque):
+                column = value(time) if callable(value) else value
+                columns.append(np.broadcast_to(np.asarray(column, dtype=float), time.shape))
+            return np.stack(columns, axis=1)
+
+    return simulate_linear(system, model, t_end, dt, inputs=inputs, z0=z0)
+
+
+def simulated_limit_cycle(rig, model=None, t_end=20.0, max_t_end=160.0, dt=None, periods=6, rtol=1e-3, **kwargs):
+    """Simulate until a steady state and measure the limit cycle.
+
+    Runs :func:`simulate_rig` for ``t_end`` and doubles it (re-running from the
+    start, so a dead time's history stays exact) until :func:`measure_limit_cycle`
+    finds a steady state or ``max_t_end`` is passed.
+
+    Parameters
+    ----------
+    rig, model, dt, **kwargs
+        As :func:`simulate_rig` (``speed_reference``, ``load_torque``, ``initial``, ``kick``, ``linear``).
+    t_end, max_t_end : float
+        First and largest simulated time, s.
+    periods, rtol
+        As :func:`measure_limit_cycle`.
+
+    Returns
+    -------
+    measured : MeasuredCycle
+    result : SimulationResult
+        The last simulation run.
+    """
+    while True:
+        result = simulate_rig(rig, model, t_end=t_end, dt=dt, **kwargs)
+        measured = measure_limit_cycle(result, periods=periods, rtol=rtol)
+        if measured.settled or 2.0 * t_end > max_t_end:
+            return measured, result
+        t_end *= 2.0

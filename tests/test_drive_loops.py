@@ -1,0 +1,245 @@
+"""Cascade position control, a torque limit with a clamped integrator, a user's controller (issue 19).
+
+The independent reference is a fine-step simulation written here from the loop's
+equations as the issue states them (not from the package's linear part): RK4 on
+the states ``theta_d, w_m, w_l, theta_l, I, y_f, T_m`` with the revised dead-zone
+(27) ``T = k dz(theta_d + (c/k) dtheta_d)``, the command ``clip(u, -L, L)`` and the
+integrator clamped while ``|u| > L`` and ``e`` has the sign of ``u``, every
+stage evaluated as it comes; the step is halved until the cycle's amplitude moves
+by less than 2e-5 (relative).  It starts from the package's state on the cycle and
+runs long enough to forget it.
+"""
+
+import dataclasses
+import math
+
+import control as ct
+import numba
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import backlash_df as bd
+from backlash_df.cli import main
+from backlash_df.simulation import simulate_rig, simulated_limit_cycle
+from conftest import PLANT_TOML, example_rig
+
+LAW = "revised-dead-zone"
+STATES = ("theta_d", "motor_speed", "load_speed", "load_angle", "integrator", "filtered_speed", "motor_torque")
+
+
+def tuned(name="load_feedback", **controller):
+    rig = example_rig(name)
+    return dataclasses.replace(rig, controller=dataclasses.replace(rig.controller, **controller))
+
+
+# --------------------------------------------------------------------------- the reference
+
+
+@numba.njit(cache=True)
+def _field(z, p, out):
+    """The loop of the issue's text: d/dt of (theta_d, w_m, w_l, theta_l, I, y_f, T_m)."""
+    jm, jl, k, c, alpha, kp, ki, motor_fb, cascade, kv, motor_pos, tau_f, tau_l, limit = p
+    x, wm, wl, tl, integ, yf, tm = z
+    y = x + c / k * (wm - wl)  # revised dead-zone (27): a dead zone of y
+    torque = k * (y - alpha) if y > alpha else (k * (y + alpha) if y < -alpha else 0.0)
+    speed = wm if motor_fb > 0.5 else wl
+    position = x + tl if motor_pos > 0.5 else tl
+    measured = yf if tau_f > 0.0 else speed
+    reference = -kv * position if cascade > 0.5 else 0.0
+    e = reference - measured
+    u = kp * e + ki * integ
+    command = u
+    rate_i = e
+    if limit > 0.0 and abs(u) > limit:
+        command = limit if u > 0.0 else -limit
+        if e * u > 0.0:
+            rate_i = 0.0
+    motor_torque = tm if tau_l > 0.0 else command
+    out[0] = wm - wl
+    out[1] = (motor_torque - torque) / jm
+    out[2] = torque / jl
+    out[3] = wl
+    out[4] = rate_i
+    out[5] = (speed - yf) / tau_f if tau_f > 0.0 else 0.0
+    out[6] = (command - tm) / tau_l if tau_l > 0.0 else 0.0
+
+
+@numba.njit(cache=True)
+def _reference_run(z0, p, h, steps, every):
+    """RK4 of :func:`_field`; theta_d every ``every`` steps."""
+    z = z0.copy()
+    k1, k2, k3, k4, tmp = np.empty(7), np.empty(7), np.empty(7), np.empty(7), np.empty(7)
+    out = np.empty(steps // every + 1)
+    for i in range(steps + 1):
+        if i % every == 0:
+            out[i // every] = z[0]
+        if i == steps:
+            break
+        _field(z, p, k1)
+        tmp[:] = z + 0.5 * h * k1
+        _field(tmp, p, k2)
+        tmp[:] = z + 0.5 * h * k2
+        _field(tmp, p, k3)
+        tmp[:] = z + h * k3
+        _field(tmp, p, k4)
+        z += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    return out
+
+
+def _first_harmonic(time, x, periods=6):
+    """(amplitude, omega) of the last ``periods`` periods: upward crossings of the mean, trapezoid integral."""
+    x = x - 0.5 * (x.max() + x.min())
+    i = np.nonzero((x[:-1] < 0.0) & (x[1:] >= 0.0))[0]
+    crossings = time[i] - x[i] * (time[i + 1] - time[i]) / (x[i + 1] - x[i])
+    t0, t1 = crossings[-periods - 1], crossings[-1]
+    omega = 2.0 * math.pi * periods / (t1 - t0)
+    inside = (time >= t0) & (time <= t1)
+    c1 = 2.0 / (t1 - t0) * np.trapezoid(x[inside] * np.exp(-1j * omega * time[inside]), time[inside])
+    return abs(c1), omega
+
+
+def reference_cycle(rig, z0, names, seconds, h=4e-6, tol=2e-5):
+    """The converged reference cycle from the package's state ``z0`` (states ``names``): (A, omega)."""
+    plant, ctl = rig.plant, rig.controller
+    p = np.array([plant.motor_inertia, plant.load_inertia, plant.stiffness, plant.damping, plant.half_gap, ctl.kp,
+                  ctl.ki, ctl.feedback == "motor", ctl.cascade, ctl.kv, ctl.position_feedback == "motor",
+                  ctl.speed_filter, ctl.torque_lag, ctl.torque_limit], dtype=float)
+    start = np.array([z0[names.index(name)] if name in names else 0.0 for name in STATES])
+    previous = None
+    while True:
+        steps = int(round(seconds / h))
+        every = max(1, int(round(2e-5 / h)))
+        x = _reference_run(start, p, h, steps, every)
+        cycle = _first_harmonic(np.arange(x.size) * h * every, x)
+        if previous is not None and abs(cycle[0] / previous[0] - 1.0) < tol:
+            return cycle
+        previous, h = cycle, 0.5 * h
+
+
+CASES = {
+    "cascade, load position": dict(structure="cascade", kv=20.0),
+    "cascade, motor speed and load position": dict(structure="cascade", kv=50.0, feedback="motor"),
+    "speed loop, torque limit (saturated)": dict(kp=3000.0, torque_limit=200.0),
+    "cascade, torque limit (saturated)": dict(structure="cascade", kv=20.0, kp=3000.0, torque_limit=300.0),
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_simulated_cycle_matches_an_independent_fine_step_simulation(case):
+    rig = tuned(**CASES[case])
+    measured, result = simulated_limit_cycle(rig, LAW, kick=5.0, t_end=20.0, max_t_end=80.0)
+    assert measured.found, measured
+    period = 2.0 * math.pi / measured.omega
+    amplitude, omega = reference_cycle(rig, result.states[-1], result.state_names, seconds=max(60 * period, 3.0))
+    assert measured.amplitude == pytest.approx(amplitude, rel=1e-4)
+    assert measured.omega == pytest.approx(omega, rel=1e-5)
+    if rig.controller.torque_limit > 0.0:
+        assert measured.saturated and measured.saturation > 0.5
+
+
+def test_the_df_of_both_nonlinearities_meets_the_saturated_cycle():
+    rig = tuned(kp=3000.0, torque_limit=200.0)
+    prediction = bd.predict_limit_cycles(rig, LAW)
+    stable = prediction.stable_cycles
+    assert len(stable) == 1 and stable[0].saturated
+    assert stable[0].command_amplitude > rig.controller.torque_limit
+    measured, _ = simulated_limit_cycle(rig, LAW, kick=5.0)
+    assert stable[0].amplitude == pytest.approx(measured.amplitude, rel=0.02)
+    # the harmonic balance of both nonlinearities, substituted back with an independent G: the loop
+    # assembled by python-control with the saturation replaced by its describing function
+    gain = bd.describing.saturation_describing_function(stable[0].command_amplitude, rig.controller.torque_limit)
+    loop = bd.DriveLoop(rig.plant, dataclasses.replace(rig.controller, kp=gain * rig.controller.kp, torque_limit=0.0))
+    g = loop.frd([stable[0].omega, 2.0 * stable[0].omega]).eval(stable[0].omega)
+    n = bd.describing_function(rig.make_model(LAW), stable[0].amplitude, stable[0].omega)
+    assert abs(1.0 + complex(g) * complex(n)) < 1e-8
+
+
+def test_a_capped_contact_loop_is_a_saturated_limit_cycle_and_unstable_without_the_limit():
+    capped = bd.analyse_loop(tuned(kp=3000.0, torque_limit=200.0), [LAW]).verdicts[0]
+    assert capped.contact_loop.status == "unstable"
+    assert capped.verdict == "limit cycle" and capped.saturated
+    assert capped.to_dict()["saturated"] is True and "caps the growth" in capped.reason
+    free = bd.analyse_loop(tuned(kp=3000.0), [LAW]).verdicts[0]
+    assert free.verdict == "unstable" and not free.saturated
+
+
+def test_a_pi_given_as_an_lti_is_the_built_in_pi():
+    rig = tuned(structure="cascade", kv=20.0)
+    ctl = rig.controller
+    user = rig.with_controller(speed=ct.tf([ctl.kp * ctl.ti, ctl.kp], [ctl.ti, 0.0]))
+    assert "speed_controller_1" in bd.drive_loop(user).linear_part().state_names
+    w = np.geomspace(1.0, 1e4, 9)
+    np.testing.assert_allclose(bd.drive_loop(user).frequency_response(w), bd.drive_loop(rig).frequency_response(w),
+                               rtol=1e-12)
+    built_in, by_user = (bd.predict_limit_cycles(r, LAW).stable_cycles[0] for r in (rig, user))
+    assert by_user.amplitude == pytest.approx(built_in.amplitude, rel=1e-8)
+    assert by_user.omega == pytest.approx(built_in.omega, rel=1e-8)
+    (a, _), (b, _) = (simulated_limit_cycle(r, LAW, kick=5.0) for r in (rig, user))
+    assert b.amplitude == pytest.approx(a.amplitude, rel=1e-8) and b.omega == pytest.approx(a.omega, rel=1e-8)
+
+
+def test_a_notch_filter_moves_the_cycle_as_its_frequency_response_says():
+    rig = tuned()
+    ctl = rig.controller
+    wn = 97.0  # rad/s: a notch near the cycle's frequency
+    notch = ct.tf([1.0, 2 * 0.05 * wn, wn**2], [1.0, 2 * 0.7 * wn, wn**2])
+    pi = ct.tf([ctl.kp * ctl.ti, ctl.kp], [ctl.ti, 0.0])
+    user = rig.with_controller(speed=pi * notch)
+    before, after = (bd.predict_limit_cycles(r, LAW) for r in (rig, user))
+    assert after.cycles != before.cycles
+    # every cycle of the notched loop solves 1 + G N = 0 with G assembled independently by python-control
+    s = ct.tf("s")
+    p_m, p_l = 1 / (rig.plant.motor_inertia * s), 1 / (rig.plant.load_inertia * s)
+    k = pi * notch / (ctl.speed_filter * s + 1)
+    g = (p_m * (1 + k * p_l) + p_l) / s  # load feedback
+    for cycle in after.cycles:
+        n = bd.describing_function(rig.make_model(LAW), cycle.amplitude, cycle.omega)
+        assert abs(1.0 + complex(g(1j * cycle.omega)) * complex(n)) < 1e-8
+
+
+def test_a_p_speed_controller_has_no_integrator():
+    rig = tuned(ti=math.inf)
+    part = bd.drive_loop(rig).linear_part()
+    assert "integrator" not in part.state_names
+    result = simulate_rig(rig, LAW, t_end=0.5, kick=5.0)
+    assert np.all(np.isfinite(result.theta_d))
+
+
+# --------------------------------------------------------------------------- bad input
+
+
+def _refused(tmp_path, controller, words, args=()):
+    path = tmp_path / "rig.toml"
+    path.write_text(PLANT_TOML + "\n[controller]\nkp = 30.0\nti = 0.5\n" + controller)
+    result = CliRunner().invoke(main, ["predict", str(path), *args])
+    assert result.exit_code == 2, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("backlash-df: error:"), result.output
+    for word in words:
+        assert word in lines[0], lines[0]
+
+
+@pytest.mark.parametrize(("controller", "words"), [
+    ("kv = 20.0\n", ["kv", 'structure = "cascade"']),
+    ('position_feedback = "motor"\n', ["position_feedback", "cascade"]),
+    ('structure = "cascade"\n', ["missing key", "kv"]),
+    ('structure = "position"\n', ["structure", '"speed" or "cascade"']),
+    ("torque_limit = -1.0\n", ["torque_limit", ">= 0"]),
+    ("torque_limit = nan\n", ["torque_limit", "finite"]),
+    ("torque_limit = inf\n", ["torque_limit", "finite"]),
+])
+def test_bad_controller_keys_are_one_line(tmp_path, controller, words):
+    _refused(tmp_path, controller, words)
+
+
+def test_a_user_lti_that_is_not_proper_or_not_siso_is_refused():
+    rig = tuned()
+    with pytest.raises(ValueError, match="not proper"):
+        rig.with_controller(speed=ct.tf([1.0, 0.0, 0.0], [1.0, 1.0]))
+    with pytest.raises(ValueError, match="SISO"):
+        rig.with_controller(speed=ct.ss(np.eye(2), np.eye(2), np.eye(2), np.zeros((2, 2))))
+    with pytest.raises(ValueError, match="continuous"):
+        rig.with_controller(speed=ct.tf([1.0], [1.0, 0.5], dt=0.01))
+    with pytest.raises(ValueError, match='structure = "cascade"'):
+        rig.with_controller(position=ct.tf([20.0], [1.0]))

@@ -1,0 +1,133 @@
+"""One result protocol over every public result class (issue 18).
+
+Each class: ``to_dict()`` is JSON-ready (``json.dumps(..., allow_nan=False)``
+accepts it and gives the same data back), the repr is one short line, ``plot(ax=None)``
+returns a :class:`~backlash_df.ResultPlot` whose ``figure`` holds its ``axes`` (and
+draws into axes it is given), and ``report_html(title="", rig_text="")`` where a
+report exists shows the title and the rig text, escaped.  The instances are the
+``results`` fixture of ``conftest.py`` (tests/test_plot_layout.py walks the same
+ones); the list of classes is checked against the package: a new public class with
+a ``to_dict`` must be added there.
+"""
+
+import importlib
+import inspect
+import json
+import pkgutil
+import warnings
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+from matplotlib.axes import Axes  # noqa: E402
+
+import backlash_df as bd  # noqa: E402
+from conftest import PLOTS, REPORTS, example_rig  # noqa: E402
+
+RIG_TEXT = "[plant]\n# a <b>rig</b> & its text\n"
+
+
+def _public_result_classes():
+    """Every class in a public module's ``__all__`` that has a ``to_dict`` method (the rig file's are inputs)."""
+    names = set()
+    for info in pkgutil.walk_packages(bd.__path__, "backlash_df."):
+        if any(part.startswith("_") for part in info.name.split(".")) or info.name.startswith(
+                ("backlash_df.cli", "backlash_df.config")):
+            continue
+        module = importlib.import_module(info.name)
+        for name in getattr(module, "__all__", ()):
+            item = getattr(module, name)
+            if inspect.isclass(item) and callable(getattr(item, "to_dict", None)):
+                names.add(name)
+    return names
+
+
+def test_every_public_result_class_is_covered(results):
+    covered = {type(result).__name__ for result in results.values()}
+    assert _public_result_classes() <= covered
+
+
+@pytest.mark.parametrize("name", sorted(["LimitCyclePrediction", "LimitCycle", "NearMiss", "LoopVerdict", "Probe",
+                                         "LinearStability", "LoopAnalysis", "PeriodicOrbit", "Branch", "BranchPoint",
+                                         "SpecialPoint", "DesignMap", "SimulationResult", "MeasuredCycle",
+                                         "DescribingFunctionResult", "ValidityMap", "TorqueComparison", "TableOne",
+                                         "Measurements", "Diagnosis", "Cause", "Stage", "ShaftResolution",
+                                         "CandidateResult", "Calibration", "FitParameter", "Replay", "FreeRunReplay", "ResidualAnalysis", "LoadLimit",
+                                         "Tuning", "Certificate", "Candidate", "Disturbance"]))
+def test_to_dict_is_json_and_the_repr_one_line(results, name):
+    result = results[name]
+    data = result.to_dict()
+    assert isinstance(data, dict) and data
+    assert json.loads(json.dumps(data, allow_nan=False)) == json.loads(json.dumps(data, allow_nan=False))
+    text = repr(result)
+    assert "\n" not in text and len(text) < 400, text
+    assert "array(" not in text  # no numpy arrays dumped into the repr
+
+
+@pytest.mark.parametrize("name", PLOTS)
+def test_plot_returns_a_result_plot(results, name):
+    result = results[name]
+    try:
+        drawn = result.plot()
+        assert isinstance(drawn, bd.ResultPlot)
+        assert drawn.axes.size >= 1 and all(isinstance(ax, Axes) for ax in drawn.axes.flat)
+        assert all(ax.figure is drawn.figure for ax in drawn.axes.flat)
+        assert any(ax.has_data() for ax in drawn.axes.flat)
+        # drawn again into the same axes: the result draws where it is told
+        again = result.plot(ax=drawn.axes.reshape(-1) if drawn.axes.size > 1 else drawn.axes.flat[0])
+        assert again.figure is drawn.figure
+        assert [id(ax) for ax in again.axes.flat] == [id(ax) for ax in drawn.axes.flat]
+    finally:
+        plt.close("all")
+
+
+@pytest.mark.parametrize("name", REPORTS)
+def test_report_html_shows_title_and_rig_text(results, name):
+    page = results[name].report_html(title="A title <here>", rig_text=RIG_TEXT)
+    assert page.startswith("<!DOCTYPE html>")
+    assert "<title>A title &lt;here&gt;</title>" in page
+    assert "a &lt;b&gt;rig&lt;/b&gt; &amp; its text" in page  # escaped, once
+    assert page.count("its text") == 1
+    default = results[name].report_html()
+    assert "<title></title>" not in default
+    plt.close("all")
+
+
+def test_the_old_plot_returns_still_work_with_a_warning(results):
+    drawn = results["SimulationResult"].plot()
+    with pytest.warns(DeprecationWarning, match="ResultPlot"):
+        first = drawn[0]
+    assert first is drawn.axes[0]
+    one = results["LimitCyclePrediction"].plot()
+    with pytest.warns(DeprecationWarning, match="Axes method 'get_xlabel'"):
+        assert one.get_xlabel() == "real part (rad/(N m))"
+    assert one.figure is one.axes[0].figure  # .figure, as an Axes had it, without a warning
+    plt.close("all")
+
+
+def test_the_old_result_methods_warn_and_give_the_same_data(results):
+    prediction, diagnosis = results["LimitCyclePrediction"], results["Diagnosis"]
+    with pytest.warns(DeprecationWarning, match="cycle_dicts"):
+        assert prediction.to_dicts() == prediction.cycle_dicts()
+    with pytest.warns(DeprecationWarning, match="json.dumps"):
+        assert json.loads(diagnosis.to_json()) == json.loads(json.dumps(diagnosis.to_dict()))
+    with pytest.warns(DeprecationWarning, match="attributes"):
+        assert diagnosis.causes[0]["effect"] == diagnosis.causes[0].effect
+
+
+def test_the_old_module_path_of_the_simulation_warns_and_works(monkeypatch):
+    import sys
+
+    monkeypatch.setattr(bd, "simulate", bd.simulate)  # the import rebinds the name; restored after the test
+    monkeypatch.delitem(sys.modules, "backlash_df.simulate", raising=False)
+    with pytest.warns(DeprecationWarning, match="backlash_df.simulation"):
+        from backlash_df.simulate import measure_limit_cycle
+    assert measure_limit_cycle is bd.simulation.measure_limit_cycle
+    rig = example_rig("motor_feedback")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # calling backlash_df.simulate stays quiet
+        result = bd.simulate(rig, "phase-plane", t_end=0.1)
+    assert np.all(np.isfinite(result.theta_d))
