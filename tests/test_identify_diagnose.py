@@ -316,7 +316,7 @@ def test_baseline_that_explains_too_little_names_no_cause(rig):
     assert result.cause == "none" and result.causes == []
     assert min(result.baseline.fit_percent.values()) < 30.0
     assert result.warnings[0].startswith("the baseline explains too little")
-    assert result.sentence.startswith("No cause named")
+    assert "No cause named: the nominal model explains too little" in result.sentence
     assert json.loads(json.dumps(result.to_dict()))["cause"] == "none"
 
 
