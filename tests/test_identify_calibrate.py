@@ -263,5 +263,7 @@ def test_generator_is_reproducible_and_hides_the_given_sizes():
     assert np.std(difference) == pytest.approx(0.02, rel=0.25)
     with pytest.raises(ValueError, match="one side at a time"):
         synthesize(rig, ["coulomb_friction@load", "breakaway_friction@motor"], seed=1, duration=0.5)
+    with pytest.raises(ValueError, match="encoder_counts = 0: give the encoder's counts per revolution"):
+        synthesize(rig, "none", seed=1, duration=0.5, encoder_counts=0)  # was a ZeroDivisionError
     stiction = synthesize(rig, {"coulomb_friction@load": 3.0, "breakaway_friction@load": 6.0}, seed=1, duration=0.5)
     assert stiction.effects == {"coulomb_friction@load": 3.0, "breakaway_friction@load": 6.0}

@@ -261,7 +261,7 @@ def synthesize(rig, cause="none", size=None, seed=0, duration=2.0, sample_rate=1
     datasheet_error : float
         Relative range of the data-sheet errors (0.04: each value within +-4 %).
     encoder_counts : int, optional
-        With a count per revolution, the record carries encoder angles
+        With a count per revolution (at least 1; None: no angle columns), the record carries encoder angles
         ``motor_angle`` and ``load_angle`` (rad): the true angles rounded down to
         the encoder's step ``2 pi / encoder_counts``, each from its own random zero.
     encoder_skew : float
@@ -282,6 +282,9 @@ def synthesize(rig, cause="none", size=None, seed=0, duration=2.0, sample_rate=1
     >>> record.measurements.n_samples, record.cause, record.effects["viscous_friction@load"]
     (501, 'coulomb_friction@load', 1.0)
     """
+    if encoder_counts is not None and not encoder_counts >= 1:
+        raise ValueError(f"synthesize: encoder_counts = {encoder_counts!r}: give the encoder's counts per revolution "
+                         f"(at least 1), or None for a record without angle columns")
     controller = rig.require_controller()
     rng = np.random.default_rng(seed)
     plant = _perturbed_plant(rig.plant, rng, datasheet_error)
