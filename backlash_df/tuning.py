@@ -459,8 +459,10 @@ class Tuning:
                                 "hunting amplitude.")))
         probes = [[_disturbance_text(p), p.outcome, f"{p.measured.amplitude:.4g}" if p.measured.found else ""]
                   for p in verdict.probes]
-        sections.append(("Certificate: the probes", table_html(["disturbance", "outcome", "cycle A (rad)"], probes,
-                                                               text_columns=(0, 1))))
+        header = ["disturbance", "outcome", "cycle A (rad)"]
+        if not any(row[2] for row in probes):  # no probe found a cycle: no empty column
+            header, probes = header[:2], [row[:2] for row in probes]
+        sections.append(("Certificate: the probes", table_html(header, probes, text_columns=(0, 1))))
         front = [[f"{p.tolerance:.4g}", ", ".join(f"{v:.4g}" for v in p.values), f"{p.bandwidth:.4g}",
                   f"{p.amplitude:.4g}"] for p in self.front]
         sections.append(("Front: bandwidth bought by accepted hunting", table_html(
@@ -490,6 +492,9 @@ def _draw_range(tuning, ax):
         ax.plot(tuning.best.values[0], tuning.best.bandwidth, "*", color="C2" if tuning.feasible else "C3", ms=14,
                 label="best certified" if tuning.feasible else "least hunting")
         ax.set_xscale("log")
+        from matplotlib.ticker import NullFormatter  # here: importing backlash_df does not import matplotlib
+
+        ax.xaxis.set_minor_formatter(NullFormatter())  # labelled minor ticks of a short decade collide
         ax.set_xlabel(f"{tuning.names[0]} ({unit[tuning.names[0]]})")
         ax.set_ylabel("bandwidth omega_b (rad/s)")
     else:
