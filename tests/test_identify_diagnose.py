@@ -117,7 +117,7 @@ def test_kuka_record_names_both_frictions(tmp_path):
     """The real record, angle columns given: the shaft's mode (17.8 Hz) lies above what the record
     resolves, so Coulomb and viscous friction are named from the rigid-body model, each within 15 % of
     the least-squares fit of the same columns and agreeing with the two-mass model (which fits the link
-    encoder's skew, 2.5 ms: the measured twist regressed on the link speed gives about 3 ms, its elastic
+    encoder's skew, 2.65 ms: the measured twist regressed on the link speed gives about 3 ms, its elastic
     part under the viscous friction included).  Every value on a bound is warned about."""
     data, output = _diagnose_json(KUKA / "kuka_axis1.csv", tmp_path / "kuka.json")
     assert data["structure"] == "rigid_body" and not data["shaft"]["resolved"]

@@ -118,7 +118,7 @@ VALIDATION_HORIZON = 0.4
 #: speed) must reach to be held at its fitted value; a smaller skew is held at zero.  Fitted with the nominal
 #: structure, a skew absorbs missing effects (on a synthetic record with friction and encoders read at the same
 #: instant, 0.13 ms with an interval excluding zero: 1.3 % of the twist's spread, a viscous torque); the KUKA
-#: record's link encoder, 2.5 ms late, explains 81 % of it.
+#: record's link encoder, 2.65 ms late, explains 86 % of it.
 MIN_SKEW_SHARE = 0.1
 #: Candidates of a forward step refitted in full after the screening.
 MAX_REFITS = 3
