@@ -197,6 +197,13 @@ def _command_mode_rk4(mode, cmode, z, t, sys, cmd, law, p, W, hist, dt, work, wv
 
 
 @_jit
+def _copy_vector(src, dst, count):
+    """``dst[:count] = src[:count]`` without the views."""
+    for i in range(count):
+        dst[i] = src[i]
+
+
+@_jit
 def _xv(z, c_x, c_v):
     x = 0.0
     v = 0.0
@@ -257,17 +264,17 @@ def _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
 
 
 @_jit
-def _record(i, z, theta_b, mode, cmode, law, p, c_x, c_v, d_rows, Z, T, THETA, MODES, CMODES, hist):
-    """Store sample ``i`` of a run: state, shaft torque, theta_b, modes and the delayed signals."""
-    x, v = _xv(z, c_x, c_v)
-    _copy(z, Z[i])
-    T[i] = _torque(law, mode, x, v, p)
+def _record(i, z, n, theta_b, mode, cmode, torque, d_rows, Z, T, THETA, MODES, CMODES, hist):
+    """Store sample ``i`` of a run: state ``z[:n]``, shaft torque, theta_b, modes and the delayed signals."""
+    for j in range(n):
+        Z[i, j] = z[j]
+    T[i] = torque
     THETA[i] = theta_b
     MODES[i] = mode
     CMODES[i] = cmode
     for k in range(d_rows.shape[0]):
         u = 0.0
-        for j in range(z.shape[0]):
+        for j in range(n):
             u += d_rows[k, j] * z[j]
         hist[i, k] = u
 
@@ -277,15 +284,15 @@ BLOW_UP = 1e150
 
 
 @_jit
-def _diverged(i, z, Z, T, THETA, MODES, CMODES):
-    """True when state ``z`` of sample ``i`` has blown up; the later samples are then NaN.
+def _diverged(i, z, n, Z, T, THETA, MODES, CMODES):
+    """True when state ``z[:n]`` of sample ``i`` has blown up; the later samples are then NaN.
 
     Stepping on would overflow to inf and NaN, and a division by them inside a
     kernel raises; a diverged run ends here instead, and is named by
     :func:`measure_limit_cycle`.
     """
-    for value in z:
-        if not abs(value) <= BLOW_UP:  # NaN fails the test too
+    for k in range(n):
+        if not abs(z[k]) <= BLOW_UP:  # NaN fails the test too
             for j in range(i + 1, Z.shape[0]):
                 for col in range(Z.shape[1]):
                     Z[j, col] = np.nan
@@ -318,15 +325,16 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
     x, v = _xv(z, sys[3], sys[4])
     mode = _mode_of(law, p, 0, x, v, theta_b)
     cmode = 0
-    _record(0, z, theta_b, mode, cmode, law, p, sys[3], sys[4], d_rows, Z, T, THETA, MODES, CMODES, hist)
+    _record(0, z, n, theta_b, mode, cmode, _torque(law, mode, x, v, p), d_rows, Z, T, THETA, MODES, CMODES, hist)
     if cmd[3] > 0.0:  # the command mode of the initial state
         _signals(0.0, sys, W, hist, dt, wvals, dvals)
         cmode = initial_command_mode(_row_value(cmd[1], z, wvals, dvals), _row_value(cmd[2], z, wvals, dvals), cmd[3],
                                      cmd[4] >= 0)
     events = 0
     for i in range(n_steps + 1):
-        _record(i, z, theta_b, mode, cmode, law, p, sys[3], sys[4], d_rows, Z, T, THETA, MODES, CMODES, hist)
-        if i == n_steps or _diverged(i, z, Z, T, THETA, MODES, CMODES):
+        x, v = _xv(z, sys[3], sys[4])
+        _record(i, z, n, theta_b, mode, cmode, _torque(law, mode, x, v, p), d_rows, Z, T, THETA, MODES, CMODES, hist)
+        if i == n_steps or _diverged(i, z, n, Z, T, THETA, MODES, CMODES):
             break
         t = i * dt
         remaining = dt
@@ -377,6 +385,10 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
 
 
 # --------------------------------------------------------------------------- exact-discretisation kernel
+#
+# The per-step path takes whole arrays and indices (the ladder by its row in ``ladders``,
+# the state by its length): a view such as ``ladders[k]`` or ``q[:n]`` costs numba a
+# reference count increment and decrement, which took over half of a step.
 
 
 @_jit
@@ -386,13 +398,13 @@ def _mode_index(mode):
 
 
 @_jit
-def _apply(phi, q, out, rows):
-    """``out = phi q`` on the first ``rows`` rows; the other entries copied from ``q``."""
+def _apply(ladders, which, level, q, out, rows):
+    """``out = ladders[which, level] q`` on the first ``rows`` rows; the other entries copied from ``q``."""
     size = q.shape[0]
     for i in range(rows):
         acc = 0.0
         for j in range(size):
-            acc += phi[i, j] * q[j]
+            acc += ladders[which, level, i, j] * q[j]
         out[i] = acc
     for i in range(rows, size):
         out[i] = q[i]
@@ -407,14 +419,15 @@ def _set_inputs(q, base, f0, fm, f1, dt):
 
 
 @_jit
-def _advance_exactly(ladder, q, fraction, out, tmp):
-    """``q`` advanced by ``fraction * dt`` with the dyadic ladder (residual < 2^-levels dt dropped)."""
-    _copy(q, out)
-    for j in range(ladder.shape[0]):
+def _advance_exactly(ladders, which, q, fraction, out, tmp):
+    """``q`` advanced by ``fraction * dt`` with ladder ``which`` (residual < 2^-levels dt dropped)."""
+    size = q.shape[0]
+    _copy_vector(q, out, size)
+    for j in range(ladders.shape[1]):
         s = 0.5**j
         if fraction >= s:
-            _apply(ladder[j], out, tmp, q.shape[0])
-            _copy(tmp, out)
+            _apply(ladders, which, j, out, tmp, size)
+            _copy_vector(tmp, out, size)
             fraction -= s
 
 
@@ -427,50 +440,80 @@ def _dot(row, q):
 
 
 @_jit
-def _command_mode_exact(mode, cmode, q, rows, limit, clamps):
-    """The command mode of augmented state ``q`` reached in ``cmode``; ``rows = (u, e, rates)``
-    of :func:`~backlash_df.system.command_matrices`."""
-    u_row, e_row, rates = rows
-    u = _dot(u_row, q)
-    side = (1 if cmode > 0 else -1) if cmode != 0 else (1 if u > limit else (-1 if u < -limit else 0))
-    if side == 0:
-        return 0
-    b, s = _mode_index(mode), 0 if side > 0 else 1
-    return command_mode_of(cmode, u, _dot(e_row, q), _dot(rates[b, s, 0], q), _dot(rates[b, s, 1], q), limit, clamps)
+def _dot_rate(rates, b, s, r, q):
+    """``rates[b, s, r] . q``."""
+    acc = 0.0
+    for j in range(q.shape[0]):
+        acc += rates[b, s, r, j] * q[j]
+    return acc
 
 
 @_jit
-def _leaves(law, p, mode, cmode, q, c_x, c_v, rows, limit, clamps):
+def _command_side(cmode, u, limit):
+    """The limit a command mode is held at or, from linear, crossed: 1 upper, -1 lower, 0 inside."""
+    if cmode != 0:
+        return 1 if cmode > 0 else -1
+    return 1 if u > limit else (-1 if u < -limit else 0)
+
+
+@_jit
+def _command_rates(q, e_row, rates, b, s):
+    """(error, clamped rate, integrating rate) at ``q`` in backlash mode row ``b`` on limit side ``s``."""
+    e = 0.0
+    clamped = 0.0
+    integrating = 0.0
+    for j in range(q.shape[0]):
+        e += e_row[j] * q[j]
+        clamped += rates[b, s, 0, j] * q[j]
+        integrating += rates[b, s, 1, j] * q[j]
+    return e, clamped, integrating
+
+
+@_jit
+def _command_mode_exact(mode, cmode, q, u_row, e_row, rates, limit, clamps):
+    """The command mode of augmented state ``q`` reached in ``cmode``; ``u_row, e_row, rates`` those
+    of :func:`~backlash_df.system.command_matrices`."""
+    u = _dot(u_row, q)
+    side = _command_side(cmode, u, limit)
+    if side == 0:
+        return 0
+    e, clamped, integrating = _command_rates(q, e_row, rates, _mode_index(mode), 0 if side > 0 else 1)
+    return command_mode_of(cmode, u, e, clamped, integrating, limit, clamps)
+
+
+@_jit
+def _leaves(law, p, mode, cmode, q, c_x, c_v, u_row, e_row, rates, limit, clamps):
     """True if ``q``, reached with both modes frozen, lies outside the backlash mode or the command mode."""
     n = c_x.shape[0]
     x, v = _xv(q, c_x, c_v)
     if _must_leave(law, p, mode, x, v, q[n]):
         return True
-    return limit > 0.0 and _command_mode_exact(mode, cmode, q, rows, limit, clamps) != cmode
+    return limit > 0.0 and _command_mode_exact(mode, cmode, q, u_row, e_row, rates, limit, clamps) != cmode
 
 
 @_jit
-def _locate(ladder, q, left, law, p, mode, cmode, c_x, c_v, rows, limit, clamps, q_lo, trial, q_hi):
+def _locate(ladders, which, q, left, law, p, mode, cmode, c_x, c_v, u_row, e_row, rates, limit, clamps, q_lo, trial,
+            q_hi):
     """Bisect for the first time the frozen-mode trajectory must leave its modes; returns it (fraction of dt).
 
-    Binary search on the dyadic ladder from ``q`` (a sub-step ``dt 2^-j`` is kept
-    while the trajectory stays in its modes); ``q_hi`` must already hold the state
+    Binary search on the dyadic ladder ``which`` from ``q`` (a sub-step ``dt 2^-j`` is
+    kept while the trajectory stays in its modes); ``q_hi`` must already hold the state
     at ``left``, outside them, and ends as the earliest state found outside.
     """
     size = q.shape[0]
-    _copy(q, q_lo)
+    _copy_vector(q, q_lo, size)
     lo = 0.0
     hi = left
-    for j in range(1, ladder.shape[0]):
+    for j in range(1, ladders.shape[1]):
         s = 0.5**j
         if lo + s >= hi:
             continue
-        _apply(ladder[j], q_lo, trial, size)
-        if _leaves(law, p, mode, cmode, trial, c_x, c_v, rows, limit, clamps):
-            _copy(trial, q_hi)
+        _apply(ladders, which, j, q_lo, trial, size)
+        if _leaves(law, p, mode, cmode, trial, c_x, c_v, u_row, e_row, rates, limit, clamps):
+            _copy_vector(trial, q_hi, size)
             hi = lo + s
         else:
-            _copy(trial, q_lo)
+            _copy_vector(trial, q_lo, size)
             lo += s
     return hi
 
@@ -491,84 +534,107 @@ def _set_step_inputs(q, i, W, hist, delay, dt, n):
 
 
 @_jit
-def _ladder_of(ladders, mode, cmode):
-    """The ladder of a backlash mode and a command mode (one command mode without a limit)."""
-    per_backlash = ladders.shape[0] // 3
-    return ladders[_mode_index(mode) * per_backlash + (command_index(cmode) if per_backlash > 1 else 0)]
+def _ladder_of(count, mode, cmode):
+    """Row among ``count`` ladders of a backlash mode and a command mode (one command mode without a limit)."""
+    per_backlash = count // 3
+    return _mode_index(mode) * per_backlash + (command_index(cmode) if per_backlash > 1 else 0)
 
 
 @_jit
-def _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, rows, limit, clamps, work):
+def _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, u_row, e_row, rates, limit, clamps, q_new, q_lo, trial,
+                  q_hi):
     """Advance ``q`` by one step ``dt``, switching modes at every located event; returns (mode, cmode, events)."""
     n, size = c_x.shape[0], q.shape[0]
-    q_new, q_lo, trial, q_hi = work[0], work[1], work[2], work[3]
     # z and theta_b only: the other entries are constant or reset every step (all of them when the
     # command, which reads the inputs and delayed signals, can switch)
     first_rows = n + 1 if limit == 0.0 else size
     left = 1.0  # fraction of the step still to go
     events = 0
     for _ in range(_MAX_EVENTS_PER_STEP):
-        ladder = _ladder_of(ladders, mode, cmode)
+        which = _ladder_of(ladders.shape[0], mode, cmode)
         if left == 1.0:
-            _apply(ladder[0], q, q_new, first_rows)
+            _apply(ladders, which, 0, q, q_new, first_rows)
         else:
-            _advance_exactly(ladder, q, left, q_new, trial)
-        if not _leaves(law, p, mode, cmode, q_new, c_x, c_v, rows, limit, clamps):
-            _copy(q_new, q)
+            _advance_exactly(ladders, which, q, left, q_new, trial)
+        if not _leaves(law, p, mode, cmode, q_new, c_x, c_v, u_row, e_row, rates, limit, clamps):
+            _copy_vector(q_new, q, size)
             return mode, cmode, events
         if left == 1.0:
-            _apply(ladder[0], q, q_hi, size)
+            _apply(ladders, which, 0, q, q_hi, size)
         else:
-            _copy(q_new, q_hi)
-        h = _locate(ladder, q, left, law, p, mode, cmode, c_x, c_v, rows, limit, clamps, q_lo, trial, q_hi)
+            _copy_vector(q_new, q_hi, size)
+        h = _locate(ladders, which, q, left, law, p, mode, cmode, c_x, c_v, u_row, e_row, rates, limit, clamps, q_lo,
+                    trial, q_hi)
         if law == EXACT and mode == 0:
             q_hi[n] = p[2] if q_hi[n] > 0.0 else -p[2]
         x, v = _xv(q_hi, c_x, c_v)
         new_mode = _mode_of(law, p, mode, x, v, q_hi[n])
-        new_cmode = _command_mode_exact(new_mode, cmode, q_hi, rows, limit, clamps) if limit > 0.0 else 0
+        new_cmode = _command_mode_exact(new_mode, cmode, q_hi, u_row, e_row, rates, limit, clamps) if limit > 0.0 else 0
         if new_mode == mode and new_cmode == cmode:  # grazing or round-off at a boundary: no real switch
             break
-        _copy(q_hi, q)
+        _copy_vector(q_hi, q, size)
         mode = new_mode
         cmode = new_cmode
         left -= h
         events += 1
         if left <= 1e-14:
             return mode, cmode, events
-    _advance_exactly(_ladder_of(ladders, mode, cmode), q, left, q_new, trial)
-    _copy(q_new, q)
+    _advance_exactly(ladders, _ladder_of(ladders.shape[0], mode, cmode), q, left, q_new, trial)
+    _copy_vector(q_new, q, size)
     return mode, cmode, events
 
 
 @_jit
-def run_exact(ladders, rows, limit, clamps, law, p, W, z0, theta_b0, delay, d_rows, c_x, c_v, dt, n_steps, Z, T, THETA,
-              MODES, CMODES):
+def run_exact(ladders, u_row, e_row, rates, limit, clamps, law, p, W, z0, theta_b0, delay, d_rows, c_x, c_v, dt,
+              n_steps, Z, T, THETA, MODES, CMODES):
     """Exact-discretisation run on the augmented state of :func:`~backlash_df.system.mode_matrices`.
 
     ``ladders`` holds :func:`~backlash_df.system.exp_ladder` of the left-contact,
     free and right-contact matrices (each by command mode with a limit,
-    :func:`~backlash_df.system.command_matrices`, whose ``rows`` it switches on);
-    returns the event count.
+    :func:`~backlash_df.system.command_matrices`, whose rows ``u_row, e_row, rates``
+    it switches on); returns the event count.
     """
     n = z0.shape[0]
+    size = ladders.shape[2]
     hist = np.zeros((n_steps + 1, d_rows.shape[0]))
-    q = np.zeros(ladders.shape[2])
-    work = np.empty((4, q.shape[0]))
-    _copy(z0, q[:n])
+    q = np.zeros(size)
+    q_new, q_lo, trial, q_hi = np.empty(size), np.empty(size), np.empty(size), np.empty(size)
+    _copy_vector(z0, q, n)
     q[n] = theta_b0
     q[n + 1] = 1.0
     x, v = _xv(q, c_x, c_v)
     mode = _mode_of(law, p, 0, x, v, theta_b0)
     cmode = 0
     events = 0
+    first_rows = n + 1 if limit == 0.0 else size  # the rows _step_exactly advances over a whole step
+    inputs_vary = W.shape[1] > 0 or delay > 0.0
     for i in range(n_steps + 1):
-        _record(i, q[:n], q[n], mode, cmode, law, p, c_x, c_v, d_rows, Z, T, THETA, MODES, CMODES, hist)
-        if i == n_steps or _diverged(i, q[:n], Z, T, THETA, MODES, CMODES):
+        x, v = _xv(q, c_x, c_v)
+        _record(i, q, n, q[n], mode, cmode, _torque(law, mode, x, v, p), d_rows, Z, T, THETA, MODES, CMODES, hist)
+        if i == n_steps or _diverged(i, q, n, Z, T, THETA, MODES, CMODES):
             break
-        _set_step_inputs(q, i, W, hist, delay, dt, n)
+        if inputs_vary:
+            _set_step_inputs(q, i, W, hist, delay, dt, n)
         if i == 0 and limit > 0.0:  # the command mode of the initial state, its inputs set
-            cmode = initial_command_mode(_dot(rows[0], q), _dot(rows[1], q), limit, clamps)
+            cmode = initial_command_mode(_dot(u_row, q), _dot(e_row, q), limit, clamps)
             CMODES[0] = cmode
-        mode, cmode, found = _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, rows, limit, clamps, work)
-        events += found
+        # the first try of _step_exactly, here: a step that stays in its modes calls only functions
+        # without calls (whose arrays numba does not reference-count)
+        _apply(ladders, _ladder_of(ladders.shape[0], mode, cmode), 0, q, q_new, first_rows)
+        x, v = _xv(q_new, c_x, c_v)
+        stays = not _must_leave(law, p, mode, x, v, q_new[n])
+        if stays and limit > 0.0:
+            u = _dot(u_row, q_new)
+            side = _command_side(cmode, u, limit)
+            if side == 0:
+                stays = cmode == 0
+            else:
+                e, clamped, integrating = _command_rates(q_new, e_row, rates, _mode_index(mode), 0 if side > 0 else 1)
+                stays = command_mode_of(cmode, u, e, clamped, integrating, limit, clamps) == cmode
+        if stays:
+            _copy_vector(q_new, q, size)
+        else:
+            mode, cmode, found = _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, u_row, e_row, rates, limit,
+                                               clamps, q_new, q_lo, trial, q_hi)
+            events += found
     return events
