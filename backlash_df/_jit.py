@@ -6,10 +6,12 @@ Kernels are compiled on first use and cached beside the source (``cache=True``);
 
 import numba
 
-__all__ = ["jit", "copy_into"]
+__all__ = ["jit", "inline", "copy_into"]
 
 #: Decorator of every compiled kernel of :mod:`backlash_df.system` and :mod:`backlash_df.simulation`.
 jit = numba.njit(cache=True, nogil=True)
+#: The same for a small helper of a compiled loop, inlined into its callers by numba.
+inline = numba.njit(cache=True, nogil=True, inline="always")
 
 
 @jit

@@ -20,6 +20,7 @@ import math
 import numpy as np
 
 from .._jit import copy_into as _copy
+from .._jit import inline as _inline
 from .._jit import jit as _jit
 from ..models import EXACT, exact_step, held_mode, mode_torque
 from ..system import command_index, command_mode_of, initial_command_mode
@@ -196,14 +197,14 @@ def _command_mode_rk4(mode, cmode, z, t, sys, cmd, law, p, W, hist, dt, work, wv
     return command_mode_of(cmode, u, e, clamped, integrating, limit, integrator >= 0)
 
 
-@_jit
+@_inline
 def _copy_vector(src, dst, count):
     """``dst[:count] = src[:count]`` without the views."""
     for i in range(count):
         dst[i] = src[i]
 
 
-@_jit
+@_inline
 def _xv(z, c_x, c_v):
     x = 0.0
     v = 0.0
@@ -263,7 +264,7 @@ def _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
     return theta_new, command_leaves or abs(theta_new) >= p[2]
 
 
-@_jit
+@_inline
 def _record(i, z, n, theta_b, mode, cmode, torque, d_rows, Z, T, THETA, MODES, CMODES, hist):
     """Store sample ``i`` of a run: state ``z[:n]``, shaft torque, theta_b, modes and the delayed signals."""
     for j in range(n):
@@ -283,7 +284,7 @@ def _record(i, z, n, theta_b, mode, cmode, torque, d_rows, Z, T, THETA, MODES, C
 BLOW_UP = 1e150
 
 
-@_jit
+@_inline
 def _diverged(i, z, n, Z, T, THETA, MODES, CMODES):
     """True when state ``z[:n]`` of sample ``i`` has blown up; the later samples are then NaN.
 
@@ -397,7 +398,7 @@ def _mode_index(mode):
     return 0 if mode < 0 else (2 if mode > 0 else 1)
 
 
-@_jit
+@_inline
 def _apply(ladders, which, level, q, out, rows):
     """``out = ladders[which, level] q`` on the first ``rows`` rows; the other entries copied from ``q``."""
     size = q.shape[0]
