@@ -19,7 +19,6 @@ import math
 
 import numpy as np
 
-from .._jit import copy_into as _copy
 from .._jit import inline as _inline
 from .._jit import jit as _jit
 from ..models import EXACT, exact_step, held_mode, mode_torque
@@ -36,7 +35,7 @@ LEVELS = 42
 # --------------------------------------------------------------------------- RK4 kernel (any law)
 
 
-@_jit
+@_inline
 def _lerp(series, position, col):
     """Linear interpolation of column ``col`` of ``series`` (rows on a uniform grid) at a fractional row."""
     last = series.shape[0] - 1
@@ -49,7 +48,7 @@ def _lerp(series, position, col):
     return series[i, col] + frac * (series[i + 1, col] - series[i, col])
 
 
-@_jit
+@_inline
 def _history(hist, position, last, col):
     """Delayed signal ``col`` at a fractional row of ``hist`` whose newest recorded row is ``last``.
 
@@ -85,7 +84,7 @@ def _torque(law, mode, x, v, p):
     return mode_torque(law, mode, x, v, p[0], p[1], p[2], p[3])
 
 
-@_jit
+@_inline
 def _signals(t, sys, W, hist, dt, wvals, dvals):
     """The inputs ``w(t)`` into ``wvals`` and the delayed signals ``u_d(t)`` into ``dvals``."""
     delay = sys[7]
@@ -99,7 +98,7 @@ def _signals(t, sys, W, hist, dt, wvals, dvals):
             dvals[j] = _history(hist, (t - delay) / dt, last, j)
 
 
-@_jit
+@_inline
 def _row_value(row, z, wvals, dvals):
     """``row . [z, w, u_d]``: the command or the error of a :class:`~backlash_df.system.Command`."""
     n, m = z.shape[0], wvals.shape[0]
@@ -114,10 +113,12 @@ def _row_value(row, z, wvals, dvals):
 
 
 @_jit
-def _deriv(z, t, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, out):
+def _deriv(z, t, torque, cmode, sys, cmd, W, hist, dt, wvals, dvals, out):
+    """``dz/dt`` at ``(z, t)`` with shaft torque ``torque`` in command mode ``cmode``, into ``out``.
+
+    Calls no compiled function but inlined ones: numba would reference-count its arrays.
+    """
     a_mat, b_t, e_mat, c_x, c_v, d_rows, e_d, delay, f_row, e_f, f_level, f_eps, f_break, f_ws = sys
-    x, v = _xv(z, c_x, c_v)
-    torque = _torque(law, mode, x, v, p)
     _signals(t, sys, W, hist, dt, wvals, dvals)
     fr = 0.0
     if f_level > 0.0 or f_break > 0.0:
@@ -148,19 +149,25 @@ def _deriv(z, t, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, out):
             out[integrator] = 0.0
 
 
-@_jit
-def _rk4(z, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, wvals, dvals, out):
-    k1, k2, k3, k4, tmp = work[0], work[1], work[2], work[3], work[4]
-    _deriv(z, t, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k1)
+@_inline
+def _stage(z, t, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, out):
+    """``dz/dt`` at ``(z, t)`` in backlash mode ``mode``: the law's torque, then :func:`_deriv`."""
+    x, v = _xv(z, sys[3], sys[4])
+    _deriv(z, t, _torque(law, mode, x, v, p), cmode, sys, cmd, W, hist, dt, wvals, dvals, out)
+
+
+@_inline
+def _rk4(z, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, k1, k2, k3, k4, tmp, wvals, dvals, out):
+    _stage(z, t, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k1)
     for i in range(z.shape[0]):
         tmp[i] = z[i] + 0.5 * h * k1[i]
-    _deriv(tmp, t + 0.5 * h, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k2)
+    _stage(tmp, t + 0.5 * h, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k2)
     for i in range(z.shape[0]):
         tmp[i] = z[i] + 0.5 * h * k2[i]
-    _deriv(tmp, t + 0.5 * h, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k3)
+    _stage(tmp, t + 0.5 * h, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k3)
     for i in range(z.shape[0]):
         tmp[i] = z[i] + h * k3[i]
-    _deriv(tmp, t + h, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k4)
+    _stage(tmp, t + h, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k4)
     for i in range(z.shape[0]):
         out[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
@@ -179,7 +186,7 @@ def _command_mode_rk4(mode, cmode, z, t, sys, cmd, law, p, W, hist, dt, work, wv
     if side == 0:
         return 0
     rate = work[5]
-    _deriv(z, t, mode, 2 * side if integrator >= 0 else side, sys, cmd, law, p, W, hist, dt, wvals, dvals, rate)
+    _stage(z, t, mode, 2 * side if integrator >= 0 else side, sys, cmd, law, p, W, hist, dt, wvals, dvals, rate)
     clamped = 0.0
     for j in range(z.shape[0]):
         clamped += row[j] * rate[j]
@@ -246,22 +253,29 @@ def _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
     projected back onto ``u = +-limit``: with the command saturated the rest of the
     loop does not see the integrator.
     """
-    _rk4(z, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, wvals, dvals, z_out)
+    _rk4(z, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work[0], work[1], work[2], work[3], work[4], wvals, dvals,
+         z_out)
     if abs(cmode) == 3:
         column, row, _, limit, integrator = cmd
         _signals(t + h, sys, W, hist, dt, wvals, dvals)
         z_out[integrator] += ((limit if cmode > 0 else -limit) - _row_value(row, z_out, wvals, dvals)) / row[integrator]
-    c_x, c_v = sys[3], sys[4]
-    x1, v1 = _xv(z_out, c_x, c_v)
     command_leaves = cmd[3] > 0.0 and _command_mode_rk4(mode, cmode, z_out, t + h, sys, cmd, law, p, W, hist, dt,
                                                          work, wvals, dvals) != cmode
+    x0, v0 = _xv(z, sys[3], sys[4])
+    x1, v1 = _xv(z_out, sys[3], sys[4])
+    theta_new, backlash_leaves = _backlash_after(law, p, mode, theta_b, x0, v0, x1, v1, h)
+    return theta_new, command_leaves or backlash_leaves
+
+
+@_jit
+def _backlash_after(law, p, mode, theta_b, x0, v0, x1, v1, h):
+    """(theta_b, True if the backlash mode must change) after a frozen-mode step ``(x0, v0) -> (x1, v1)``."""
     if law != EXACT:
-        return theta_b, command_leaves or _must_leave(law, p, mode, x1, v1, theta_b)
+        return theta_b, _must_leave(law, p, mode, x1, v1, theta_b)
     if mode != 0:
-        return p[2] if mode > 0 else -p[2], command_leaves or _must_leave(law, p, mode, x1, v1, theta_b)
-    x0, v0 = _xv(z, c_x, c_v)
+        return p[2] if mode > 0 else -p[2], _must_leave(law, p, mode, x1, v1, theta_b)
     theta_new = exact_step(theta_b, x0, v0, x1, v1, h, p[0], p[1], p[2])
-    return theta_new, command_leaves or abs(theta_new) >= p[2]
+    return theta_new, abs(theta_new) >= p[2]
 
 
 @_inline
@@ -332,18 +346,28 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
         cmode = initial_command_mode(_row_value(cmd[1], z, wvals, dvals), _row_value(cmd[2], z, wvals, dvals), cmd[3],
                                      cmd[4] >= 0)
     events = 0
+    k1, k2, k3, k4, tmp = work[0], work[1], work[2], work[3], work[4]
+    c_x, c_v = sys[3], sys[4]
     for i in range(n_steps + 1):
-        x, v = _xv(z, sys[3], sys[4])
+        x, v = _xv(z, c_x, c_v)
         _record(i, z, n, theta_b, mode, cmode, _torque(law, mode, x, v, p), d_rows, Z, T, THETA, MODES, CMODES, hist)
         if i == n_steps or _diverged(i, z, n, Z, T, THETA, MODES, CMODES):
             break
         t = i * dt
+        if cmd[3] == 0.0:  # the first try of _advance, here: no call that reference-counts the arrays
+            _rk4(z, t, dt, mode, cmode, sys, cmd, law, p, W, hist, dt, k1, k2, k3, k4, tmp, wvals, dvals, z_new)
+            x1, v1 = _xv(z_new, c_x, c_v)
+            theta_end, changed = _backlash_after(law, p, mode, theta_b, x, v, x1, v1, dt)
+            if not changed:
+                _copy_vector(z_new, z, n)
+                theta_b = theta_end
+                continue
         remaining = dt
         for _ in range(_MAX_EVENTS_PER_STEP):
             theta_end, changed = _advance(z, theta_b, t, remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
                                           wvals, dvals, z_new)
             if not changed:
-                _copy(z_new, z)
+                _copy_vector(z_new, z, n)
                 theta_b = theta_end
                 remaining = 0.0
                 break
@@ -369,7 +393,7 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
                                           dvals)
             if new_mode == mode and new_cmode == cmode:  # grazing or round-off at a boundary: no real switch
                 break
-            _copy(z_try, z)
+            _copy_vector(z_try, z, n)
             theta_b = theta_try
             mode = new_mode
             cmode = new_cmode
@@ -381,7 +405,7 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
         if remaining > 1e-14 * dt:
             theta_b, _ = _advance(z, theta_b, t, remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work, wvals,
                                   dvals, z_new)
-            _copy(z_new, z)
+            _copy_vector(z_new, z, n)
     return events
 
 

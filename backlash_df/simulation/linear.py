@@ -140,7 +140,7 @@ def _simulate_exactly(system, model, w, z0, theta_b0, dt, n_steps, outputs):
     """Fill the outputs with the exact-discretisation kernel; returns the number of events."""
     states, torque, theta_b, modes, cmodes = outputs
     law = DEAD_ZONE if model.law == EXACT and model.damping == 0.0 else model.law
-    varying = [j for j in range(w.shape[1]) if np.ptp(w[:, j]) > 0.0]
+    varying = np.flatnonzero(np.any(w != w[0], axis=0))  # one pass over the inputs
     constant = np.delete(w[0], varying)
     matrices = mode_matrices(system, model, law, varying, constant)
     size = matrices.shape[1]
