@@ -84,10 +84,9 @@ def _torque(law, mode, x, v, p):
     return mode_torque(law, mode, x, v, p[0], p[1], p[2], p[3])
 
 
-@_inline
-def _signals(t, sys, W, hist, dt, wvals, dvals):
+@_jit
+def _signals(t, delay, W, hist, dt, wvals, dvals):
     """The inputs ``w(t)`` into ``wvals`` and the delayed signals ``u_d(t)`` into ``dvals``."""
-    delay = sys[7]
     # W spans the run uniformly: one row per output step, or two (half steps)
     w_row = t / dt * (W.shape[0] - 1) / (hist.shape[0] - 1)
     for j in range(W.shape[1]):
@@ -113,88 +112,102 @@ def _row_value(row, z, wvals, dvals):
 
 
 @_jit
-def _deriv(z, t, torque, cmode, sys, cmd, W, hist, dt, wvals, dvals, out):
-    """``dz/dt`` at ``(z, t)`` with shaft torque ``torque`` in command mode ``cmode``, into ``out``.
-
-    Calls no compiled function but inlined ones: numba would reference-count its arrays.
-    """
-    a_mat, b_t, e_mat, c_x, c_v, d_rows, e_d, delay, f_row, e_f, f_level, f_eps, f_break, f_ws = sys
-    _signals(t, sys, W, hist, dt, wvals, dvals)
-    fr = 0.0
+def _friction(z, f_row, f_level, f_eps, f_break, f_ws):
+    """Friction torque of the driven machine at ``z`` (N m): smoothed Coulomb and breakaway; 0 without."""
     if f_level > 0.0 or f_break > 0.0:
         s = 0.0
         for j in range(z.shape[0]):
             s += f_row[j] * z[j]
-        fr = (f_level + f_break * math.exp(-((s / f_ws) ** 2))) * math.tanh(s / f_eps)
-    for i in range(z.shape[0]):
+        return (f_level + f_break * math.exp(-((s / f_ws) ** 2))) * math.tanh(s / f_eps)
+    return 0.0
+
+
+@_jit
+def _field(z, torque, friction, wvals, dvals, a_mat, b_t, e_mat, e_d, e_f, out, row):
+    """``dz/dt = A z + b T + E w + e_d u_d - e_f F`` with the command linear, into ``out[row]``."""
+    n = z.shape[0]
+    for i in range(n):
         acc = b_t[i] * torque
         for j in range(e_d.shape[1]):
             acc += e_d[i, j] * dvals[j]
-        out[i] = acc - e_f[i] * fr
-    for j in range(W.shape[1]):
+        out[row, i] = acc - e_f[i] * friction
+    for j in range(wvals.shape[0]):
         w = wvals[j]
-        for i in range(z.shape[0]):
-            out[i] += e_mat[i, j] * w
-    for i in range(z.shape[0]):
-        acc = out[i]
-        for j in range(z.shape[0]):
+        for i in range(n):
+            out[row, i] += e_mat[i, j] * w
+    for i in range(n):
+        acc = out[row, i]
+        for j in range(n):
             acc += a_mat[i, j] * z[j]
-        out[i] = acc
-    if cmode != 0:  # saturated: +-limit in place of u; clamped (and sliding, projected after the step)
-        column, row, _, limit, integrator = cmd
-        gap = (limit if cmode > 0 else -limit) - _row_value(row, z, wvals, dvals)
-        for i in range(z.shape[0]):
-            out[i] += column[i] * gap
-        if abs(cmode) >= 2 and integrator >= 0:
-            out[integrator] = 0.0
+        out[row, i] = acc
+
+
+@_jit
+def _command_field(z, cmode, column, u_row, limit, integrator, wvals, dvals, out, row):
+    """``out[row]`` in command mode ``cmode``: saturated, +-limit in place of u; clamped (and sliding,
+    projected after the step), the integrator held."""
+    gap = (limit if cmode > 0 else -limit) - _row_value(u_row, z, wvals, dvals)
+    for i in range(z.shape[0]):
+        out[row, i] += column[i] * gap
+    if abs(cmode) >= 2 and integrator >= 0:
+        out[row, integrator] = 0.0
 
 
 @_inline
-def _stage(z, t, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, out):
-    """``dz/dt`` at ``(z, t)`` in backlash mode ``mode``: the law's torque, then :func:`_deriv`."""
-    x, v = _xv(z, sys[3], sys[4])
-    _deriv(z, t, _torque(law, mode, x, v, p), cmode, sys, cmd, W, hist, dt, wvals, dvals, out)
+def _stage(z, t, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, out, row):
+    """``dz/dt`` at ``(z, t)`` in backlash mode ``mode`` and command mode ``cmode``, into ``out[row]``.
+
+    Inlined, and every function it calls calls none: the hot loop of :func:`run_rk4`
+    makes no call whose arrays numba reference-counts.
+    """
+    a_mat, b_t, e_mat, c_x, c_v, _, e_d, delay, f_row, e_f, f_level, f_eps, f_break, f_ws = sys
+    x, v = _xv(z, c_x, c_v)
+    _signals(t, delay, W, hist, dt, wvals, dvals)
+    _field(z, _torque(law, mode, x, v, p), _friction(z, f_row, f_level, f_eps, f_break, f_ws), wvals, dvals, a_mat,
+           b_t, e_mat, e_d, e_f, out, row)
+    if cmode != 0:
+        _command_field(z, cmode, cmd[0], cmd[1], cmd[3], cmd[4], wvals, dvals, out, row)
 
 
 @_inline
-def _rk4(z, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, k1, k2, k3, k4, tmp, wvals, dvals, out):
-    _stage(z, t, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k1)
-    for i in range(z.shape[0]):
-        tmp[i] = z[i] + 0.5 * h * k1[i]
-    _stage(tmp, t + 0.5 * h, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k2)
-    for i in range(z.shape[0]):
-        tmp[i] = z[i] + 0.5 * h * k2[i]
-    _stage(tmp, t + 0.5 * h, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k3)
-    for i in range(z.shape[0]):
-        tmp[i] = z[i] + h * k3[i]
-    _stage(tmp, t + h, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k4)
-    for i in range(z.shape[0]):
-        out[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+def _rk4(z, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, k, tmp, wvals, dvals, out):
+    """One classical RK4 step ``h`` from ``(z, t)``, both modes frozen, into ``out``; stages in rows 0-3 of ``k``."""
+    n = z.shape[0]
+    _copy_vector(z, tmp, n)
+    stage_t = t
+    for stage in range(4):
+        _stage(tmp, stage_t, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k, stage)
+        if stage < 3:
+            ahead = h if stage == 2 else 0.5 * h
+            for i in range(n):
+                tmp[i] = z[i] + ahead * k[stage, i]
+            stage_t = t + ahead
+    for i in range(n):
+        out[i] = z[i] + h / 6.0 * (k[0, i] + 2.0 * k[1, i] + 2.0 * k[2, i] + k[3, i])
 
 
 @_jit
 def _command_mode_rk4(mode, cmode, z, t, sys, cmd, law, p, W, hist, dt, work, wvals, dvals):
     """The command mode of state ``z`` at ``t`` reached in ``cmode`` (``du/dt`` by the clamped field
     and by differences of the inputs and delayed signals over half a step)."""
-    column, row, error, limit, integrator = cmd
+    _, row, error, limit, integrator = cmd
     if limit == 0.0:
         return 0
-    _signals(t, sys, W, hist, dt, wvals, dvals)
+    _signals(t, sys[7], W, hist, dt, wvals, dvals)
     u = _row_value(row, z, wvals, dvals)
     e = _row_value(error, z, wvals, dvals)
     side = (1 if cmode > 0 else -1) if cmode != 0 else (1 if u > limit else (-1 if u < -limit else 0))
     if side == 0:
         return 0
-    rate = work[5]
-    _stage(z, t, mode, 2 * side if integrator >= 0 else side, sys, cmd, law, p, W, hist, dt, wvals, dvals, rate)
+    _stage(z, t, mode, 2 * side if integrator >= 0 else side, sys, cmd, law, p, W, hist, dt, wvals, dvals, work, 5)
     clamped = 0.0
     for j in range(z.shape[0]):
-        clamped += row[j] * rate[j]
+        clamped += row[j] * work[5, j]
     n, m = z.shape[0], wvals.shape[0]
     h = 0.5 * dt
-    _signals(t + h, sys, W, hist, dt, wvals, dvals)
+    _signals(t + h, sys[7], W, hist, dt, wvals, dvals)
     ahead_w, ahead_d = wvals.copy(), dvals.copy()
-    _signals(max(t - h, 0.0), sys, W, hist, dt, wvals, dvals)
+    _signals(max(t - h, 0.0), sys[7], W, hist, dt, wvals, dvals)
     span = t + h - max(t - h, 0.0)
     for j in range(m):
         clamped += row[n + j] * (ahead_w[j] - wvals[j]) / span
@@ -246,18 +259,17 @@ def _must_leave(law, p, mode, x, v, theta_b):
 
 
 @_jit
-def _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, wvals, dvals, z_out):
+def _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp, wvals, dvals, z_out):
     """One frozen-mode step; returns (theta_b at the end, True if the backlash or the command mode must change).
 
     On the limit (sliding) the step is the clamped one with the integrator then
     projected back onto ``u = +-limit``: with the command saturated the rest of the
     loop does not see the integrator.
     """
-    _rk4(z, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work[0], work[1], work[2], work[3], work[4], wvals, dvals,
-         z_out)
+    _rk4(z, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp, wvals, dvals, z_out)
     if abs(cmode) == 3:
-        column, row, _, limit, integrator = cmd
-        _signals(t + h, sys, W, hist, dt, wvals, dvals)
+        _, row, _, limit, integrator = cmd
+        _signals(t + h, sys[7], W, hist, dt, wvals, dvals)
         z_out[integrator] += ((limit if cmode > 0 else -limit) - _row_value(row, z_out, wvals, dvals)) / row[integrator]
     command_leaves = cmd[3] > 0.0 and _command_mode_rk4(mode, cmode, z_out, t + h, sys, cmd, law, p, W, hist, dt,
                                                          work, wvals, dvals) != cmode
@@ -342,11 +354,11 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
     cmode = 0
     _record(0, z, n, theta_b, mode, cmode, _torque(law, mode, x, v, p), d_rows, Z, T, THETA, MODES, CMODES, hist)
     if cmd[3] > 0.0:  # the command mode of the initial state
-        _signals(0.0, sys, W, hist, dt, wvals, dvals)
+        _signals(0.0, sys[7], W, hist, dt, wvals, dvals)
         cmode = initial_command_mode(_row_value(cmd[1], z, wvals, dvals), _row_value(cmd[2], z, wvals, dvals), cmd[3],
                                      cmd[4] >= 0)
     events = 0
-    k1, k2, k3, k4, tmp = work[0], work[1], work[2], work[3], work[4]
+    tmp = np.empty(n)
     c_x, c_v = sys[3], sys[4]
     for i in range(n_steps + 1):
         x, v = _xv(z, c_x, c_v)
@@ -355,7 +367,7 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
             break
         t = i * dt
         if cmd[3] == 0.0:  # the first try of _advance, here: no call that reference-counts the arrays
-            _rk4(z, t, dt, mode, cmode, sys, cmd, law, p, W, hist, dt, k1, k2, k3, k4, tmp, wvals, dvals, z_new)
+            _rk4(z, t, dt, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp, wvals, dvals, z_new)
             x1, v1 = _xv(z_new, c_x, c_v)
             theta_end, changed = _backlash_after(law, p, mode, theta_b, x, v, x1, v1, dt)
             if not changed:
@@ -365,7 +377,7 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
         remaining = dt
         for _ in range(_MAX_EVENTS_PER_STEP):
             theta_end, changed = _advance(z, theta_b, t, remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
-                                          wvals, dvals, z_new)
+                                          tmp, wvals, dvals, z_new)
             if not changed:
                 _copy_vector(z_new, z, n)
                 theta_b = theta_end
@@ -377,14 +389,14 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
             for _b in range(_BISECTIONS):
                 mid = 0.5 * (lo + hi)
                 _, ch = _advance(z, theta_b, t, mid * remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
-                                 wvals, dvals, z_try)
+                                 tmp, wvals, dvals, z_try)
                 if ch:
                     hi = mid
                 else:
                     lo = mid
             h = hi * remaining
-            theta_try, _ = _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, wvals, dvals,
-                                    z_try)
+            theta_try, _ = _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp, wvals,
+                                    dvals, z_try)
             x, v = _xv(z_try, sys[3], sys[4])
             if law == EXACT and mode == 0:
                 theta_try = p[2] if theta_try > 0.0 else -p[2]
@@ -403,8 +415,8 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
             if remaining <= 1e-14 * dt:
                 break
         if remaining > 1e-14 * dt:
-            theta_b, _ = _advance(z, theta_b, t, remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work, wvals,
-                                  dvals, z_new)
+            theta_b, _ = _advance(z, theta_b, t, remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp,
+                                  wvals, dvals, z_new)
             _copy_vector(z_new, z, n)
     return events
 
