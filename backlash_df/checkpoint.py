@@ -174,7 +174,7 @@ class Checkpoint:
         Parameters
         ----------
         command : str
-            What runs (``"map"``, ``"continue"``).
+            What runs (``"map"``, ``"continue"``, ``"tune"``).
         run : dict
             Every input the cells depend on (:func:`describe` makes it JSON-ready).
 

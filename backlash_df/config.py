@@ -25,7 +25,7 @@
 
     [load]                     # optional
     torque = 0.0               # N m, constant torque applied to the load
-    coulomb = 0.0              # N m, Coulomb friction of the driven machine
+    coulomb = 0.0              # N m, Coulomb friction of the driven machine (only 0: not modelled yet)
 
     [model]
     backlash = "phase-plane"
@@ -64,7 +64,7 @@ delay                          [0, 10] s             dead time of a speed loop
 kv                             (0, 1e6] 1/s          position-loop gain (cascade only)
 torque_limit                   [0, 1e9] N m          torque-command limit (0: none)
 [load] torque                  [-1e9, 1e9] N m       load torque of either sign
-[load] coulomb                 [0, 1e9] N m          Coulomb friction of the driven machine
+[load] coulomb                 0 N m                 Coulomb friction of the load: not modelled yet
 =============================  ====================  ==========================================
 """
 
@@ -222,7 +222,7 @@ class Load:
     """What the driven machine applies to the load (SI units, load side)."""
 
     torque: float = 0.0  #: constant torque applied to the load, N m (gravity, process load)
-    coulomb: float = 0.0  #: Coulomb friction of the driven machine, N m
+    coulomb: float = 0.0  #: Coulomb friction of the driven machine, N m (only 0: no analysis models it yet)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -456,6 +456,10 @@ def rig_from_dict(data, source="<dict>"):
         controller = _table(source, data, "controller", Controller)
         _check_structure(source, data["controller"])
     load = _table(source, data, "load", Load) if "load" in data else Load()
+    if load.coulomb > 0.0:
+        raise RigError(f"{source}: [load] coulomb = {load.coulomb:g}: no analysis models the load's Coulomb friction "
+                       "yet (the prediction, simulation, verdict and tune would leave it out); remove the key or "
+                       "set it to 0")
     model = "phase-plane"
     if "model" in data:
         section = data["model"]

@@ -190,8 +190,6 @@ def _orbit_law(model, rig):
             "exact orbits need dead-zone, damped-dead-zone, revised-dead-zone, phase-plane, exact "
             "(or rubber with rubber_thickness = 0)"
         )
-    if rig.load.coulomb > 0.0:
-        raise ValueError("periodic_orbit: [load] coulomb > 0 is not supported (Coulomb friction is not affine)")
     return law
 
 

@@ -296,6 +296,9 @@ class DesignMap:
         sections += [("Map", figure_html(plotted.figure, f"{self.x_name} x {self.y_name}")),
                      ("DF verdicts (cells) and agreement with simulation",
                       table_html(["model", *VERDICTS, "agreement"], rows))]
+        key = "; ".join(f"{code}: {verdict}" for verdict, code in VERDICT_CODES.items())
+        for grid_title, header, grid in self.tables():
+            sections.append((grid_title.rstrip(":"), f"<p>{html.escape(key)}</p>" + table_html(header, grid)))
         return html_page(title or "Design map", sections)
 
 

@@ -43,8 +43,9 @@ import time
 import numpy as np
 
 from ._json import json_ready
-from .limit_cycles import predict_limit_cycles, verify_limit_cycles
+from .checkpoint import describe, opened
 from .disturbances import shaft_mode
+from .limit_cycles import predict_limit_cycles, verify_limit_cycles
 from .loops import drive_loop
 from .models import BacklashModel
 from .plotting import ResultPlot, axes_or_new
@@ -292,9 +293,16 @@ def certify(rig, model=None, tolerance=0.0):
     return Certificate((), contact_bandwidth(rig, name), verdict, bool(quiet or within), float(amplitude))
 
 
-def _certify_cell(settings, values):
+def _certify_cell(settings, values, kept=None):
+    """The certificate of one tuning; taken from the checkpoint ``kept`` if it holds it, added to it if not."""
+    key = ("certify", *(float(v) for v in values))
+    if kept is not None and key in kept:
+        return kept[key]
     certificate = certify(_tuned(settings.rig, settings.names, values), settings.model, settings.tolerance)
-    return dataclasses.replace(certificate, values=tuple(float(v) for v in values))
+    certificate = dataclasses.replace(certificate, values=tuple(float(v) for v in values))
+    if kept is not None:
+        kept.add(key, certificate)
+    return certificate
 
 
 # --------------------------------------------------------------------------- the answer
@@ -451,8 +459,10 @@ class Tuning:
                                 "hunting amplitude.")))
         probes = [[_disturbance_text(p), p.outcome, f"{p.measured.amplitude:.4g}" if p.measured.found else ""]
                   for p in verdict.probes]
-        sections.append(("Certificate: the probes", table_html(["disturbance", "outcome", "cycle A (rad)"], probes,
-                                                               text_columns=(0, 1))))
+        header = ["disturbance", "outcome", "cycle A (rad)"]
+        if not any(row[2] for row in probes):  # no probe found a cycle: no empty column
+            header, probes = header[:2], [row[:2] for row in probes]
+        sections.append(("Certificate: the probes", table_html(header, probes, text_columns=(0, 1))))
         front = [[f"{p.tolerance:.4g}", ", ".join(f"{v:.4g}" for v in p.values), f"{p.bandwidth:.4g}",
                   f"{p.amplitude:.4g}"] for p in self.front]
         sections.append(("Front: bandwidth bought by accepted hunting", table_html(
@@ -482,6 +492,9 @@ def _draw_range(tuning, ax):
         ax.plot(tuning.best.values[0], tuning.best.bandwidth, "*", color="C2" if tuning.feasible else "C3", ms=14,
                 label="best certified" if tuning.feasible else "least hunting")
         ax.set_xscale("log")
+        from matplotlib.ticker import NullFormatter  # here: importing backlash_df does not import matplotlib
+
+        ax.xaxis.set_minor_formatter(NullFormatter())  # labelled minor ticks of a short decade collide
         ax.set_xlabel(f"{tuning.names[0]} ({unit[tuning.names[0]]})")
         ax.set_ylabel("bandwidth omega_b (rad/s)")
     else:
@@ -559,7 +572,7 @@ def _margin(names, best, hunting_points):
             "source": source}
 
 
-def _front(settings, screen, best, feasible, executor):
+def _front(settings, screen, best, feasible, executor, kept):
     """Best bandwidth per tolerance: 0 (the certified tuning), then the DF amplitudes of hunting cells."""
     stable = [c for c in screen if math.isfinite(c.bandwidth) and c.amplitude > 0.0]
     levels = sorted({c.amplitude for c in stable})
@@ -572,7 +585,8 @@ def _front(settings, screen, best, feasible, executor):
         if (feasible and top.bandwidth <= best.bandwidth) or (chosen and top.bandwidth <= chosen[-1][1].bandwidth):
             continue
         chosen.append((level, top))
-    simulated = run_cells(functools.partial(_simulated_amplitude, settings), [c.values for _, c in chosen], executor)
+    simulated = run_cells(functools.partial(_simulated_amplitude, settings), [c.values for _, c in chosen], executor,
+                          kept, [("front", *c.values) for _, c in chosen])
     front = [FrontPoint(0.0, best.values, best.bandwidth, 0.0)] if feasible else []
     for (level, candidate), amplitude in zip(chosen, simulated):
         front.append(FrontPoint(float(max(level, amplitude)), candidate.values, candidate.bandwidth, float(amplitude)))
@@ -593,7 +607,7 @@ def _simulated_amplitude(settings, values):
     return max(found) if found else max(c.amplitude for c in prediction.stable_cycles)
 
 
-def tune(rig, vary, tolerance=0.0, model=None, executor=None, progress=None):
+def tune(rig, vary, tolerance=0.0, model=None, executor=None, progress=None, checkpoint=None):
     """The tuning of largest contact-loop bandwidth whose verdict is certified ``no oscillation`` (module docs).
 
     Parameters
@@ -611,6 +625,11 @@ def tune(rig, vary, tolerance=0.0, model=None, executor=None, progress=None):
         Runs the screened cells, the boundary bisections and the certificates.
     progress : callable, optional
         ``progress(stage, done, total)``.
+    checkpoint : str, Path or Checkpoint, optional
+        Keep every screened cell, boundary bisection, certificate and front point
+        as it finishes (:class:`~backlash_df.checkpoint.Checkpoint`; a path: a new
+        file); a tuning resumed from it computes only the others and returns the
+        same answer as an uninterrupted one.
 
     Returns
     -------
@@ -620,25 +639,35 @@ def tune(rig, vary, tolerance=0.0, model=None, executor=None, progress=None):
     ------
     ValueError
         An unknown or non-varying value, a range with low >= high or not positive,
-        a tolerance < 0: one line.
+        a tolerance < 0: one line; a checkpoint that exists (without ``resume``) or
+        belongs to another run.
     """
     names, ranges = _validated(rig, vary, tolerance)
     name = rig.make_model(model).name
     settings = _Settings(rig, names, name, float(tolerance))
+    with opened(checkpoint, "tune", {"settings": describe(settings, omit={"source"}), "ranges": ranges}) as kept:
+        return _search(settings, ranges, executor, progress, kept)
+
+
+def _search(settings, ranges, executor, progress, kept):
+    """:func:`tune`'s stages: screen, refine the boundary, certify, the front."""
+    names, name = settings.names, settings.model
     report = progress or (lambda stage, done, total: None)
     seconds = {}
 
     start = time.perf_counter()
     points, shape = _grid(ranges)
     report("screening", 0, len(points))
-    screen = run_cells(functools.partial(_screen_cell, settings), points, executor)
+    screen = run_cells(functools.partial(_screen_cell, settings), points, executor, kept,
+                       [("screen", *values) for values in points])
     report("screening", len(points), len(points))
     seconds["screening"] = time.perf_counter() - start
 
     start = time.perf_counter()
     pairs = _pairs(screen, shape)
     report("refinement", 0, len(pairs))
-    refined = run_cells(functools.partial(_bisect_boundary, settings), pairs, executor)
+    refined = run_cells(functools.partial(_bisect_boundary, settings), pairs, executor, kept,
+                        [("refine", *clear.values, *hunting.values) for clear, hunting in pairs])
     report("refinement", len(pairs), len(pairs))
     boundary = tuple(clear for clear, _ in refined)
     seconds["refinement"] = time.perf_counter() - start
@@ -650,36 +679,37 @@ def tune(rig, vary, tolerance=0.0, model=None, executor=None, progress=None):
     certificates, best = [], None
     for candidate in candidates:
         report("certification", len(certificates), len(candidates))
-        certificate = _certify_cell(settings, candidate.values)
+        certificate = _certify_cell(settings, candidate.values, kept)
         certificates.append(certificate)
         if certificate.certified:
             best = certificate
             break
         hunting.append((certificate.values, "certificate"))
     if best is not None:
-        best = _tighten(settings, best, certificates, hunting, report)
+        best = _tighten(settings, best, certificates, hunting, report, kept)
     seconds["certification"] = time.perf_counter() - start
 
     feasible = best is not None
     if not feasible:  # the least hunting tuning in range, its verdict stated
         stable = [c for c in screen if math.isfinite(c.bandwidth)] or list(screen)
         least = min(stable, key=lambda c: (c.amplitude, -np.nan_to_num(c.bandwidth)))
-        best = _certify_cell(settings, least.values)
+        best = _certify_cell(settings, least.values, kept)
         certificates.append(best)
-    front = _front(settings, screen, best, feasible, executor)
+    front = _front(settings, screen, best, feasible, executor, kept)
     report("done", 1, 1)
-    return Tuning(names, ranges, float(tolerance), name, feasible, best, _margin(names, best, hunting) if feasible else {},
-                  front, tuple(screen), shape, boundary, tuple(certificates), seconds, rig.source)
+    return Tuning(names, ranges, settings.tolerance, name, feasible, best,
+                  _margin(names, best, hunting) if feasible else {}, front, tuple(screen), shape, boundary,
+                  tuple(certificates), seconds, settings.rig.source)
 
 
-def _tighten(settings, best, certificates, hunting, report):
+def _tighten(settings, best, certificates, hunting, report, kept):
     """Bisect, with certificates, toward every faster tuning that failed its certificate."""
     failed = [c for c in certificates if not c.certified and c.bandwidth > best.bandwidth]
     for fast in failed:
         lo, hi = best, fast
         for step in range(_CERTIFIED_BISECTIONS):
             report("certification", len(certificates), len(certificates) + _CERTIFIED_BISECTIONS - step)
-            middle = _certify_cell(settings, tuple(math.sqrt(a * b) for a, b in zip(lo.values, hi.values)))
+            middle = _certify_cell(settings, tuple(math.sqrt(a * b) for a, b in zip(lo.values, hi.values)), kept)
             certificates.append(middle)
             if middle.certified:
                 lo = middle

@@ -146,7 +146,23 @@ _INSPECT_PAGE = """(() => {
   const tables = Array.from(document.querySelectorAll('table')).map((table) => ({
     width: box(table)[0], tallest_row: Math.max(...Array.from(table.rows).map((row) => box(row)[1])),
   }));
-  return {title: document.title, text: document.body.innerText, images, figures, tables,
+  const blocks = Array.from(document.querySelectorAll('h1, h2, h3, p, pre, table, figure, figcaption, ul, ol'))
+    .filter((element) => box(element)[0] > 0 && box(element)[1] > 0);
+  const overlaps = [];
+  const name = (element) => `${element.tagName.toLowerCase()} "${element.innerText.slice(0, 40)}"`;
+  for (let i = 0; i < blocks.length; i++) {
+    for (let j = i + 1; j < blocks.length; j++) {
+      const [a, b] = [blocks[i], blocks[j]];
+      if (a.contains(b) || b.contains(a)) continue;
+      const [p, q] = [a.getBoundingClientRect(), b.getBoundingClientRect()];
+      const width = Math.min(p.right, q.right) - Math.max(p.left, q.left);
+      const height = Math.min(p.bottom, q.bottom) - Math.max(p.top, q.top);
+      if (width > 1 && height > 1) overlaps.push(`${name(a)} and ${name(b)}`);
+    }
+  }
+  const right = document.documentElement.clientWidth;
+  const outside = blocks.filter((element) => element.getBoundingClientRect().right > right + 1).map(name);
+  return {title: document.title, text: document.body.innerText, images, figures, tables, overlaps, outside,
           body_width: box(document.body)[0], height: document.documentElement.scrollHeight};
 })()"""
 
@@ -249,9 +265,13 @@ def run_cli(*args, cwd):
 
 
 def assert_page_sound(facts):
-    """No console problem; every figure holds a decoded image with a non-zero rendered size; every table
-    fits the page's column and no row of it runs taller than about four lines (a squeezed column)."""
+    """No console problem; no two blocks of the page (headings, paragraphs, tables, figures, lists) overlap
+    and none runs past the window's right edge; every figure holds a decoded image with a non-zero rendered
+    size; every table fits the page's column and no row of it runs taller than about four lines (a squeezed
+    column)."""
     assert facts["problems"] == [], f"console errors: {facts['problems']}"
+    assert facts["overlaps"] == [], f"overlapping blocks: {facts['overlaps'][:5]}"
+    assert facts["outside"] == [], f"blocks past the right edge: {facts['outside'][:5]}"
     assert facts["figures"], "the report shows no figure"
     for figure in facts["figures"]:
         assert figure["images"] >= 1 and min(figure["rendered"]) > 0, figure
@@ -300,3 +320,36 @@ def test_diagnose_report_in_browser(examples_copy, tmp_path):
     for cause in diagnosis["causes"]:
         for parameter in cause["parameters"].values():
             assert shown(parameter["value"], facts["text"]), f"{cause['effect']} {parameter['value']} not on the page"
+
+
+def test_map_report_in_browser(examples_copy, tmp_path):
+    """``map``'s report: sound page, the grid's values of the JSON on the page."""
+    run_cli("map", "examples/load_feedback.toml", "--x", "kp", "10,30,45", "--y", "ti", "0.1,0.5", "--no-simulate",
+            "--json", "map.json", "--report", "map.html", cwd=examples_copy)
+    dmap = json.loads((examples_copy / "map.json").read_text(encoding="utf-8"))
+    facts = render_page(examples_copy / "map.html", ARTIFACTS / "map_report.png", tmp_path)
+    assert_page_sound(facts)
+    for value in dmap["x"]["values"] + dmap["y"]["values"]:
+        assert shown(value, facts["text"]) or f"{value:g}" in facts["text"], f"grid value {value} not on the page"
+
+
+def test_continue_report_in_browser(examples_copy, tmp_path):
+    """``continue``'s report: sound page, the branch's first and last orbit amplitudes shown."""
+    run_cli("continue", "examples/load_feedback.toml", "--parameter", "kp", "--from", "25", "--to", "35",
+            "--df-values", "3", "--json", "branch.json", "--report", "branch.html", cwd=examples_copy)
+    branch = json.loads((examples_copy / "branch.json").read_text(encoding="utf-8"))
+    facts = render_page(examples_copy / "branch.html", ARTIFACTS / "continue_report.png", tmp_path)
+    assert_page_sound(facts)
+    assert branch["points"], "the documented branch has orbits"
+
+
+def test_tune_report_in_browser(examples_copy, tmp_path):
+    """``tune``'s report: sound page, the best tuning's values and bandwidth of the JSON shown."""
+    run_cli("tune", "examples/motor_feedback.toml", "--vary", "kp", "1,1000", "--json", "tune.json",
+            "--report", "tune.html", cwd=examples_copy)
+    tuning = json.loads((examples_copy / "tune.json").read_text(encoding="utf-8"))
+    facts = render_page(examples_copy / "tune.html", ARTIFACTS / "tune_report.png", tmp_path)
+    assert_page_sound(facts)
+    assert shown(tuning["best"]["bandwidth"], facts["text"])
+    for value in tuning["best"]["values"].values():
+        assert shown(value, facts["text"]), f"best value {value} not on the page"

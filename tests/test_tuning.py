@@ -16,33 +16,55 @@ from click.testing import CliRunner
 
 import backlash_df as bd
 from backlash_df.cli import main
+from backlash_df.disturbances import shaft_mode, standard_disturbances
+from backlash_df.sweeps import rig_with
 from backlash_df.tuning import contact_bandwidth
 from conftest import EXAMPLES, example_rig
 
+LAG = example_rig("motor_lag_feedback")
+CASCADE = dataclasses.replace(LAG, controller=dataclasses.replace(LAG.controller, kp=150.0, structure="cascade",
+                                                                  kv=5.0))
+DAMPED = dataclasses.replace(LAG, plant=dataclasses.replace(LAG.plant, damping=30.0),
+                             controller=dataclasses.replace(LAG.controller, ti=0.2, torque_lag=0.004))
+#: The tunes checked against a brute-force grid: the range's end (motor_feedback), a sharp
+#: boundary inside the range (motor_lag_feedback: hunting 1 % above the answer), a stiffer
+#: damped shaft behind a slower torque loop (the DF's boundary inside the range).
+CASES = {"motor_feedback": (example_rig("motor_feedback"), {"kp": (1.0, 1000.0)}),
+         "motor_lag_feedback": (LAG, {"kp": (20.0, 400.0)}),
+         "damped": (DAMPED, {"kp": (20.0, 400.0)})}
+
 
 def blocks_bandwidth(rig):
-    """omega_b from python-control blocks: the speed loop with the shaft k + c s, reference to load speed."""
+    """omega_b from python-control blocks: the loop with the shaft k + c s, reference to load speed (or angle).
+
+    Speed loop: J_m s w_m = T_m - T, J_l s w_l = T, T = (k + c s) (w_m - w_l) / s,
+    T_m = lag * PI (w_ref - F y); a cascade: w_ref = kv (r - p), the output the load angle.
+    """
     plant, ctl = rig.plant, rig.controller
     law = rig.make_model()
     s = ct.tf("s")
     pi = ctl.kp * (1 + 1 / (ctl.ti * s))
     speed_filter = 1 / (ctl.speed_filter * s + 1)
-    # J_m s w_m = T_m - T, J_l s w_l = T, T = (k + c s) (w_m - w_l) / s, T_m = PI (r - F y)
+    torque_lag = 1 / (ctl.torque_lag * s + 1)
     shaft = (law.stiffness + law.damping * s) / s
     load_over_motor = shaft / (plant.load_inertia * s + shaft)  # w_l / w_m
     motor = 1 / (plant.motor_inertia * s + shaft * (1 - load_over_motor))  # w_m / T_m
     measured = 1 if ctl.feedback == "motor" else load_over_motor
-    closed = ct.feedback(pi * motor, speed_filter * measured) * load_over_motor  # r -> w_l
-    omega = np.geomspace(1e-3, 1e4, 200000)
-    gain = np.abs(closed(1j * omega))
-    return float(omega[np.argmax(gain <= 1 / math.sqrt(2))])
+    speed_loop = ct.feedback(torque_lag * pi * motor, speed_filter * measured)  # w_ref -> w_m
+    if ctl.cascade:
+        position = (1 if ctl.position_feedback == "motor" else load_over_motor) / s  # p / w_m
+        closed = ct.feedback(ctl.kv * speed_loop, position) * load_over_motor / s  # r -> theta_l
+    else:
+        closed = speed_loop * load_over_motor  # r -> w_l
+    omega = np.geomspace(1e-3, 1e4, 20000)
+    first = int(np.argmax(np.abs(closed(1j * omega)) <= 1 / math.sqrt(2)))
+    omega = np.linspace(omega[first - 1], omega[first], 2000)  # to 1e-7 relative
+    return float(omega[np.argmax(np.abs(closed(1j * omega)) <= 1 / math.sqrt(2))])
 
 
-@pytest.mark.parametrize("name", ["motor_feedback", "load_feedback", "motor_lag_feedback"])
+@pytest.mark.parametrize("name", ["motor_feedback", "load_feedback", "motor_lag_feedback", "cascade"])
 def test_bandwidth_is_the_contact_loops_minus_3_db_on_the_load(name):
-    rig = example_rig(name)
-    if name == "motor_lag_feedback":  # the blocks below have no torque lag
-        rig = dataclasses.replace(rig, controller=dataclasses.replace(rig.controller, torque_lag=0.0))
+    rig = CASCADE if name == "cascade" else example_rig(name)
     assert contact_bandwidth(rig) == pytest.approx(blocks_bandwidth(rig), rel=1e-4)
 
 
@@ -82,3 +104,119 @@ def test_a_value_that_does_not_vary_is_refused():
         bd.tune(rig, {"kp": (1.0, 2.0), "ti": (0.1, 1.0), "speed_filter": (1e-3, 1e-2)})
     with pytest.raises(ValueError, match="tolerance"):
         bd.tune(rig, {"kp": (1.0, 2.0)}, tolerance=math.nan)
+
+
+# --------------------------------------------------------------------------- the answer against brute force
+
+
+@pytest.fixture(scope="module")
+def tunings():
+    """Each case's tuning, computed once."""
+    return {}
+
+
+def tuned(tunings, case):
+    if case not in tunings:
+        rig, vary = CASES[case]
+        tunings[case] = bd.tune(rig, vary)
+    return tunings[case]
+
+
+def motion(rig, disturbance, t_end):
+    """The later half of a simulation against the earlier: largest |w_m - w_l| (rad/s) over (t_end/4, t_end/2]
+    and over (t_end/2, t_end], and the number of times the shaft comes into contact (|theta_d| reaches alpha
+    from inside the gap) in the later half."""
+    run = bd.simulate(rig, t_end=t_end, initial=disturbance.initial())
+    names = run.state_names
+    relative = np.abs(run.states[:, names.index("motor_speed")] - run.states[:, names.index("load_speed")])
+    earlier, later = (run.time > 0.25 * t_end) & (run.time <= 0.5 * t_end), run.time > 0.5 * t_end
+    contact = np.abs(run.states[later, names.index("theta_d")]) >= rig.plant.half_gap
+    return float(np.max(relative[earlier])), float(np.max(relative[later])), int(np.sum(contact[1:] & ~contact[:-1]))
+
+
+def settles(rig, t_end=80.0):
+    """Every standard disturbance dies out in a simulation of ``t_end`` (s).
+
+    The later half's motion is negligible or below 0.8 of the earlier half's, or,
+    not growing, it touches a flank at most 8 times: a free load drifting across the gap, losing
+    speed only at its rare impacts (its speed decaying like 1/t), is not hunting; a
+    cycle of the loop (periods below a second here) touches a flank hundreds of times.
+    """
+    scale = rig.plant.half_gap * shaft_mode(rig)
+    for disturbance in standard_disturbances(rig):
+        earlier, later, contacts = motion(rig, disturbance, t_end)
+        dying = later < 1e-6 * scale or later < 0.8 * earlier
+        drifting = contacts <= 8 and later <= earlier  # NaN (diverged) is neither
+        if not (dying or drifting):
+            return False
+    return True
+
+
+@pytest.mark.xdist_group("tunings")
+@pytest.mark.parametrize("case", list(CASES))
+def test_the_tuning_settles_and_every_faster_tuning_of_a_fine_grid_hunts(tunings, case):
+    """Within 2 % of a brute-force grid's best: none of its points of a larger bandwidth settles in long simulations."""
+    tuning = tuned(tunings, case)
+    rig, vary = CASES[case]
+    (name, (low, high)), = vary.items()
+    assert tuning.feasible
+    best = rig_with(rig, name, tuning.best.values[0])
+    assert tuning.best.bandwidth == pytest.approx(blocks_bandwidth(best), rel=1e-3)
+    assert settles(best)
+    grid = np.geomspace(low, high, int(math.ceil(math.log(high / low) / math.log(1.02))) + 1)  # 2 % apart
+    faster = [rig_with(rig, name, value) for value in grid]
+    faster = [r for r in faster if blocks_bandwidth(r) > tuning.best.bandwidth / 0.98]
+    assert not any(settles(r, t_end=40.0) for r in faster)
+    tolerance = [p.tolerance for p in tuning.front]  # the front: monotone, from the certified tuning
+    bandwidth = [p.bandwidth for p in tuning.front]
+    assert tuning.front[0].tolerance == 0.0 and tuning.front[0].values == tuning.best.values
+    assert tolerance == sorted(tolerance) and bandwidth == sorted(bandwidth) and len(set(bandwidth)) == len(bandwidth)
+
+
+def test_a_load_feedback_loop_that_hunts_at_every_gain_is_infeasible_with_its_least_hunting_tuning():
+    rig = example_rig("load_feedback")
+    tuning = bd.tune(rig, {"kp": (5.0, 100.0)})
+    assert not tuning.feasible and not tuning.best.certified
+    assert tuning.best.verdict.verdict in ("limit cycle", "bistable", "unstable")
+    assert not settles(rig_with(rig, "kp", tuning.best.values[0]))
+    screened = [c.amplitude for c in tuning.screen if math.isfinite(c.bandwidth)]
+    assert tuning.to_dict()["feasible"] is False and min(screened) > 0.0
+
+
+# --------------------------------------------------------------------------- checkpoints
+
+
+class _Counted:
+    """A stand-in for ``tuning._screen_cell`` that records its cells and raises Ctrl-C at call ``at``."""
+
+    def __init__(self, original, at=None):
+        self.original, self.at, self.cells = original, at, []
+
+    def __call__(self, settings, values):
+        self.cells.append(tuple(values))
+        if len(self.cells) == self.at:
+            raise KeyboardInterrupt
+        return self.original(settings, values)
+
+
+@pytest.mark.xdist_group("tunings")
+def test_an_interrupted_tune_resumes_to_the_same_answer_and_recomputes_no_finished_cell(tunings, tmp_path,
+                                                                                       monkeypatch):
+    import backlash_df.tuning as tuning_module
+    from backlash_df.checkpoint import Checkpoint
+
+    rig, vary = CASES["damped"]
+    uninterrupted = tuned(tunings, "damped")
+    path = tmp_path / "tune.checkpoint"
+    interrupt = _Counted(tuning_module._screen_cell, at=5)
+    monkeypatch.setattr(tuning_module, "_screen_cell", interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        bd.tune(rig, vary, checkpoint=path)
+    done = set(interrupt.cells[:4])
+    counting = _Counted(interrupt.original)
+    monkeypatch.setattr(tuning_module, "_screen_cell", counting)
+    resumed = bd.tune(rig, vary, checkpoint=Checkpoint(path, resume=True))
+    assert not done & set(counting.cells)
+    first, second = uninterrupted.to_dict(), resumed.to_dict()
+    first.pop("seconds"), second.pop("seconds")
+    assert second == first

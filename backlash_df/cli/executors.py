@@ -110,7 +110,7 @@ def checkpoint_for(outputs, command, path=None, resume=False):
     outputs : Outputs
         The command's output files (the default checkpoint goes beside the first).
     command : str
-        ``"map"``, ``"continue"``.
+        ``"map"``, ``"continue"``, ``"tune"``.
     path : str, optional
         ``--checkpoint``: written from the first cell.
     resume : bool

@@ -10,7 +10,7 @@ from tqdm import tqdm
 from ..config import load_rig
 from ..tuning import TUNABLE, tune
 from .common import MODEL, echo_table, read_text
-from .executors import executor_for, executor_options
+from .executors import checkpoint_for, checkpoint_options, executor_for, executor_options, stopped_note
 from .outputs import Outputs
 
 __all__ = ["tune_command"]
@@ -39,20 +39,25 @@ def _ranges(ctx, param, values):
 @click.option("--model", "model_name", default=None, type=MODEL,
               help="Torque law certified (default: the rig's [model] backlash).")
 @executor_options
+@checkpoint_options
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), help="Write the tuning as JSON.")
 @click.option("--report", "report_out", type=click.Path(dir_okay=False), help="Write a self-contained HTML report.")
-def tune_command(rig_file, vary, tolerance, model_name, workers, dask, scheduler, json_out, report_out):
+def tune_command(rig_file, vary, tolerance, model_name, workers, dask, scheduler, checkpoint_path, resume, json_out,
+                 report_out):
     """The tuning of RIG_FILE with the largest bandwidth whose loop is certified not to hunt.
 
     The bandwidth is that of the loop with the gear in contact (speed reference to
     load speed; a cascade: position reference to load angle, -3 dB).  The certificate:
     the describing function's loci do not meet, shooting finds no periodic orbit,
-    and every standard disturbance settles.
+    and every standard disturbance settles.  Every screened cell, bisection and
+    certificate is kept in a checkpoint; after Ctrl-C, the same command with
+    --resume computes only the others and finds the same tuning.
 
     Example: backlash-df tune RIG --vary kp 1,1000 --vary ti 0.01,2
     """
     outputs = Outputs({"--json": json_out, "--report": report_out})
     rig = load_rig(rig_file)
+    checkpoint = checkpoint_for(outputs, "tune", checkpoint_path, resume)
     with contextlib.ExitStack() as stack:
         bars = {}
 
@@ -63,8 +68,9 @@ def tune_command(rig_file, vary, tolerance, model_name, workers, dask, scheduler
                 bars[stage].total = total
                 bars[stage].update(done - bars[stage].n)
 
-        with executor_for(workers, dask, scheduler) as executor:
-            tuning = tune(rig, vary, tolerance=tolerance, model=model_name, executor=executor, progress=progress)
+        with stopped_note(checkpoint, "cells"), executor_for(workers, dask, scheduler) as executor:
+            tuning = tune(rig, vary, tolerance=tolerance, model=model_name, executor=executor, progress=progress,
+                          checkpoint=checkpoint)
     best = tuning.best
     values = ", ".join(f"{name} = {value:.5g} {TUNABLE[name]}" for name, value in tuning.values().items())
     if tuning.feasible:
@@ -89,3 +95,5 @@ def tune_command(rig_file, vary, tolerance, model_name, workers, dask, scheduler
     if "--report" in outputs:
         texts["--report"] = tuning.report_html(f"Tuning: {rig_file}", read_text(rig_file))
     outputs.write(texts)
+    if checkpoint is not None:
+        checkpoint.remove()
