@@ -140,7 +140,7 @@ def _simulate_exactly(system, model, w, z0, theta_b0, dt, n_steps, outputs):
     """Fill the outputs with the exact-discretisation kernel; returns the number of events."""
     states, torque, theta_b, modes, cmodes = outputs
     law = DEAD_ZONE if model.law == EXACT and model.damping == 0.0 else model.law
-    varying = np.flatnonzero(np.any(w != w[0], axis=0))  # one pass over the inputs
+    varying = [j for j in range(w.shape[1]) if np.ptp(w[:, j]) > 0.0]
     constant = np.delete(w[0], varying)
     matrices = mode_matrices(system, model, law, varying, constant)
     size = matrices.shape[1]
@@ -152,7 +152,8 @@ def _simulate_exactly(system, model, w, z0, theta_b0, dt, n_steps, outputs):
     ladders = np.stack([exp_ladder(m_aug, dt, LEVELS) for m_aug in matrices])
     events = run_exact(
         ladders, *rows, float(limit), clamps, law, _law_params(model), np.ascontiguousarray(w[:, varying]), z0,
-        theta_b0, float(system.delay), system.d, system.c_x, system.c_v, dt, n_steps, states, torque, theta_b, modes, cmodes,
+        theta_b0, float(system.delay), system.d, system.c_x, system.c_v, dt, n_steps, states, torque, theta_b, modes,
+        cmodes,
     )
     if law != model.law:  # the exact model without damping is the dead-zone (Remark 2)
         modes //= 2
