@@ -417,6 +417,7 @@ def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range,
     near = []
     for p0, q0 in minima:
         p, q, distance = problem.closest(p0, q0, box)
+        p = _flat_top(problem, p, q, distance, box[0][1])
         at_edge = min(p - box[0][0], box[0][1] - p, q - box[1][0], box[1][1] - q) < 1e-6
         at_root = any(abs(p - pr) < 1e-3 and abs(q - qr) < 1e-3 for pr, qr in roots)
         if distance < 1e-6 or distance > near_miss_cutoff or at_edge or at_root:
@@ -425,6 +426,31 @@ def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range,
         if all(abs(math.log(omega / m.omega)) > 1e-4 or abs(amplitude / m.amplitude - 1) > 1e-4 for m in near):
             near.append(NearMiss(float(amplitude), float(omega), float(distance)))
     return cycles, sorted(near, key=lambda m: m.distance)
+
+
+def _flat_top(problem, p, q, distance, top):
+    """The largest p' in [p, top] up to which |F(., q)| stays at ``distance`` (to 1e-9 relative), else p.
+
+    Where the gear stays in contact at small amplitudes N(A, w) does not depend on A,
+    so |F| is flat in p below the amplitude at which the gap opens, and the minimiser
+    stops anywhere on the flat (round-off decides).  The miss is reported at the top
+    of the flat: the largest amplitude at which the loci pass that close.
+    """
+    def on_flat(x):
+        return abs(abs(complex(problem.residual(x, q))) - distance) <= 1e-9 * max(distance, 1e-300)
+
+    if not on_flat(p + 1e-6 * max(1.0, abs(p))):
+        return p
+    points = np.linspace(p, top, 33)
+    flat = [on_flat(x) for x in points]
+    if all(flat):
+        return top
+    first_off = flat.index(False)
+    low, high = points[first_off - 1], points[first_off]
+    for _ in range(40):
+        middle = 0.5 * (low + high)
+        low, high = (middle, high) if on_flat(middle) else (low, middle)
+    return low
 
 
 def _cycle(problem, p, q):

@@ -5,30 +5,31 @@
    spent in screening, boundary refinement and certification.
 2. Speed-up of the same tune on a 2-worker process pool and on a Dask
    ``LocalCluster`` of 2 single-threaded workers against serial, same results.
-3. The bandwidth found against the best of a brute-force grid search on the same
-   rigs: every grid point's bandwidth by python-control's frequency response of the
-   contact loop, certified in order of decreasing bandwidth by long simulations from
-   the standard disturbance set (the first that settles from all of them).
+3. The bandwidth found against the best of a brute-force grid search on the rigs of
+   ``tests/test_tuning.py`` (and the two-parameter tune of 1.): every grid point's
+   bandwidth by python-control's frequency response of the loop assembled from blocks,
+   certified in order of decreasing bandwidth by long simulations from the standard
+   disturbance set (the first that settles from all of them), both the test's own
+   references (``blocks_bandwidth``, ``settles``).
 
 Run: ``python benchmarks/bench_tune.py [--only time|speedup|grid] [--grid 12]``.
 """
 
 import argparse
-import dataclasses
 import math
+import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-import control as ct
 import numpy as np
 
 import backlash_df as bd
-from backlash_df.disturbances import standard_disturbances
-from backlash_df.simulation import simulated_limit_cycle
 from backlash_df.sweeps import rig_with
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+from test_tuning import CASES, blocks_bandwidth, settles  # noqa: E402  (the tests' independent references)
 VARY = {"kp": (1.0, 1000.0), "ti": (0.01, 2.0)}
 
 
@@ -66,34 +67,11 @@ def section_speedup(serial, serial_wall):
           f"same answer: {dasked.to_dict()['best'] == serial.to_dict()['best']}")
 
 
-def independent_bandwidth(rig, model):
-    """omega_b from python-control: the contact loop as a transfer matrix, reference to load speed."""
-    law = rig.make_model(model)
-    part = bd.drive_loop(rig).linear_part()
-    closed = part.A + np.outer(part.b, law.stiffness * part.c_x + law.damping * part.c_v)
-    out = np.zeros((1, part.n_states))
-    out[0, part.state_names.index("load_angle" if rig.controller.cascade else "load_speed")] = 1.0
-    system = ct.ss(closed, part.E[:, :1], out, 0.0)
-    if np.max(system.poles().real) >= 0.0:
-        return math.nan
-    omega = np.geomspace(1e-3, 1e4, 20000)
-    gain = np.abs(system(1j * omega)).ravel()
-    below = np.flatnonzero(gain <= 1.0 / math.sqrt(2.0))
-    return float(omega[below[0]]) if below.size else math.inf
-
-
-def settles(rig, model):
-    """Long simulations from the standard set: every one comes to rest (no cycle, no divergence)."""
-    for disturbance in standard_disturbances(rig):
-        measured, _ = simulated_limit_cycle(rig, model, initial=disturbance.initial(), t_end=40.0, max_t_end=160.0)
-        if measured.found or measured.verdict in ("diverged", "growing"):
-            return False
-    return True
-
-
-def brute_force(rig, vary, count, model=None):
-    """The best bandwidth of a log grid, certified by long simulations in order of decreasing bandwidth."""
+def brute_force(rig, vary, count):
+    """The best bandwidth of a log grid (``count`` values per parameter of two, ``count**2`` of one), certified
+    by long simulations in order of decreasing bandwidth."""
     names = list(vary)
+    count = count if len(names) == 2 else count * count  # the same number of cells for one parameter
     axes = [np.geomspace(*vary[name], count) for name in names]
     points = np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(names), -1).T
     rated = []
@@ -101,23 +79,17 @@ def brute_force(rig, vary, count, model=None):
         tuned = rig
         for name, value in zip(names, values):
             tuned = rig_with(tuned, name, float(value))
-        rated.append((independent_bandwidth(tuned, model), tuned, values))
+        rated.append((blocks_bandwidth(tuned), tuned, values))
     for bandwidth, tuned, values in sorted((r for r in rated if math.isfinite(r[0])), key=lambda r: -r[0]):
-        if settles(tuned, model):
+        if settles(tuned):
             return bandwidth, dict(zip(names, values))
     return math.nan, {}
 
 
 def section_grid(count):
     print(f"\n== the bandwidth found against a brute-force grid ({count} values per parameter) ==")
-    lag = bd.load_rig(ROOT / "examples" / "motor_lag_feedback.toml")
-    cases = {
-        "motor_feedback: kp, ti": (bd.load_rig(ROOT / "examples" / "motor_feedback.toml"), VARY),
-        "motor_lag_feedback: kp": (lag, {"kp": (20.0, 400.0)}),
-        "cascade (motor speed, load position): kv": (
-            dataclasses.replace(lag, controller=dataclasses.replace(lag.controller, structure="cascade", kv=5.0)),
-            {"kv": (1.0, 100.0)}),
-    }
+    cases = {"motor_feedback: kp, ti": (bd.load_rig(ROOT / "examples" / "motor_feedback.toml"), VARY),
+             **{f"{name}: {', '.join(vary)}": (rig, vary) for name, (rig, vary) in CASES.items()}}
     for label, (rig, vary) in cases.items():
         start = time.perf_counter()
         tuning = bd.tune(rig, vary)

@@ -4,13 +4,12 @@ import math
 
 import numpy as np
 import pytest
+from conftest import EXAMPLES
 from scipy import optimize
 
-from backlash_df import load_rig, simulated_limit_cycle
+from backlash_df import load_rig, predict_limit_cycles, simulated_limit_cycle
 from backlash_df.limit_cycles import solve_harmonic_balance
 from backlash_df.loops import drive_loop
-
-EXAMPLES = "examples/"
 
 
 def dead_zone_df(k, alpha):
@@ -110,7 +109,7 @@ def test_near_miss_of_a_locus_that_turns_back():
 
 @pytest.fixture(scope="module")
 def load_rig_example():
-    return load_rig(EXAMPLES + "load_feedback.toml")
+    return load_rig(EXAMPLES / "load_feedback.toml")
 
 
 def test_simulation_is_converged_under_step_halving(load_rig_example):
@@ -129,7 +128,7 @@ def test_simulation_is_converged_under_step_halving(load_rig_example):
 
 
 def test_motor_feedback_settles_without_limit_cycle():
-    rig = load_rig(EXAMPLES + "motor_feedback.toml")
+    rig = load_rig(EXAMPLES / "motor_feedback.toml")
     for name in ("phase-plane", "damped-dead-zone", "exact"):
         measured, result = simulated_limit_cycle(rig, name, t_end=10.0, kick=15.0)
         assert measured.verdict == "no limit cycle"
@@ -147,7 +146,7 @@ def test_rest_against_a_side_of_the_gap_is_no_limit_cycle():
     """
     import dataclasses
 
-    rig = load_rig(EXAMPLES + "motor_lag_feedback.toml")
+    rig = load_rig(EXAMPLES / "motor_lag_feedback.toml")
     rig = dataclasses.replace(rig, controller=dataclasses.replace(rig.controller, kp=74.1, ti=0.652))
     measured, result = simulated_limit_cycle(rig, "phase-plane", t_end=40.0, max_t_end=40.0, kick=12.57)
     tail = result.time > 0.75 * result.time[-1]
@@ -155,3 +154,19 @@ def test_rest_against_a_side_of_the_gap_is_no_limit_cycle():
     assert abs(abs(result.theta_d[-1]) - rig.plant.half_gap) < 1e-9  # ... against a side of the gap
     assert not measured.found
     assert measured.verdict == "no limit cycle"
+
+
+def test_a_near_miss_on_a_flat_of_the_residual_is_reported_once_at_the_flats_top():
+    """Under a load torque the gear stays in contact at small A: N(A, w) = k + j w c there, flat in A.
+
+    The near miss at the contact loop's resonance is then a flat valley of |1 + G N|;
+    it is reported once, at the largest amplitude of the flat (where the gap opens),
+    the same on three grids, instead of wherever round-off stopped the minimiser.
+    """
+    rig = load_rig(EXAMPLES / "loaded_feedback.toml")
+    misses = [predict_limit_cycles(rig, grid=grid).near_misses for grid in ((24, 32), (40, 50), (60, 80))]
+    assert [len(m) for m in misses] == [1, 1, 1]
+    for other in misses[1:]:
+        assert other[0].amplitude == pytest.approx(misses[0][0].amplitude, rel=1e-6)
+        assert other[0].omega == pytest.approx(misses[0][0].omega, rel=1e-6)
+        assert other[0].distance == pytest.approx(misses[0][0].distance, rel=1e-9)
