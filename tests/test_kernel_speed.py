@@ -57,5 +57,5 @@ def test_command_line_says_so_on_stderr_only_when_compiling(tmp_path, monkeypatc
     monkeypatch.setattr(predict_module, "analyse_loop", analyse_compiling)
     cold = runner.invoke(main, ["predict", str(rig)])
     assert cold.exit_code == 0
-    assert cold.stderr.count("backlash-df: compiling (first run only)") == 1
+    assert cold.stderr.count("backlash-df: compiling kernels (first run only, about 20 s of one core)") == 1
     assert "compiling" not in cold.stdout

@@ -54,7 +54,7 @@ class Group(click.Group):
 
 def _compiling_notice():
     """One stderr line while numba compiles the kernels a command needs (a cold cache: the first run)."""
-    click.echo("backlash-df: compiling (first run only)", err=True)
+    click.echo("backlash-df: compiling kernels (first run only, about 20 s of one core)", err=True)
 
 
 #: A torque-law name (``--model``).
