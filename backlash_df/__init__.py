@@ -8,7 +8,7 @@ documentation's contract page states the rig-file keys, the JSON and CSV formats
 the sign conventions they follow.
 """
 
-__version__ = "0.1.0"
+from ._version import __version__
 
 from .config import Controller, Load, Plant, Rig, RigError, load_rig, rig_from_dict
 from .models import MODEL_NAMES, ExactModel, StaticModel, make_model, theta_star

@@ -1,15 +1,23 @@
-"""The numba settings of the package's compiled kernels, and one helper they share.
+"""The numba settings of the package's compiled kernels, and what they share.
 
 Kernels are compiled on first use and cached beside the source (``cache=True``);
-``nogil`` lets threads run them side by side.
+``nogil`` lets threads run them side by side.  :func:`on_first_compile` tells a
+caller (the command line) when numba compiles instead of loading its cache.
 """
 
-import numba
+import contextlib
 
-__all__ = ["jit", "copy_into"]
+import numba
+from numba.core import event
+
+__all__ = ["jit", "inline", "copy_into", "on_first_compile"]
 
 #: Decorator of every compiled kernel of :mod:`backlash_df.system` and :mod:`backlash_df.simulation`.
 jit = numba.njit(cache=True, nogil=True)
+#: The same for a small helper of a compiled loop, inlined into its callers by numba: a
+#: compiled function that calls another makes numba reference-count its array arguments
+#: on every call (NRT_incref/NRT_decref), a helper without calls does not.
+inline = numba.njit(cache=True, nogil=True, inline="always")
 
 
 @jit
@@ -21,3 +29,30 @@ def copy_into(src, dst):
     """
     for i in range(dst.size):
         dst.flat[i] = src.flat[i]
+
+
+class _FirstCompile(event.Listener):
+    """Calls ``announce()`` at the start of the first compilation numba reports, then never again."""
+
+    def __init__(self, announce):
+        self.announce = announce
+        self.announced = False
+
+    def on_start(self, data):
+        if not self.announced:
+            self.announced = True
+            self.announce()
+
+    def on_end(self, data):
+        pass
+
+
+@contextlib.contextmanager
+def on_first_compile(announce):
+    """Within the block, call ``announce()`` once when numba first compiles a function.
+
+    numba reports ``numba:compile`` only when it compiles; a kernel loaded from its
+    cache (a warm run) reports nothing, and ``announce`` is not called.
+    """
+    with event.install_listener("numba:compile", _FirstCompile(announce)):
+        yield

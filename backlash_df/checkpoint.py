@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
+from ._version import __version__
 
 __all__ = ["Checkpoint", "run_cells", "opened", "describe"]
 

@@ -16,9 +16,10 @@ the loosest rtol in 1e-9 ... 1e-13 that is at least as accurate as the kernel:
 - ``solve_ivp`` RK45, DOP853 and LSODA, each with event location (the law's guards, the
   integration restarted at every switch: without events a step across a switch is only
   first-order accurate), and RK45 without events as a user might first write it;
-- a compiled Dormand-Prince 5(4) with event location, written here in numba over the
-  package's scalar law (mode held through each step, switches bisected on the dense
-  output): the strongest competitor a user could build.
+- the compiled Dormand-Prince 5(4) with event location of ``compiled_rk.py`` (mode
+  held through each step, switches bisected on the dense output), over the law's
+  affine modes; ``bench_simulation.py`` adds DOP853 and CVODE and draws the
+  work-precision curves.
 
 The exact model (1)+(14) against RK45 without events (theta_b as a fourth state; LSODA
 without events takes minutes through the saturations of (14)).
@@ -30,20 +31,19 @@ simulation with the same law shows one; the agreement counts are printed and the
 maps saved to ``build/design_map_<rig>.png``.
 """
 
-import math
 import sys
 import time
 from pathlib import Path
 
-import numba
 import numpy as np
 from scipy.integrate import solve_ivp
 
 from backlash_df import load_rig, simulate
 from backlash_df.sweeps import design_map
 from backlash_df.loops import drive_loop
-from backlash_df.models import exact_torque, held_mode, mode_torque, static_torque
+from backlash_df.models import exact_torque, mode_torque, static_torque
 from backlash_df.simulation import default_step, initial_state
+import compiled_rk
 from switched import phase_plane_guards, solve_switched
 from timing import best_of
 
@@ -93,125 +93,15 @@ def scipy_plain(loop, method, rtol, t_eval):
     return solve_ivp(f, (0.0, T_END), loop.z0, method=method, rtol=rtol, atol=rtol * 1e-3, t_eval=t_eval).y[0]
 
 
-# Dormand-Prince 5(4) (Hairer, Norsett, Wanner; scipy's RK45): nodes, stages, weights,
-# error weights and the quartic dense output
-_DP_A = np.array([
-    [0.0, 0.0, 0.0, 0.0, 0.0],
-    [1 / 5, 0.0, 0.0, 0.0, 0.0],
-    [3 / 40, 9 / 40, 0.0, 0.0, 0.0],
-    [44 / 45, -56 / 15, 32 / 9, 0.0, 0.0],
-    [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0.0],
-    [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656],
-])
-_DP_B = np.array([35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84, 0.0])
-_DP_E = np.array([-71 / 57600, 0.0, 71 / 16695, -71 / 1920, 17253 / 339200, -22 / 525, 1 / 40])
-_DP_P = np.array([
-    [1.0, -8048581381 / 2820520608, 8663915743 / 2820520608, -12715105075 / 11282082432],
-    [0.0, 0.0, 0.0, 0.0],
-    [0.0, 131558114200 / 32700410799, -68118460800 / 10900136933, 87487479700 / 32700410799],
-    [0.0, -1754552775 / 470086768, 14199869525 / 1410260304, -10690763975 / 1880347072],
-    [0.0, 127303824393 / 49829197408, -318862633887 / 49829197408, 701980252875 / 199316789632],
-    [0.0, -282668133 / 205662961, 2019193451 / 616988883, -1453857185 / 822651844],
-    [0.0, 40617522 / 29380423, -110615467 / 29380423, 69997945 / 29380423],
-])
-
-
-@numba.njit(cache=True)
-def _dot(row, z):
-    acc = 0.0
-    for i in range(z.size):
-        acc += row[i] * z[i]
-    return acc
-
-
-@numba.njit(cache=True)
-def _rhs(a, b, c_x, c_v, law, p, mode, z, out):
-    torque = mode_torque(law, mode, _dot(c_x, z), _dot(c_v, z), p[0], p[1], p[2], p[3])
-    for i in range(z.size):
-        out[i] = _dot(a[i], z) + b[i] * torque
-
-
-@numba.njit(cache=True)
-def _dense(z, h, stages, theta, out):
-    """Dormand-Prince's quartic interpolant at ``t + theta h``."""
-    for i in range(z.size):
-        acc = 0.0
-        for j in range(7):
-            p = _DP_P[j]
-            acc += stages[j, i] * theta * (p[0] + theta * (p[1] + theta * (p[2] + theta * p[3])))
-        out[i] = z[i] + h * acc
-
-
-@numba.njit(cache=True)
-def _switch(z, h, stages, law, p, mode, c_x, c_v, tmp):
-    """Fraction of the step at which ``held_mode`` leaves ``mode``, bisected on the interpolant."""
-    lo, hi = 0.0, 1.0
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        _dense(z, h, stages, mid, tmp)
-        if held_mode(law, mode, _dot(c_x, tmp), _dot(c_v, tmp), p[0], p[1], p[2], p[3]) != mode:
-            hi = mid
-        else:
-            lo = mid
-    return hi
-
-
-@numba.njit(cache=True)
-def _dopri5(a, b, c_x, c_v, law, p, z0, t_end, rtol, atol, t_eval, out):
-    """Adaptive Dormand-Prince 5(4), mode held through each step, switches located by bisection."""
-    n = z0.size
-    stages, z, new, tmp = np.empty((7, n)), z0.copy(), np.empty(n), np.empty(n)
-    mode = held_mode(law, 0, _dot(c_x, z), _dot(c_v, z), p[0], p[1], p[2], p[3])
-    _rhs(a, b, c_x, c_v, law, p, mode, z, stages[0])
-    t, h, i_out = 0.0, 1e-6, 0
-    while t < t_end:
-        h = min(h, t_end - t)
-        for s in range(1, 7):
-            for i in range(n):
-                acc = 0.0
-                for j in range(s):
-                    acc += (_DP_A[s, j] if s < 6 else _DP_B[j]) * stages[j, i]
-                tmp[i] = z[i] + h * acc
-            if s == 6:
-                new[:] = tmp
-            _rhs(a, b, c_x, c_v, law, p, mode, tmp, stages[s])
-        norm = 0.0
-        for i in range(n):
-            error = 0.0
-            for j in range(7):
-                error += _DP_E[j] * stages[j, i]
-            norm += (h * error / (atol + rtol * max(abs(z[i]), abs(new[i])))) ** 2
-        norm = math.sqrt(norm / n)
-        factor = 10.0 if norm == 0.0 else min(10.0, max(0.2, 0.9 * norm ** -0.2))
-        if norm > 1.0:
-            h *= factor
-            continue
-        step = h
-        next_mode = held_mode(law, mode, _dot(c_x, new), _dot(c_v, new), p[0], p[1], p[2], p[3])
-        if next_mode != mode:
-            fraction = _switch(z, h, stages, law, p, mode, c_x, c_v, tmp)
-            _dense(z, h, stages, fraction, new)
-            step = fraction * h
-            next_mode = held_mode(law, mode, _dot(c_x, new), _dot(c_v, new), p[0], p[1], p[2], p[3])
-        while i_out < t_eval.size and t_eval[i_out] <= t + step:
-            _dense(z, h, stages, (t_eval[i_out] - t) / h, tmp)
-            out[i_out] = _dot(c_x, tmp)
-            i_out += 1
-        t += step
-        z[:] = new
-        if next_mode != mode:
-            mode = next_mode
-            _rhs(a, b, c_x, c_v, law, p, mode, z, stages[0])
-        else:
-            stages[0] = stages[6]
-            h *= factor
-
-
 def numba_events(loop, rtol, t_eval):
-    """The compiled Dormand-Prince with event location; theta_d on ``t_eval``."""
+    """The compiled Dormand-Prince 5(4) with event location of ``compiled_rk.py``; theta_d on ``t_eval``."""
+    k, _, alpha, _ = loop.params
+    contact = np.outer(loop.b, k * loop.c_x + loop.c_v * loop.params[1])
+    mats = np.stack([loop.a + (contact if m else 0.0) for m in (-2, 0, 2)])
+    offs = np.stack([-np.sign(m) * k * alpha * loop.b for m in (-2, 0, 2)])
     out = np.full(t_eval.size, np.nan)
-    _dopri5(loop.a, loop.b, loop.c_x, loop.c_v, loop.law, np.array(loop.params, dtype=float), loop.z0, T_END,
-            rtol, rtol * 1e-3, t_eval, out)
+    compiled_rk.integrate(compiled_rk.DP5, *compiled_rk.tableau(compiled_rk.DP5), mats, offs, loop.law,
+                          np.array(loop.params, dtype=float), loop.c_x, loop.c_v, 0, loop.z0, T_END, rtol, t_eval, out)
     return out
 
 

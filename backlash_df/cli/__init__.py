@@ -10,7 +10,7 @@ its own and only parses, calls the library and prints; the group below lists the
 
 import click
 
-from .. import __version__
+from .._version import __version__
 from .common import Group
 from .describing import df_command
 from .diagnose import diagnose_command

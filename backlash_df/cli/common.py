@@ -6,6 +6,7 @@ from pathlib import Path
 
 import click
 
+from .._jit import on_first_compile
 from ..models import MODEL_NAMES
 
 __all__ = ["Group", "fail", "FINITE", "MODEL", "numbers", "echo_table", "read_text"]
@@ -45,10 +46,15 @@ class Group(click.Group):
         try:
             # one BLAS thread: the kernels' small matrices run 1.3-1.4x slower on two
             # (benchmarks/bench_startup.py)
-            with threadpool_limits(1, user_api="blas"):
+            with threadpool_limits(1, user_api="blas"), on_first_compile(_compiling_notice):
                 return super().invoke(ctx)
         except ValueError as error:
             fail(error)
+
+
+def _compiling_notice():
+    """One stderr line while numba compiles the kernels a command needs (a cold cache: the first run)."""
+    click.echo("backlash-df: compiling kernels (first run only, about 20 s of one core)", err=True)
 
 
 #: A torque-law name (``--model``).

@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from .._jit import copy_into as _copy
+from .._jit import inline as _inline
 from .._jit import jit as _jit
 from ..models import EXACT, exact_step, held_mode, mode_torque
 from ..system import command_index, command_mode_of, initial_command_mode
@@ -35,7 +35,7 @@ LEVELS = 42
 # --------------------------------------------------------------------------- RK4 kernel (any law)
 
 
-@_jit
+@_inline
 def _lerp(series, position, col):
     """Linear interpolation of column ``col`` of ``series`` (rows on a uniform grid) at a fractional row."""
     last = series.shape[0] - 1
@@ -48,7 +48,7 @@ def _lerp(series, position, col):
     return series[i, col] + frac * (series[i + 1, col] - series[i, col])
 
 
-@_jit
+@_inline
 def _history(hist, position, last, col):
     """Delayed signal ``col`` at a fractional row of ``hist`` whose newest recorded row is ``last``.
 
@@ -85,9 +85,8 @@ def _torque(law, mode, x, v, p):
 
 
 @_jit
-def _signals(t, sys, W, hist, dt, wvals, dvals):
+def _signals(t, delay, W, hist, dt, wvals, dvals):
     """The inputs ``w(t)`` into ``wvals`` and the delayed signals ``u_d(t)`` into ``dvals``."""
-    delay = sys[7]
     # W spans the run uniformly: one row per output step, or two (half steps)
     w_row = t / dt * (W.shape[0] - 1) / (hist.shape[0] - 1)
     for j in range(W.shape[1]):
@@ -98,7 +97,7 @@ def _signals(t, sys, W, hist, dt, wvals, dvals):
             dvals[j] = _history(hist, (t - delay) / dt, last, j)
 
 
-@_jit
+@_inline
 def _row_value(row, z, wvals, dvals):
     """``row . [z, w, u_d]``: the command or the error of a :class:`~backlash_df.system.Command`."""
     n, m = z.shape[0], wvals.shape[0]
@@ -113,80 +112,102 @@ def _row_value(row, z, wvals, dvals):
 
 
 @_jit
-def _deriv(z, t, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, out):
-    a_mat, b_t, e_mat, c_x, c_v, d_rows, e_d, delay, f_row, e_f, f_level, f_eps, f_break, f_ws = sys
-    x, v = _xv(z, c_x, c_v)
-    torque = _torque(law, mode, x, v, p)
-    _signals(t, sys, W, hist, dt, wvals, dvals)
-    fr = 0.0
+def _friction(z, f_row, f_level, f_eps, f_break, f_ws):
+    """Friction torque of the driven machine at ``z`` (N m): smoothed Coulomb and breakaway; 0 without."""
     if f_level > 0.0 or f_break > 0.0:
         s = 0.0
         for j in range(z.shape[0]):
             s += f_row[j] * z[j]
-        fr = (f_level + f_break * math.exp(-((s / f_ws) ** 2))) * math.tanh(s / f_eps)
-    for i in range(z.shape[0]):
-        acc = b_t[i] * torque
-        for j in range(e_d.shape[1]):
-            acc += e_d[i, j] * dvals[j]
-        out[i] = acc - e_f[i] * fr
-    for j in range(W.shape[1]):
-        w = wvals[j]
-        for i in range(z.shape[0]):
-            out[i] += e_mat[i, j] * w
-    for i in range(z.shape[0]):
-        acc = out[i]
-        for j in range(z.shape[0]):
-            acc += a_mat[i, j] * z[j]
-        out[i] = acc
-    if cmode != 0:  # saturated: +-limit in place of u; clamped (and sliding, projected after the step)
-        column, row, _, limit, integrator = cmd
-        gap = (limit if cmode > 0 else -limit) - _row_value(row, z, wvals, dvals)
-        for i in range(z.shape[0]):
-            out[i] += column[i] * gap
-        if abs(cmode) >= 2 and integrator >= 0:
-            out[integrator] = 0.0
+        return (f_level + f_break * math.exp(-((s / f_ws) ** 2))) * math.tanh(s / f_eps)
+    return 0.0
 
 
 @_jit
-def _rk4(z, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, wvals, dvals, out):
-    k1, k2, k3, k4, tmp = work[0], work[1], work[2], work[3], work[4]
-    _deriv(z, t, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k1)
+def _field(z, torque, friction, wvals, dvals, a_mat, b_t, e_mat, e_d, e_f, out, row):
+    """``dz/dt = A z + b T + E w + e_d u_d - e_f F`` with the command linear, into ``out[row]``."""
+    n = z.shape[0]
+    for i in range(n):
+        acc = b_t[i] * torque
+        for j in range(e_d.shape[1]):
+            acc += e_d[i, j] * dvals[j]
+        out[row, i] = acc - e_f[i] * friction
+    for j in range(wvals.shape[0]):
+        w = wvals[j]
+        for i in range(n):
+            out[row, i] += e_mat[i, j] * w
+    for i in range(n):
+        acc = out[row, i]
+        for j in range(n):
+            acc += a_mat[i, j] * z[j]
+        out[row, i] = acc
+
+
+@_jit
+def _command_field(z, cmode, column, u_row, limit, integrator, wvals, dvals, out, row):
+    """``out[row]`` in command mode ``cmode``: saturated, +-limit in place of u; clamped (and sliding,
+    projected after the step), the integrator held."""
+    gap = (limit if cmode > 0 else -limit) - _row_value(u_row, z, wvals, dvals)
     for i in range(z.shape[0]):
-        tmp[i] = z[i] + 0.5 * h * k1[i]
-    _deriv(tmp, t + 0.5 * h, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k2)
-    for i in range(z.shape[0]):
-        tmp[i] = z[i] + 0.5 * h * k2[i]
-    _deriv(tmp, t + 0.5 * h, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k3)
-    for i in range(z.shape[0]):
-        tmp[i] = z[i] + h * k3[i]
-    _deriv(tmp, t + h, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k4)
-    for i in range(z.shape[0]):
-        out[i] = z[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+        out[row, i] += column[i] * gap
+    if abs(cmode) >= 2 and integrator >= 0:
+        out[row, integrator] = 0.0
+
+
+@_inline
+def _stage(z, t, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, out, row):
+    """``dz/dt`` at ``(z, t)`` in backlash mode ``mode`` and command mode ``cmode``, into ``out[row]``.
+
+    Inlined, and every function it calls calls none: the hot loop of :func:`run_rk4`
+    makes no call whose arrays numba reference-counts.
+    """
+    a_mat, b_t, e_mat, c_x, c_v, _, e_d, delay, f_row, e_f, f_level, f_eps, f_break, f_ws = sys
+    x, v = _xv(z, c_x, c_v)
+    _signals(t, delay, W, hist, dt, wvals, dvals)
+    _field(z, _torque(law, mode, x, v, p), _friction(z, f_row, f_level, f_eps, f_break, f_ws), wvals, dvals, a_mat,
+           b_t, e_mat, e_d, e_f, out, row)
+    if cmode != 0:
+        _command_field(z, cmode, cmd[0], cmd[1], cmd[3], cmd[4], wvals, dvals, out, row)
+
+
+@_inline
+def _rk4(z, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, k, tmp, wvals, dvals, out):
+    """One classical RK4 step ``h`` from ``(z, t)``, both modes frozen, into ``out``; stages in rows 0-3 of ``k``."""
+    n = z.shape[0]
+    _copy_vector(z, tmp, n)
+    stage_t = t
+    for stage in range(4):
+        _stage(tmp, stage_t, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k, stage)
+        if stage < 3:
+            ahead = h if stage == 2 else 0.5 * h
+            for i in range(n):
+                tmp[i] = z[i] + ahead * k[stage, i]
+            stage_t = t + ahead
+    for i in range(n):
+        out[i] = z[i] + h / 6.0 * (k[0, i] + 2.0 * k[1, i] + 2.0 * k[2, i] + k[3, i])
 
 
 @_jit
 def _command_mode_rk4(mode, cmode, z, t, sys, cmd, law, p, W, hist, dt, work, wvals, dvals):
     """The command mode of state ``z`` at ``t`` reached in ``cmode`` (``du/dt`` by the clamped field
     and by differences of the inputs and delayed signals over half a step)."""
-    column, row, error, limit, integrator = cmd
+    _, row, error, limit, integrator = cmd
     if limit == 0.0:
         return 0
-    _signals(t, sys, W, hist, dt, wvals, dvals)
+    _signals(t, sys[7], W, hist, dt, wvals, dvals)
     u = _row_value(row, z, wvals, dvals)
     e = _row_value(error, z, wvals, dvals)
     side = (1 if cmode > 0 else -1) if cmode != 0 else (1 if u > limit else (-1 if u < -limit else 0))
     if side == 0:
         return 0
-    rate = work[5]
-    _deriv(z, t, mode, 2 * side if integrator >= 0 else side, sys, cmd, law, p, W, hist, dt, wvals, dvals, rate)
+    _stage(z, t, mode, 2 * side if integrator >= 0 else side, sys, cmd, law, p, W, hist, dt, wvals, dvals, work, 5)
     clamped = 0.0
     for j in range(z.shape[0]):
-        clamped += row[j] * rate[j]
+        clamped += row[j] * work[5, j]
     n, m = z.shape[0], wvals.shape[0]
     h = 0.5 * dt
-    _signals(t + h, sys, W, hist, dt, wvals, dvals)
+    _signals(t + h, sys[7], W, hist, dt, wvals, dvals)
     ahead_w, ahead_d = wvals.copy(), dvals.copy()
-    _signals(max(t - h, 0.0), sys, W, hist, dt, wvals, dvals)
+    _signals(max(t - h, 0.0), sys[7], W, hist, dt, wvals, dvals)
     span = t + h - max(t - h, 0.0)
     for j in range(m):
         clamped += row[n + j] * (ahead_w[j] - wvals[j]) / span
@@ -196,7 +217,14 @@ def _command_mode_rk4(mode, cmode, z, t, sys, cmd, law, p, W, hist, dt, work, wv
     return command_mode_of(cmode, u, e, clamped, integrating, limit, integrator >= 0)
 
 
-@_jit
+@_inline
+def _copy_vector(src, dst, count):
+    """``dst[:count] = src[:count]`` without the views."""
+    for i in range(count):
+        dst[i] = src[i]
+
+
+@_inline
 def _xv(z, c_x, c_v):
     x = 0.0
     v = 0.0
@@ -231,43 +259,49 @@ def _must_leave(law, p, mode, x, v, theta_b):
 
 
 @_jit
-def _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, wvals, dvals, z_out):
+def _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp, wvals, dvals, z_out):
     """One frozen-mode step; returns (theta_b at the end, True if the backlash or the command mode must change).
 
     On the limit (sliding) the step is the clamped one with the integrator then
     projected back onto ``u = +-limit``: with the command saturated the rest of the
     loop does not see the integrator.
     """
-    _rk4(z, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, wvals, dvals, z_out)
+    _rk4(z, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp, wvals, dvals, z_out)
     if abs(cmode) == 3:
-        column, row, _, limit, integrator = cmd
-        _signals(t + h, sys, W, hist, dt, wvals, dvals)
+        _, row, _, limit, integrator = cmd
+        _signals(t + h, sys[7], W, hist, dt, wvals, dvals)
         z_out[integrator] += ((limit if cmode > 0 else -limit) - _row_value(row, z_out, wvals, dvals)) / row[integrator]
-    c_x, c_v = sys[3], sys[4]
-    x1, v1 = _xv(z_out, c_x, c_v)
     command_leaves = cmd[3] > 0.0 and _command_mode_rk4(mode, cmode, z_out, t + h, sys, cmd, law, p, W, hist, dt,
                                                          work, wvals, dvals) != cmode
-    if law != EXACT:
-        return theta_b, command_leaves or _must_leave(law, p, mode, x1, v1, theta_b)
-    if mode != 0:
-        return p[2] if mode > 0 else -p[2], command_leaves or _must_leave(law, p, mode, x1, v1, theta_b)
-    x0, v0 = _xv(z, c_x, c_v)
-    theta_new = exact_step(theta_b, x0, v0, x1, v1, h, p[0], p[1], p[2])
-    return theta_new, command_leaves or abs(theta_new) >= p[2]
+    x0, v0 = _xv(z, sys[3], sys[4])
+    x1, v1 = _xv(z_out, sys[3], sys[4])
+    theta_new, backlash_leaves = _backlash_after(law, p, mode, theta_b, x0, v0, x1, v1, h)
+    return theta_new, command_leaves or backlash_leaves
 
 
 @_jit
-def _record(i, z, theta_b, mode, cmode, law, p, c_x, c_v, d_rows, Z, T, THETA, MODES, CMODES, hist):
-    """Store sample ``i`` of a run: state, shaft torque, theta_b, modes and the delayed signals."""
-    x, v = _xv(z, c_x, c_v)
-    _copy(z, Z[i])
-    T[i] = _torque(law, mode, x, v, p)
+def _backlash_after(law, p, mode, theta_b, x0, v0, x1, v1, h):
+    """(theta_b, True if the backlash mode must change) after a frozen-mode step ``(x0, v0) -> (x1, v1)``."""
+    if law != EXACT:
+        return theta_b, _must_leave(law, p, mode, x1, v1, theta_b)
+    if mode != 0:
+        return p[2] if mode > 0 else -p[2], _must_leave(law, p, mode, x1, v1, theta_b)
+    theta_new = exact_step(theta_b, x0, v0, x1, v1, h, p[0], p[1], p[2])
+    return theta_new, abs(theta_new) >= p[2]
+
+
+@_inline
+def _record(i, z, n, theta_b, mode, cmode, torque, d_rows, Z, T, THETA, MODES, CMODES, hist):
+    """Store sample ``i`` of a run: state ``z[:n]``, shaft torque, theta_b, modes and the delayed signals."""
+    for j in range(n):
+        Z[i, j] = z[j]
+    T[i] = torque
     THETA[i] = theta_b
     MODES[i] = mode
     CMODES[i] = cmode
     for k in range(d_rows.shape[0]):
         u = 0.0
-        for j in range(z.shape[0]):
+        for j in range(n):
             u += d_rows[k, j] * z[j]
         hist[i, k] = u
 
@@ -276,16 +310,16 @@ def _record(i, z, theta_b, mode, cmode, law, p, c_x, c_v, d_rows, Z, T, THETA, M
 BLOW_UP = 1e150
 
 
-@_jit
-def _diverged(i, z, Z, T, THETA, MODES, CMODES):
-    """True when state ``z`` of sample ``i`` has blown up; the later samples are then NaN.
+@_inline
+def _diverged(i, z, n, Z, T, THETA, MODES, CMODES):
+    """True when state ``z[:n]`` of sample ``i`` has blown up; the later samples are then NaN.
 
     Stepping on would overflow to inf and NaN, and a division by them inside a
     kernel raises; a diverged run ends here instead, and is named by
     :func:`measure_limit_cycle`.
     """
-    for value in z:
-        if not abs(value) <= BLOW_UP:  # NaN fails the test too
+    for k in range(n):
+        if not abs(z[k]) <= BLOW_UP:  # NaN fails the test too
             for j in range(i + 1, Z.shape[0]):
                 for col in range(Z.shape[1]):
                     Z[j, col] = np.nan
@@ -318,23 +352,34 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
     x, v = _xv(z, sys[3], sys[4])
     mode = _mode_of(law, p, 0, x, v, theta_b)
     cmode = 0
-    _record(0, z, theta_b, mode, cmode, law, p, sys[3], sys[4], d_rows, Z, T, THETA, MODES, CMODES, hist)
+    _record(0, z, n, theta_b, mode, cmode, _torque(law, mode, x, v, p), d_rows, Z, T, THETA, MODES, CMODES, hist)
     if cmd[3] > 0.0:  # the command mode of the initial state
-        _signals(0.0, sys, W, hist, dt, wvals, dvals)
+        _signals(0.0, sys[7], W, hist, dt, wvals, dvals)
         cmode = initial_command_mode(_row_value(cmd[1], z, wvals, dvals), _row_value(cmd[2], z, wvals, dvals), cmd[3],
                                      cmd[4] >= 0)
     events = 0
+    tmp = np.empty(n)
+    c_x, c_v = sys[3], sys[4]
     for i in range(n_steps + 1):
-        _record(i, z, theta_b, mode, cmode, law, p, sys[3], sys[4], d_rows, Z, T, THETA, MODES, CMODES, hist)
-        if i == n_steps or _diverged(i, z, Z, T, THETA, MODES, CMODES):
+        x, v = _xv(z, c_x, c_v)
+        _record(i, z, n, theta_b, mode, cmode, _torque(law, mode, x, v, p), d_rows, Z, T, THETA, MODES, CMODES, hist)
+        if i == n_steps or _diverged(i, z, n, Z, T, THETA, MODES, CMODES):
             break
         t = i * dt
+        if cmd[3] == 0.0:  # the first try of _advance, here: no call that reference-counts the arrays
+            _rk4(z, t, dt, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp, wvals, dvals, z_new)
+            x1, v1 = _xv(z_new, c_x, c_v)
+            theta_end, changed = _backlash_after(law, p, mode, theta_b, x, v, x1, v1, dt)
+            if not changed:
+                _copy_vector(z_new, z, n)
+                theta_b = theta_end
+                continue
         remaining = dt
         for _ in range(_MAX_EVENTS_PER_STEP):
             theta_end, changed = _advance(z, theta_b, t, remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
-                                          wvals, dvals, z_new)
+                                          tmp, wvals, dvals, z_new)
             if not changed:
-                _copy(z_new, z)
+                _copy_vector(z_new, z, n)
                 theta_b = theta_end
                 remaining = 0.0
                 break
@@ -344,14 +389,14 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
             for _b in range(_BISECTIONS):
                 mid = 0.5 * (lo + hi)
                 _, ch = _advance(z, theta_b, t, mid * remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
-                                 wvals, dvals, z_try)
+                                 tmp, wvals, dvals, z_try)
                 if ch:
                     hi = mid
                 else:
                     lo = mid
             h = hi * remaining
-            theta_try, _ = _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, wvals, dvals,
-                                    z_try)
+            theta_try, _ = _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp, wvals,
+                                    dvals, z_try)
             x, v = _xv(z_try, sys[3], sys[4])
             if law == EXACT and mode == 0:
                 theta_try = p[2] if theta_try > 0.0 else -p[2]
@@ -360,7 +405,7 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
                                           dvals)
             if new_mode == mode and new_cmode == cmode:  # grazing or round-off at a boundary: no real switch
                 break
-            _copy(z_try, z)
+            _copy_vector(z_try, z, n)
             theta_b = theta_try
             mode = new_mode
             cmode = new_cmode
@@ -370,13 +415,17 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
             if remaining <= 1e-14 * dt:
                 break
         if remaining > 1e-14 * dt:
-            theta_b, _ = _advance(z, theta_b, t, remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work, wvals,
-                                  dvals, z_new)
-            _copy(z_new, z)
+            theta_b, _ = _advance(z, theta_b, t, remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp,
+                                  wvals, dvals, z_new)
+            _copy_vector(z_new, z, n)
     return events
 
 
 # --------------------------------------------------------------------------- exact-discretisation kernel
+#
+# The per-step path takes whole arrays and indices (the ladder by its row in ``ladders``,
+# the state by its length): a view such as ``ladders[k]`` or ``q[:n]`` costs numba a
+# reference count increment and decrement, which took over half of a step.
 
 
 @_jit
@@ -385,14 +434,14 @@ def _mode_index(mode):
     return 0 if mode < 0 else (2 if mode > 0 else 1)
 
 
-@_jit
-def _apply(phi, q, out, rows):
-    """``out = phi q`` on the first ``rows`` rows; the other entries copied from ``q``."""
+@_inline
+def _apply(ladders, which, level, q, out, rows):
+    """``out = ladders[which, level] q`` on the first ``rows`` rows; the other entries copied from ``q``."""
     size = q.shape[0]
     for i in range(rows):
         acc = 0.0
         for j in range(size):
-            acc += phi[i, j] * q[j]
+            acc += ladders[which, level, i, j] * q[j]
         out[i] = acc
     for i in range(rows, size):
         out[i] = q[i]
@@ -407,14 +456,15 @@ def _set_inputs(q, base, f0, fm, f1, dt):
 
 
 @_jit
-def _advance_exactly(ladder, q, fraction, out, tmp):
-    """``q`` advanced by ``fraction * dt`` with the dyadic ladder (residual < 2^-levels dt dropped)."""
-    _copy(q, out)
-    for j in range(ladder.shape[0]):
+def _advance_exactly(ladders, which, q, fraction, out, tmp):
+    """``q`` advanced by ``fraction * dt`` with ladder ``which`` (residual < 2^-levels dt dropped)."""
+    size = q.shape[0]
+    _copy_vector(q, out, size)
+    for j in range(ladders.shape[1]):
         s = 0.5**j
         if fraction >= s:
-            _apply(ladder[j], out, tmp, q.shape[0])
-            _copy(tmp, out)
+            _apply(ladders, which, j, out, tmp, size)
+            _copy_vector(tmp, out, size)
             fraction -= s
 
 
@@ -427,50 +477,80 @@ def _dot(row, q):
 
 
 @_jit
-def _command_mode_exact(mode, cmode, q, rows, limit, clamps):
-    """The command mode of augmented state ``q`` reached in ``cmode``; ``rows = (u, e, rates)``
-    of :func:`~backlash_df.system.command_matrices`."""
-    u_row, e_row, rates = rows
-    u = _dot(u_row, q)
-    side = (1 if cmode > 0 else -1) if cmode != 0 else (1 if u > limit else (-1 if u < -limit else 0))
-    if side == 0:
-        return 0
-    b, s = _mode_index(mode), 0 if side > 0 else 1
-    return command_mode_of(cmode, u, _dot(e_row, q), _dot(rates[b, s, 0], q), _dot(rates[b, s, 1], q), limit, clamps)
+def _dot_rate(rates, b, s, r, q):
+    """``rates[b, s, r] . q``."""
+    acc = 0.0
+    for j in range(q.shape[0]):
+        acc += rates[b, s, r, j] * q[j]
+    return acc
 
 
 @_jit
-def _leaves(law, p, mode, cmode, q, c_x, c_v, rows, limit, clamps):
+def _command_side(cmode, u, limit):
+    """The limit a command mode is held at or, from linear, crossed: 1 upper, -1 lower, 0 inside."""
+    if cmode != 0:
+        return 1 if cmode > 0 else -1
+    return 1 if u > limit else (-1 if u < -limit else 0)
+
+
+@_jit
+def _command_rates(q, e_row, rates, b, s):
+    """(error, clamped rate, integrating rate) at ``q`` in backlash mode row ``b`` on limit side ``s``."""
+    e = 0.0
+    clamped = 0.0
+    integrating = 0.0
+    for j in range(q.shape[0]):
+        e += e_row[j] * q[j]
+        clamped += rates[b, s, 0, j] * q[j]
+        integrating += rates[b, s, 1, j] * q[j]
+    return e, clamped, integrating
+
+
+@_jit
+def _command_mode_exact(mode, cmode, q, u_row, e_row, rates, limit, clamps):
+    """The command mode of augmented state ``q`` reached in ``cmode``; ``u_row, e_row, rates`` those
+    of :func:`~backlash_df.system.command_matrices`."""
+    u = _dot(u_row, q)
+    side = _command_side(cmode, u, limit)
+    if side == 0:
+        return 0
+    e, clamped, integrating = _command_rates(q, e_row, rates, _mode_index(mode), 0 if side > 0 else 1)
+    return command_mode_of(cmode, u, e, clamped, integrating, limit, clamps)
+
+
+@_jit
+def _leaves(law, p, mode, cmode, q, c_x, c_v, u_row, e_row, rates, limit, clamps):
     """True if ``q``, reached with both modes frozen, lies outside the backlash mode or the command mode."""
     n = c_x.shape[0]
     x, v = _xv(q, c_x, c_v)
     if _must_leave(law, p, mode, x, v, q[n]):
         return True
-    return limit > 0.0 and _command_mode_exact(mode, cmode, q, rows, limit, clamps) != cmode
+    return limit > 0.0 and _command_mode_exact(mode, cmode, q, u_row, e_row, rates, limit, clamps) != cmode
 
 
 @_jit
-def _locate(ladder, q, left, law, p, mode, cmode, c_x, c_v, rows, limit, clamps, q_lo, trial, q_hi):
+def _locate(ladders, which, q, left, law, p, mode, cmode, c_x, c_v, u_row, e_row, rates, limit, clamps, q_lo, trial,
+            q_hi):
     """Bisect for the first time the frozen-mode trajectory must leave its modes; returns it (fraction of dt).
 
-    Binary search on the dyadic ladder from ``q`` (a sub-step ``dt 2^-j`` is kept
-    while the trajectory stays in its modes); ``q_hi`` must already hold the state
+    Binary search on the dyadic ladder ``which`` from ``q`` (a sub-step ``dt 2^-j`` is
+    kept while the trajectory stays in its modes); ``q_hi`` must already hold the state
     at ``left``, outside them, and ends as the earliest state found outside.
     """
     size = q.shape[0]
-    _copy(q, q_lo)
+    _copy_vector(q, q_lo, size)
     lo = 0.0
     hi = left
-    for j in range(1, ladder.shape[0]):
+    for j in range(1, ladders.shape[1]):
         s = 0.5**j
         if lo + s >= hi:
             continue
-        _apply(ladder[j], q_lo, trial, size)
-        if _leaves(law, p, mode, cmode, trial, c_x, c_v, rows, limit, clamps):
-            _copy(trial, q_hi)
+        _apply(ladders, which, j, q_lo, trial, size)
+        if _leaves(law, p, mode, cmode, trial, c_x, c_v, u_row, e_row, rates, limit, clamps):
+            _copy_vector(trial, q_hi, size)
             hi = lo + s
         else:
-            _copy(trial, q_lo)
+            _copy_vector(trial, q_lo, size)
             lo += s
     return hi
 
@@ -491,84 +571,107 @@ def _set_step_inputs(q, i, W, hist, delay, dt, n):
 
 
 @_jit
-def _ladder_of(ladders, mode, cmode):
-    """The ladder of a backlash mode and a command mode (one command mode without a limit)."""
-    per_backlash = ladders.shape[0] // 3
-    return ladders[_mode_index(mode) * per_backlash + (command_index(cmode) if per_backlash > 1 else 0)]
+def _ladder_of(count, mode, cmode):
+    """Row among ``count`` ladders of a backlash mode and a command mode (one command mode without a limit)."""
+    per_backlash = count // 3
+    return _mode_index(mode) * per_backlash + (command_index(cmode) if per_backlash > 1 else 0)
 
 
 @_jit
-def _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, rows, limit, clamps, work):
+def _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, u_row, e_row, rates, limit, clamps, q_new, q_lo, trial,
+                  q_hi):
     """Advance ``q`` by one step ``dt``, switching modes at every located event; returns (mode, cmode, events)."""
     n, size = c_x.shape[0], q.shape[0]
-    q_new, q_lo, trial, q_hi = work[0], work[1], work[2], work[3]
     # z and theta_b only: the other entries are constant or reset every step (all of them when the
     # command, which reads the inputs and delayed signals, can switch)
     first_rows = n + 1 if limit == 0.0 else size
     left = 1.0  # fraction of the step still to go
     events = 0
     for _ in range(_MAX_EVENTS_PER_STEP):
-        ladder = _ladder_of(ladders, mode, cmode)
+        which = _ladder_of(ladders.shape[0], mode, cmode)
         if left == 1.0:
-            _apply(ladder[0], q, q_new, first_rows)
+            _apply(ladders, which, 0, q, q_new, first_rows)
         else:
-            _advance_exactly(ladder, q, left, q_new, trial)
-        if not _leaves(law, p, mode, cmode, q_new, c_x, c_v, rows, limit, clamps):
-            _copy(q_new, q)
+            _advance_exactly(ladders, which, q, left, q_new, trial)
+        if not _leaves(law, p, mode, cmode, q_new, c_x, c_v, u_row, e_row, rates, limit, clamps):
+            _copy_vector(q_new, q, size)
             return mode, cmode, events
         if left == 1.0:
-            _apply(ladder[0], q, q_hi, size)
+            _apply(ladders, which, 0, q, q_hi, size)
         else:
-            _copy(q_new, q_hi)
-        h = _locate(ladder, q, left, law, p, mode, cmode, c_x, c_v, rows, limit, clamps, q_lo, trial, q_hi)
+            _copy_vector(q_new, q_hi, size)
+        h = _locate(ladders, which, q, left, law, p, mode, cmode, c_x, c_v, u_row, e_row, rates, limit, clamps, q_lo,
+                    trial, q_hi)
         if law == EXACT and mode == 0:
             q_hi[n] = p[2] if q_hi[n] > 0.0 else -p[2]
         x, v = _xv(q_hi, c_x, c_v)
         new_mode = _mode_of(law, p, mode, x, v, q_hi[n])
-        new_cmode = _command_mode_exact(new_mode, cmode, q_hi, rows, limit, clamps) if limit > 0.0 else 0
+        new_cmode = _command_mode_exact(new_mode, cmode, q_hi, u_row, e_row, rates, limit, clamps) if limit > 0.0 else 0
         if new_mode == mode and new_cmode == cmode:  # grazing or round-off at a boundary: no real switch
             break
-        _copy(q_hi, q)
+        _copy_vector(q_hi, q, size)
         mode = new_mode
         cmode = new_cmode
         left -= h
         events += 1
         if left <= 1e-14:
             return mode, cmode, events
-    _advance_exactly(_ladder_of(ladders, mode, cmode), q, left, q_new, trial)
-    _copy(q_new, q)
+    _advance_exactly(ladders, _ladder_of(ladders.shape[0], mode, cmode), q, left, q_new, trial)
+    _copy_vector(q_new, q, size)
     return mode, cmode, events
 
 
 @_jit
-def run_exact(ladders, rows, limit, clamps, law, p, W, z0, theta_b0, delay, d_rows, c_x, c_v, dt, n_steps, Z, T, THETA,
-              MODES, CMODES):
+def run_exact(ladders, u_row, e_row, rates, limit, clamps, law, p, W, z0, theta_b0, delay, d_rows, c_x, c_v, dt,
+              n_steps, Z, T, THETA, MODES, CMODES):
     """Exact-discretisation run on the augmented state of :func:`~backlash_df.system.mode_matrices`.
 
     ``ladders`` holds :func:`~backlash_df.system.exp_ladder` of the left-contact,
     free and right-contact matrices (each by command mode with a limit,
-    :func:`~backlash_df.system.command_matrices`, whose ``rows`` it switches on);
-    returns the event count.
+    :func:`~backlash_df.system.command_matrices`, whose rows ``u_row, e_row, rates``
+    it switches on); returns the event count.
     """
     n = z0.shape[0]
+    size = ladders.shape[2]
     hist = np.zeros((n_steps + 1, d_rows.shape[0]))
-    q = np.zeros(ladders.shape[2])
-    work = np.empty((4, q.shape[0]))
-    _copy(z0, q[:n])
+    q = np.zeros(size)
+    q_new, q_lo, trial, q_hi = np.empty(size), np.empty(size), np.empty(size), np.empty(size)
+    _copy_vector(z0, q, n)
     q[n] = theta_b0
     q[n + 1] = 1.0
     x, v = _xv(q, c_x, c_v)
     mode = _mode_of(law, p, 0, x, v, theta_b0)
     cmode = 0
     events = 0
+    first_rows = n + 1 if limit == 0.0 else size  # the rows _step_exactly advances over a whole step
+    inputs_vary = W.shape[1] > 0 or delay > 0.0
     for i in range(n_steps + 1):
-        _record(i, q[:n], q[n], mode, cmode, law, p, c_x, c_v, d_rows, Z, T, THETA, MODES, CMODES, hist)
-        if i == n_steps or _diverged(i, q[:n], Z, T, THETA, MODES, CMODES):
+        x, v = _xv(q, c_x, c_v)
+        _record(i, q, n, q[n], mode, cmode, _torque(law, mode, x, v, p), d_rows, Z, T, THETA, MODES, CMODES, hist)
+        if i == n_steps or _diverged(i, q, n, Z, T, THETA, MODES, CMODES):
             break
-        _set_step_inputs(q, i, W, hist, delay, dt, n)
+        if inputs_vary:
+            _set_step_inputs(q, i, W, hist, delay, dt, n)
         if i == 0 and limit > 0.0:  # the command mode of the initial state, its inputs set
-            cmode = initial_command_mode(_dot(rows[0], q), _dot(rows[1], q), limit, clamps)
+            cmode = initial_command_mode(_dot(u_row, q), _dot(e_row, q), limit, clamps)
             CMODES[0] = cmode
-        mode, cmode, found = _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, rows, limit, clamps, work)
-        events += found
+        # the first try of _step_exactly, here: a step that stays in its modes calls only functions
+        # without calls (whose arrays numba does not reference-count)
+        _apply(ladders, _ladder_of(ladders.shape[0], mode, cmode), 0, q, q_new, first_rows)
+        x, v = _xv(q_new, c_x, c_v)
+        stays = not _must_leave(law, p, mode, x, v, q_new[n])
+        if stays and limit > 0.0:
+            u = _dot(u_row, q_new)
+            side = _command_side(cmode, u, limit)
+            if side == 0:
+                stays = cmode == 0
+            else:
+                e, clamped, integrating = _command_rates(q_new, e_row, rates, _mode_index(mode), 0 if side > 0 else 1)
+                stays = command_mode_of(cmode, u, e, clamped, integrating, limit, clamps) == cmode
+        if stays:
+            _copy_vector(q_new, q, size)
+        else:
+            mode, cmode, found = _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, u_row, e_row, rates, limit,
+                                               clamps, q_new, q_lo, trial, q_hi)
+            events += found
     return events

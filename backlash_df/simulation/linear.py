@@ -151,13 +151,19 @@ def _simulate_exactly(system, model, w, z0, theta_b0, dt, n_steps, outputs):
         rows, limit, clamps = (u_row, e_row, rates), system.command.limit, system.command.integrator >= 0
     ladders = np.stack([exp_ladder(m_aug, dt, LEVELS) for m_aug in matrices])
     events = run_exact(
-        ladders, rows, float(limit), clamps, law, model.params, np.ascontiguousarray(w[:, varying]), z0, theta_b0,
-        float(system.delay), system.d, system.c_x, system.c_v, dt, n_steps, states, torque, theta_b, modes, cmodes,
+        ladders, *rows, float(limit), clamps, law, _law_params(model), np.ascontiguousarray(w[:, varying]), z0,
+        theta_b0, float(system.delay), system.d, system.c_x, system.c_v, dt, n_steps, states, torque, theta_b, modes,
+        cmodes,
     )
     if law != model.law:  # the exact model without damping is the dead-zone (Remark 2)
         modes //= 2
         theta_b[:] = np.clip(states @ system.c_x, -model.half_gap, model.half_gap)
     return events
+
+
+def _law_params(model):
+    """The law's ``(k, c, alpha, beta)`` as a tuple of floats: scalars to the kernels, not a counted array."""
+    return tuple(model.params.tolist())
 
 
 def _command_arrays(system):
@@ -259,7 +265,7 @@ def simulate_linear(system, model, t_end, dt, inputs=None, z0=None, theta_b0=0.0
         events = _simulate_exactly(system, model, w, z0, float(theta_b0), float(dt), n_steps,
                                    (states, torque, theta_b, modes, cmodes))
     else:
-        events = run_rk4(system.kernel_arrays(), _command_arrays(system), model.law, model.params, w, z0,
+        events = run_rk4(system.kernel_arrays(), _command_arrays(system), model.law, _law_params(model), w, z0,
                          float(theta_b0), float(dt), n_steps, states, torque, theta_b, modes, cmodes)
     if model.is_static:
         theta_b[:] = np.nan
