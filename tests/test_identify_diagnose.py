@@ -356,5 +356,5 @@ def test_short_record_is_warned_and_no_cause_is_not_called_proof_of_absence(rig)
     does not claim the effect is absent."""
     record = synthesize(rig, "none", seed=4, duration=1.0)
     result = diagnose(record.measurements, rig, candidates=["coulomb_friction"])
-    assert any(w.startswith("the estimation part holds only 6 segments") for w in result.warnings), result.warnings
+    assert any(w.startswith("the estimation part holds only 6 independent segments of 100 samples") for w in result.warnings), result.warnings
     assert result.causes == [] and "may still be present" in result.sentence

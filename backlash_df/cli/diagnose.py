@@ -10,6 +10,7 @@ from tqdm import tqdm
 from ..config import load_rig
 from ..identify import diagnose as run_diagnosis
 from ..identify import load_measurements
+from ..identify.diagnose import GAIN_DEFINITION
 from .outputs import Outputs
 
 __all__ = ["diagnose_command"]
@@ -64,17 +65,20 @@ def diagnose_command(data, rig_file, json_out, report_out, strict):
             value = f"{parameter.value:.4g}" if cause.determined else "not determined"
             click.echo(f"  {cause.effect}{side}: {name} = {value} {parameter.unit} "
                        f"(95 % CI {low:.4g} .. {high:.4g}), gain {100 * cause.gain:.1f} %")
+    if result.causes:
+        click.echo(f"  (gain: {GAIN_DEFINITION})")
     for label, causes in (("two-mass", result.two_mass_causes), ("rigid-body", result.rigid_body.causes)):
         click.echo(f"  {label} model names: {'; '.join(cause.summary() for cause in causes) or 'none'}")
     click.echo(result.sentence)
     if result.encoder_skew is not None:
         click.echo(f"  {result.skew_sentence()}")
-    for label, model in (("", result.baseline), ("", result.extended), ("rigid body: ", result.rigid_body.baseline),
-                         ("rigid body: ", result.rigid_body.extended)):
-        label += " + ".join(model.effects) or "none (baseline)"
-        fits = ", ".join(f"{name} {model.fit_percent[name]:.1f} % k-step / {model.ahead_fit_percent[name]:.1f} % ahead "
-                         f"/ {model.free_run_fit_percent[name]:.1f} % free run" for name in model.fit_percent)
-        click.echo(f"  validation fit of {label}: {fits}")
+    for structure, models in (("two-mass", (result.baseline, result.extended)),
+                              ("rigid-body", (result.rigid_body.baseline, result.rigid_body.extended))):
+        for model in (models[:1] if models[1] is models[0] else models):  # no cause: the extended is the baseline
+            label = " + ".join(model.effects) or "baseline (no effect)"
+            fits = ", ".join(f"{name} {model.fit_percent[name]:.1f} % k-step / {model.ahead_fit_percent[name]:.1f} % "
+                             f"ahead / {model.free_run_fit_percent[name]:.1f} % free run" for name in model.fit_percent)
+            click.echo(f"  validation fit, {structure} {label}: {fits}")
     for warning in result.warnings:
         click.echo(f"warning: {warning}")
     texts = {}

@@ -82,7 +82,7 @@ from .calibrate import (DEFAULT_HORIZON, PLANT_PARAMETERS, RIGID_PARAMETERS, cal
 from .effects import EFFECT_NAMES, get_effect
 from .residuals import residual_analysis
 
-__all__ = ["CandidateResult", "Cause", "Stage", "Diagnosis", "diagnose", "check_speed_units", "check_excitation",
+__all__ = ["GAIN_DEFINITION", "CandidateResult", "Cause", "Stage", "Diagnosis", "diagnose", "check_speed_units", "check_excitation",
            "MIN_GAIN",
            "MIN_T", "BASELINE_MIN_FIT", "VALIDATION_HORIZON", "MIN_TORQUE_SHARE", "MIN_RUBBER_SHARE",
            "EXTENDED_MIN_AHEAD_FIT", "MIN_SEGMENTS", "RIGID_BODY_EFFECTS", "MIN_SKEW_SHARE",
@@ -90,6 +90,9 @@ __all__ = ["CandidateResult", "Cause", "Stage", "Diagnosis", "diagnose", "check_
 
 #: Smallest relative decrease of the validation RSS of an accepted effect.
 MIN_GAIN = 0.05
+#: What a cause's gain is, in the words the terminal and the report print.
+GAIN_DEFINITION = ("the share of the validation residual sum of squares (k-step or 0.4 s ahead, whichever passes "
+                   "the significance rule) the effect removes from the model it is added to")
 #: Smallest t statistic of the per-block validation RSS decrease.
 MIN_T = 2.0
 #: Smallest torque of a named torque effect (friction at the RMS speed, offset) as a share of the
@@ -182,6 +185,11 @@ class CandidateResult:
     def mean_fit_percent(self):
         """Mean of the validation k-step fit percentages of the measured speeds."""
         return float(np.mean(list(self.fit_percent.values())))
+
+    @property
+    def mean_ahead_fit_percent(self):
+        """Mean of the validation fit percentages of the measured speeds predicted ``VALIDATION_HORIZON`` ahead."""
+        return float(np.mean(list(self.ahead_fit_percent.values())))
 
     @property
     def parameter(self):
@@ -971,9 +979,11 @@ def _warnings(measurements, baseline, extended, keys, structure="two_mass"):
                      f"record does not hold), and the named values absorb part of it")
     segments = baseline.calibration.n_clusters
     if two_mass and segments < MIN_SEGMENTS:
-        notes.append(f"the estimation part holds only {segments} segments of {baseline.calibration.horizon} samples "
-                     f"(fewer than {MIN_SEGMENTS}): cluster-robust intervals over so few segments are too narrow, "
-                     f"and so short a record may not show enough of the motion to tell effects apart; record longer")
+        horizon = baseline.calibration.horizon
+        of = f" of {horizon} samples" if horizon else ""
+        notes.append(f"the estimation part holds only {segments} independent segments{of} (fewer than {MIN_SEGMENTS}): "
+                     f"cluster-robust intervals over so few segments are too narrow, and so short a record may not "
+                     f"show enough of the motion to tell effects apart; record longer")
     parameters = extended.calibration.parameters
     physical = PLANT_PARAMETERS + RIGID_PARAMETERS + tuple(get_effect(k).value_key for k in keys
                                                            if not get_effect(k).signed)
@@ -1065,8 +1075,9 @@ def _sentence(answer, causes, shaft, measurements):
     absorbed and undetermined values, what is left unexplained, and the validation fit."""
     baseline, extended, warnings, rigid = answer.baseline, answer.extended, answer.warnings, \
         answer.structure == "rigid_body"
-    gain = (f" Validation fit (k-step{', rigid-body model' if rigid else ''}) {baseline.mean_fit_percent:.1f} % -> "
-            f"{extended.mean_fit_percent:.1f} %.")
+    gain = (f" Validation fit (mean over the speeds{', rigid-body model' if rigid else ''}): k-step "
+            f"{baseline.mean_fit_percent:.1f} % -> {extended.mean_fit_percent:.1f} %, {VALIDATION_HORIZON:g} s ahead "
+            f"{baseline.mean_ahead_fit_percent:.1f} % -> {extended.mean_ahead_fit_percent:.1f} %.")
     sentences = [_resolution_sentence(shaft, measurements)] if rigid else []
     if not causes:
         if any(warning.startswith(_WEAK_BASELINE) for warning in warnings):
