@@ -321,8 +321,13 @@ def rest_points(part, model, inputs=None, pade_order=PADE_ORDER):
     border[:n, n], border[n, :n] = part.b, part.c_x
     rhs = np.zeros((n + 1, 2))
     rhs[:n, 0], rhs[n, 1] = -part.E @ w, 1.0
-    solution = np.linalg.lstsq(border, rhs, rcond=None)[0]
-    if not np.allclose(border @ solution, rhs, atol=1e-9 * max(np.abs(rhs).max(), 1.0)):
+    try:
+        solution = np.linalg.solve(border, rhs)
+    except np.linalg.LinAlgError:  # a continuum of rests (or none): the least-norm one, checked below
+        solution = np.linalg.lstsq(border, rhs, rcond=None)[0]
+    # each row's size (the rows differ by 1e6 and more) times the solution's: round-off is relative to both
+    scale = np.abs(border).sum(axis=1)[:, None] * np.abs(solution).max(axis=0) + np.abs(rhs)
+    if not np.all(np.abs(border @ solution - rhs) <= 1e-9 * scale + 1e-300):
         return (), "the loop has no state with every rate zero"
     (z0, z1), (t0, t1) = solution[:n].T, solution[n]
     law = _law(model)
