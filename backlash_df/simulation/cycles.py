@@ -156,7 +156,10 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
     mean, located by linear interpolation) give the frequency; the first harmonic
     ``|2/T int theta_d e^{-jwt} dt|`` over them gives the amplitude (the DF
     convention of the contract page).  Steady state: the period lengths and per-period
-    peak amplitudes agree to ``rtol``.
+    peak amplitudes agree to ``rtol``.  With no contact at the end of the record and
+    theta_d drifting (a load coasting across the gap while the motor's loop, on its
+    torque limit, hums), the periods are those of the relative speed ``dtheta_d``
+    and the amplitude that of theta_d less its drift.
 
     Without a steady state the motion is judged from its trend over successive
     windows of the record's second half (:func:`motion_trend`), never from one
@@ -165,17 +168,17 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
     * **rest** (``"no limit cycle"``): the relative speed is round-off (1e-9 of
       its largest value), or its envelope falls over a second half without a
       switch (contact, release, command limit) and in contact: one linear mode,
-      decaying to its rest;
+      decaying to its rest; never with the torque command on its limit in the
+      second half (the drive may accelerate with the shaft still);
     * **dying out** (``"decaying"``): the coasting speeds of the last three free
-      flights across the gap fall towards zero (:func:`free_flights`; Aitken's
-      extrapolation of them below a quarter of the last), as when a free load
-      bounces between the flanks ever more slowly (its speed decays like 1/t in
-      time: theta_d sweeps the gap for as long as one simulates); or, in
-      contact, the envelope falls and the switches thin out (15 % fewer in the
-      last quarter than in the one before); **drifting in the gap** (``"drifting in
-      the gap"``): no contact in the last ``window`` of the record.  Neither is
-      settled: ``previous``, the measurement of a shorter run from the same start
-      that said either, confirms it as rest;
+      flights across the gap fall by 20 % a flight at least (:func:`free_flights`),
+      as when a free load bounces between the flanks ever more slowly (its speed
+      decays like 1/t in time: theta_d sweeps the gap for as long as one
+      simulates); or, in contact, the envelope falls and the switches thin out
+      (15 % fewer in the last quarter than in the one before); **drifting in the
+      gap** (``"drifting in the gap"``): no contact in the last ``window`` of the
+      record.  Neither is settled: ``previous``, the measurement of a shorter run
+      from the same start that said either, confirms it as rest;
     * ``"converging"``, ``"growing"`` or ``"irregular"``: the envelope falls
       with switches that do not thin out (a slowly settling cycle), rises, or
       neither; not settled.
@@ -206,18 +209,23 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
     if not (np.all(np.isfinite(result.states)) and np.abs(x).max() <= bound):
         return _none("diverged", True)
     envelope, switches = motion_trend(result)
-    if envelope[-1] <= _ROUNDOFF * np.abs(result.dtheta_d).max():
+    # the command on its limit in the second half: the drive may accelerate while theta_d stands still
+    limited = result.command_mode is not None and bool(np.any(result.command_mode[time >= 0.5 * time[-1]]))
+    if envelope[-1] <= _ROUNDOFF * np.abs(result.dtheta_d).max() and not limited:
         return _none("no limit cycle", True)
+    free_tail = np.all(result.mode[time >= time[-1] * (1.0 - window)] == 0)
     measured = _steady_cycle(result, periods, rtol)
+    if measured is None and free_tail:  # a periodic motion carried by a load coasting across the gap
+        measured = _steady_cycle(result, periods, rtol, drifting=True)
     if measured is not None:
         return measured
     half = TREND_WINDOWS // 2
     falling = envelope[-1] < envelope[half] < envelope[0]
     if _bounces_die(result):
         word = "decaying"
-    elif np.all(result.mode[time >= time[-1] * (1.0 - window)] == 0):
+    elif free_tail and not limited:
         word = "drifting in the gap"
-    elif falling and not switches.any():
+    elif falling and not switches.any() and not limited:
         return _none("no limit cycle", True)  # one linear mode over the second half, decaying to its rest
     elif falling and switches[half:].sum() <= 0.85 * switches[:half].sum():
         word = "decaying"
@@ -229,56 +237,74 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
 
 
 def free_flights(result):
-    """The coasting speeds of the motion's free flights across the gap: median ``|dtheta_d|`` of each (rad/s).
+    """The motion's free flights: coasting speed (median ``|dtheta_d|``, rad/s) and whether each crossed the gap.
 
-    A free flight is a stretch of samples in the free mode (mode 0) between contacts; the
-    last may still be under way at the end of the record.
+    A free flight is a stretch of samples in the free mode (mode 0) between two
+    contacts; it crossed the gap when the contacts are on opposite flanks.  A flight
+    still under way at the end of the record is left out.
+
+    Returns
+    -------
+    speeds : ndarray
+    crossed : ndarray of bool
     """
     free = np.concatenate(([False], result.mode == 0, [False]))
     edges = np.flatnonzero(np.diff(free.astype(np.int8)))
     speed = np.abs(result.dtheta_d)
-    return np.array([np.median(speed[a:b]) for a, b in zip(edges[::2], edges[1::2]) if b - a >= 3])
+    flights = [(a, b) for a, b in zip(edges[::2], edges[1::2]) if a > 0 and b < result.mode.size and b - a >= 3]
+    speeds = np.array([np.median(speed[a:b]) for a, b in flights])
+    crossed = np.array([result.mode[a - 1] * result.mode[b] < 0 for a, b in flights], dtype=bool)
+    return speeds, crossed
 
 
-def _bounces_die(result):
-    """True if the last three free flights slow down towards rest: Aitken's extrapolation of their speeds near 0.
+def _bounces_die(result, loss=0.8):
+    """True if the load bounces from flank to flank ever slower, towards rest.
 
-    Bounces between the flanks that lose a constant share of their speed at each
-    contact (speeds ``s r^k``: the 1/t decay in time of a free load) extrapolate to 0;
-    those that approach a cycle (``s* + C r^k``) to its speed ``s*``.
+    The last three free flights cross the gap, each at most ``loss`` times as fast
+    as the one before: bounces that lose a share of their speed at every contact
+    (speeds ``s r^k``, the 1/t decay in time of a free load).  A cycle forming has
+    flights whose speeds tend to its own, their ratios to 1; one still far from it
+    may look the same for a while, which the longer run that must confirm the decay
+    tells apart.
     """
-    speeds = free_flights(result)[-3:]
-    if speeds.size < 3 or not speeds[0] > speeds[1] > speeds[2]:
-        return False
-    first, second = speeds[1] - speeds[0], speeds[2] - speeds[1]
-    if second - first <= 0.0:  # the decay does not slow down
-        return True
-    return speeds[2] - second**2 / (second - first) <= 0.25 * speeds[2]
+    speeds, crossed = free_flights(result)
+    speeds, crossed = speeds[-3:], crossed[-3:]
+    return bool(speeds.size == 3 and crossed.all() and np.all(speeds[1:] <= loss * speeds[:-1]))
 
 
 def _none(verdict, settled):
     return MeasuredCycle(False, math.nan, math.nan, math.nan, math.nan, settled, verdict)
 
 
-def _steady_cycle(result, periods, rtol):
-    """The periodic steady state at the end of the record (module docs), or None."""
+def _steady_cycle(result, periods, rtol, drifting=False):
+    """The periodic steady state at the end of the record (module docs), or None.
+
+    ``drifting``: the periods are those of the relative speed, and theta_d is taken
+    less its mean drift over them (a motion inside the gap while the load coasts).
+    """
     time, x = result.time, result.theta_d
+    signal = result.dtheta_d if drifting else x
     half = time >= 0.5 * time[-1]
-    center = 0.5 * (x[half].max() + x[half].min())
-    crossings = upward_crossings(time[half], x[half] - center)
+    center = 0.5 * (signal[half].max() + signal[half].min())
+    crossings = upward_crossings(time[half], signal[half] - center)
     if crossings.size < periods + 1:
         return None
     edges = crossings[-(periods + 1):]
     lengths = np.diff(edges)
-    peaks = np.array([np.ptp(x[(time >= a) & (time <= b)]) for a, b in zip(edges[:-1], edges[1:])]) / 2.0
+    windows = [(time >= a) & (time <= b) for a, b in zip(edges[:-1], edges[1:])]
+    peaks = np.array([np.ptp(signal[inside]) for inside in windows]) / 2.0
     period = (edges[-1] - edges[0]) / periods
     if not (np.ptp(lengths) <= rtol * period and np.ptp(peaks) <= rtol * peaks.mean()):
         return None
+    span = edges[-1] - edges[0]
     omega = 2.0 * math.pi / period
-    bias = _window_integral(time, x, edges[0], edges[-1]) / (edges[-1] - edges[0])
-    c1 = 2.0 * _window_integral(time, x * np.exp(-1j * omega * time), edges[0], edges[-1]) / (edges[-1] - edges[0])
+    bias = _window_integral(time, x, edges[0], edges[-1]) / span
+    if drifting:
+        x = x - (np.interp(edges[-1], time, x) - np.interp(edges[0], time, x)) / span * time
+    peak = float(np.mean([np.ptp(x[inside]) for inside in windows])) / 2.0
+    c1 = 2.0 * _window_integral(time, x * np.exp(-1j * omega * time), edges[0], edges[-1]) / span
     saturation = math.nan
     if result.command_mode is not None:
         saturation = float(np.mean(result.command_mode[(time >= edges[0]) & (time <= edges[-1])] != 0))
-    return MeasuredCycle(True, float(abs(c1)), float(peaks.mean()), float(omega), float(bias), True, "limit cycle",
-                         periods, saturation)
+    return MeasuredCycle(True, float(abs(c1)), peak, float(omega), float(bias), True, "limit cycle", periods,
+                         saturation)
