@@ -17,9 +17,9 @@ works from the loop's rest points outward (:mod:`backlash_df.equilibria`):
 * **probes** (:func:`probe`): time simulations from a rest disturbed by one
   disturbance (:mod:`backlash_df.disturbances`: a released twist in rad, a
   motor-speed kick in rad/s): half the reach of each kind and 1.25 times it
-  (just out of the rest's mode), and the standard set of the rig (twists 1.5, 3,
-  8, -20 alpha; kicks 2, 10, 50 alpha omega_n), each run until a steady state,
-  a confirmed decay, an overflow or a blow-up
+  (just out of the rest's mode), the standard set of the rig (twists 1.5, 3,
+  8, -20 alpha; kicks 2, 10, 50 alpha omega_n) and a twist onto each stable DF
+  cycle, each run until a steady state, a confirmed decay, an overflow or a blow-up
   (:func:`~backlash_df.simulation.measure_limit_cycle`);
 * for a bistable loop, the **separating orbit**: the exact unstable periodic
   orbit by shooting (:mod:`backlash_df.orbits`) between rest and hunting;
@@ -38,11 +38,11 @@ and names one of
     the loop in contact is unstable and no stable cycle caps the growth, or the
     loop has no rest (a torque limit below the load);
 ``undetermined``
-    the DF predicts a stable cycle that no simulation reaches, a motion does
-    not settle, or a loop stable in contact diverges.
+    a motion does not settle, or a loop stable in contact diverges.
 
 Where the simulations reach a cycle the DF misses or misplaces (nearly tangent
-loci, a slow motion far from the DF's sinusoid), the verdict follows the
+loci, a slow motion far from the DF's sinusoid), or settle where the DF
+predicts a stable cycle (started on that cycle too), the verdict follows the
 simulations and says ``DF UNRELIABLE`` in its reason (``df_agrees`` False).
 The ladder depends on the rig alone: :func:`judge_loop` gives the same probes
 for a prediction verified by simulation (``predict``) as for one that is not.
@@ -54,7 +54,7 @@ import warnings
 
 import numpy as np
 
-from .disturbances import KINDS, TWIST, kind_words, standard_disturbances
+from .disturbances import KINDS, TWIST, Disturbance, kind_words, standard_disturbances
 from .equilibria import PADE_ORDER, LinearStability, contact_shaft, linear_stability, loop_rests
 from .loops import DriveLoop, drive_loop
 from .models import BacklashModel
@@ -192,14 +192,17 @@ def _scale(rig, disturbance, linear):
     return abs(disturbance.value) / rig.plant.half_gap if linear is not None else disturbance.size(rig)
 
 
-def ladder(rig, rests, disturbances=None, linear=None):
+def ladder(rig, rests, disturbances=None, linear=None, prediction=None):
     """What the verdict probes: ``(disturbance, rest, role)`` for each rest's reach, then the ladder.
 
     For every rest and every kind with a reach ``d > 0``: ``0.5 d`` (inside the
     rest's mode; left out where such a disturbance is a rest itself) and ``1.25 d``
     (just out of it); then ``disturbances`` (default the rig's standard set,
     :func:`~backlash_df.disturbances.standard_disturbances`) from the first locally
-    stable rest, or the first rest.  A user's linear part has no motor speed: twists only.
+    stable rest, or the first rest; then, for each stable cycle of ``prediction``, the
+    twist from that rest onto the cycle's extremum (``theta_d = bias + A``: the run
+    starts on the DF's own cycle; role ``"DF cycle"``).  A user's linear part has no
+    motor speed: twists only.
 
     Returns
     -------
@@ -218,6 +221,8 @@ def ladder(rig, rests, disturbances=None, linear=None):
     for disturbance in standard_disturbances(rig) if disturbances is None else disturbances:
         if disturbance.kind in kinds:
             out.append((disturbance, start, "ladder"))
+    for cycle in () if prediction is None else prediction.stable_cycles:
+        out.append((Disturbance(TWIST, cycle.bias + cycle.amplitude - start.theta_d), start, "DF cycle"))
     return out
 
 
@@ -479,11 +484,12 @@ def _decide(prediction, contact, rests, probes, orbits=()):
                                 f"{_one(diverged[0].disturbance)} diverged"), {}
     settles = _settling(probes)
     if not cycles:
-        if prediction.stable_cycles:
-            return "undetermined", (f"{_df_words(prediction)}, but every disturbance tried settles "
-                                    f"({_list(settles, 'up to')})"), {"settles_up_to": settles, "df_agrees": False}
+        fields = {"settles_up_to": settles, "df_agrees": not prediction.stable_cycles}
+        if prediction.stable_cycles:  # started on the DF's cycle (a probe of the ladder), the loop settled too
+            return "no oscillation", (f"settles from every disturbance tried ({_list(settles, 'up to')}), a twist "
+                                      f"onto the DF's cycle too; DF UNRELIABLE here: {_df_words(prediction)}"), fields
         return "no oscillation", f"settles from every disturbance tried ({_list(settles, 'up to')}); " \
-            f"{_df_words(prediction)}", {"settles_up_to": settles, "df_agrees": True}
+            f"{_df_words(prediction)}", fields
     return _cycling(prediction, contact, rests, probes, orbits, calm)
 
 
@@ -595,7 +601,7 @@ def judge_loop(rig, prediction, linear=None, t_end=10.0, max_t_end=160.0, distur
         return LoopVerdict(prediction.model, "unstable", f"the loop has no rest: {rest_note}", contact, opened, (),
                            rest_note=rest_note, prediction=prediction)
     probes = tuple(probe(rig, model, disturbance, rest, user_linear, t_end, max_t_end, role)
-                   for disturbance, rest, role in ladder(rig, rests, disturbances, user_linear))
+                   for disturbance, rest, role in ladder(rig, rests, disturbances, user_linear, prediction))
     orbits, note = _exact(rig, prediction, probes, t_end, max_t_end) if exact and user_linear is None else ((), "")
     verdict, reason, fields = _decide(prediction, contact, rests, probes, orbits)
     separatrix = None
