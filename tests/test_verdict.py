@@ -324,3 +324,41 @@ def test_a_cycle_after_a_kick_ten_thousand_times_faster_is_a_cycle():
     assert np.abs(rate).max() > 1e3 * np.abs(rate[time > 3.0]).max()
     assert measured.found and measured.amplitude == pytest.approx(amplitude, rel=1e-3)
     assert measured.omega == pytest.approx(omega, rel=1e-3)
+
+
+def test_a_shaft_standing_still_with_the_command_on_its_limit_is_not_a_rest():
+    # in contact, theta_d constant, the torque command on its limit: the drive accelerates as one body (the
+    # rest test on the relative speed alone called this rest)
+    steps, alpha = 4000, 0.05
+    record = dataclasses.replace(_record(np.full(steps, -alpha - 0.01), np.zeros(steps), np.full(steps, -2)),
+                                 command=np.full(steps, 300.0), command_mode=np.ones(steps, dtype=np.int64))
+    measured = measure_limit_cycle(record)
+    assert measured.verdict != "no limit cycle" and not measured.settled and not measured.found
+    assert measure_limit_cycle(dataclasses.replace(record, command=None, command_mode=None)).verdict == "no limit cycle"
+
+
+def test_a_motor_loop_humming_on_its_limit_while_the_load_drifts_through_the_gap_is_a_cycle():
+    # the relative speed periodic, theta_d = drift + periodic, never in contact: its periods are those of
+    # dtheta_d, its amplitude that of theta_d less the drift (it was "drifting in the gap", never settled)
+    dt, alpha, omega, amplitude, drift = 1e-4, 0.05, 60.0, 0.004, 0.005
+    time = np.arange(int(8.0 / dt)) * dt
+    theta = -0.04 + drift * time + amplitude * np.sin(omega * time)
+    rate = drift + amplitude * omega * np.cos(omega * time)
+    record = dataclasses.replace(_record(theta, rate, np.zeros(time.size, dtype=np.int64), alpha, dt),
+                                 command=300.0 * np.sign(rate), command_mode=np.sign(rate).astype(np.int64))
+    assert np.abs(theta).max() < alpha
+    measured = measure_limit_cycle(record)
+    assert measured.found and measured.settled and measured.verdict == "limit cycle"
+    assert measured.amplitude == pytest.approx(amplitude, rel=1e-3)
+    assert measured.omega == pytest.approx(omega, rel=1e-3)
+
+
+def test_the_ladder_starts_a_run_on_each_stable_cycle_of_the_df():
+    rig, verdict = judged("cycle")
+    (rest,) = verdict.rests
+    on_cycle = [p for p in verdict.probes if p.role == "DF cycle"]
+    cycles = verdict.prediction.stable_cycles
+    assert [p.disturbance for p in on_cycle] == [Disturbance(TWIST, c.bias + c.amplitude - rest.theta_d) for c in cycles]
+    # started on the DF's cycle, the run ends on the simulated one
+    assert on_cycle and all(p.outcome == "cycle" and p.amplitude == pytest.approx(verdict.cycle.amplitude, rel=1e-3)
+                            for p in on_cycle)
