@@ -25,8 +25,9 @@ The law is the phase plane (23) throughout.
   flank's distance to release.  Each run is classified by its own rule, not by
   :func:`~backlash_df.simulation.measure_limit_cycle`: ``diverged`` (overflow or
   ``|theta_d| > 1e3 alpha``); ``cycle`` if the envelope of ``|dtheta_d|`` over the last
-  tenth of the run is at least 0.97 of that over 0.45 .. 0.55 of it and it still switches
-  there (contact or the command's limit); ``rest`` if that ratio is below 0.8 or the motion
+  tenth of the run is at least 0.97 of that over 0.45 .. 0.55 of it and it switches
+  (contact, release, the command's limit) there at least 4 times, as often as in the
+  middle (within a quarter, +-2); ``rest`` if that ratio is below 0.8 or the motion
   has died to 1e-9 of its largest speed; otherwise the run is doubled, and at 320 s it is
   rest if nothing switched over its last fifth (the load coasting in the gap), else
   unsettled.  Classes: every run at rest -> ``no oscillation``; cycles only -> ``limit
@@ -129,14 +130,15 @@ def classify_run(run, alpha, final=False):
         if not np.all(np.isfinite(run.states)) or np.abs(run.theta_d).max() > 1e3 * alpha:
             return "diverged"
     t, speed = run.time, np.abs(run.dtheta_d)
-    middle = speed[(t >= 0.45 * t[-1]) & (t <= 0.55 * t[-1])].max()
-    end = speed[t >= 0.9 * t[-1]].max()
+    in_middle, in_end = (t >= 0.45 * t[-1]) & (t <= 0.55 * t[-1]), t >= 0.9 * t[-1]
+    middle, end = speed[in_middle].max(), speed[in_end].max()
     switching = np.diff(run.mode) != 0
     if run.command_mode is not None:
         switching |= np.diff(run.command_mode) != 0
+    switches_middle, switches_end = switching[in_middle[1:]].sum(), switching[in_end[1:]].sum()
     if end <= 1e-9 * speed.max() or end < 0.8 * middle:
         return "rest"
-    if end >= 0.97 * middle and switching[t[1:] >= 0.9 * t[-1]].any():
+    if end >= 0.97 * middle and switches_end >= 4 and abs(switches_end - switches_middle) <= 0.25 * switches_middle + 2:
         return "cycle"
     if final and not switching[t[1:] >= 0.8 * t[-1]].any():
         return "rest"  # the load coasts in the gap: no contact over the last fifth of the longest run
