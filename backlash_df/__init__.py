@@ -23,6 +23,7 @@ from .limit_cycles import LimitCyclePrediction, limit_cycle_plot, predict_limit_
 from .orbits import OrbitNotFound, PeriodicOrbit, exact_orbits, periodic_orbit
 from .verdict import VERDICTS, LoopVerdict, judge_loop
 from .analysis import LoopAnalysis, analyse_loop
+from .tuning import Tuning, tune
 from .sweeps import DesignMap, design_map
 from .continuation import Branch, continue_limit_cycles
 from .reproduce import TableOne, TorqueComparison, compare_torques, integrated_torque, table1
@@ -72,6 +73,8 @@ __all__ = [
     "LoopVerdict",
     "analyse_loop",
     "LoopAnalysis",
+    "tune",
+    "Tuning",
     "design_map",
     "DesignMap",
     "continue_limit_cycles",

@@ -58,7 +58,7 @@ half_gap                       [1e-9, pi] rad        the total play 2 alpha is b
 rubber_thickness               [0, 2 half_gap] rad   the rubber band lies inside the gap (28)
 gear_ratio                     [1e-4, 1e5]           motor turns per load turn, gear-ups included
 kp                             (0, 1e10] N m s/rad   the loop gain kp / J of any drive above
-ti                             [1e-6, 1e6] s, or inf integral action from microseconds to days (inf: P)
+ti                             [1e-6, 1e6] s or inf  integral action from microseconds to days (inf: P)
 speed_filter, torque_lag       [0, 100] s            first-order lags
 delay                          [0, 10] s             dead time of a speed loop
 kv                             (0, 1e6] 1/s          position-loop gain (cascade only)
@@ -197,7 +197,7 @@ class Controller:
     structure: str = "speed"  #: "speed" (PI speed loop) or "cascade" (a position loop around it)
     kv: float = 0.0  #: position gain, 1/s (cascade): speed reference = kv (position reference - position)
     position_feedback: str = "load"  #: "motor" or "load": which angle the position loop measures
-    torque_limit: float = 0.0  #: |torque command| limit, N m (0: none)
+    torque_limit: float = 0.0  #: limit of the torque command's magnitude, N m (0: none)
     speed_controller: LtiBlock | None = None  #: a user's controller in place of the PI (speed error -> torque)
     position_controller: LtiBlock | None = None  #: a user's controller in place of kv (position error -> speed)
 

@@ -52,23 +52,31 @@ branch of ``examples/loaded_feedback.toml`` with ``ds_max`` = 0.3; the default
 steps jump over it).
 
 The describing function's branch (:func:`~backlash_df.predict_limit_cycles` at
-a set of values) is computed beside it.  Laws and loops the shooting solver
-cannot handle (rubber with beta > 0, elasto-backlash) raise its ``ValueError``.
+a set of values) is computed beside it, on an executor if one is given.  Laws and
+loops the shooting solver cannot handle (rubber with beta > 0, elasto-backlash)
+raise its ``ValueError``.
+
+A checkpoint (:class:`~backlash_df.checkpoint.Checkpoint`) keeps the first orbit,
+each step of the branch (the point, tangent, step size and state scale after it)
+and each DF prediction as they are found, so that a stopped continuation resumes
+from its last step, identical to an uninterrupted one.
 """
 
 import dataclasses
 import functools
 import html
+import itertools
 
 import numpy as np
 
+from .checkpoint import describe, opened, run_cells
 from .limit_cycles import predict_limit_cycles
 from .loops import drive_loop
 from .orbits import OrbitNotFound, orbit_residual, periodic_orbit
-from .plotting import ResultPlot, axes_or_new
-from .report import figure_html, html_page, table_html
+from .plotting import ResultPlot, axes_or_new, legend_beside, log_scale
+from .report import bias_text, figure_html, html_page, table_html
 from .simulation import simulated_limit_cycle
-from .sweeps import rig_with, run_cells
+from .sweeps import rig_with, value_label
 
 __all__ = ["BranchPoint", "SpecialPoint", "Branch", "continue_limit_cycles", "branch_plot"]
 
@@ -167,6 +175,29 @@ class Branch:
         nearest = min(self.points, key=lambda point: abs(point.parameter - value))
         return _polish(_rig_of(self.rig, self.parameter, value), self.model, nearest.orbit)
 
+    def tables(self):
+        """The terminal's tables: ``[(title, header, rows), ...]``, the exact orbits, then the DF's cycles.
+
+        Biases that are round-off of a zero mean print as 0 (:func:`~backlash_df.report.bias_text`).
+        """
+        orbits = [[f"{point.parameter:.6g}", f"{point.orbit.amplitude:.5g}", f"{point.orbit.omega:.5g}",
+                   bias_text(point.orbit.bias, point.orbit.amplitude), f"{point.orbit.max_multiplier:.4f}",
+                   "stable" if point.orbit.stable else "unstable"] for point in self.points]
+        cycles = []
+        for value, prediction in self.df:
+            cycles += [[f"{value:.6g}", f"{cycle.amplitude:.5g}", f"{cycle.omega:.5g}",
+                        bias_text(cycle.bias, cycle.amplitude), "stable" if cycle.stable else "unstable"]
+                       for cycle in prediction.cycles] or [[f"{value:.6g}", "none", "", "", ""]]
+        return [("exact periodic orbits (shooting; stability by Floquet multipliers):",
+                 [self.parameter, "A (rad)", "w (rad/s)", "bias (rad)", "|mu| max", "Floquet"], orbits),
+                (f"describing function at {len(self.df)} values (stability by Loeb's criterion):",
+                 [self.parameter, "A DF (rad)", "w DF (rad/s)", "bias (rad)", "Loeb"], cycles)]
+
+    def sentences(self):
+        """One line per special point: kind, where, and what happened."""
+        return [f"{s.kind} at {self.parameter} = {s.parameter:.6g} (A = {s.amplitude:.4g} rad): {s.detail}"
+                for s in self.special]
+
     def __repr__(self):
         kinds = ", ".join(f"{s.kind} at {self.parameter}={s.parameter:.4g}" for s in self.special) or "none"
         return (f"Branch({self.model}, {self.parameter} in [{self.values.min():.4g}, {self.values.max():.4g}], "
@@ -220,9 +251,9 @@ def branch_plot(branch, ax=None):
     Returns
     -------
     ResultPlot
-        Axes ``[amplitude, frequency]``.
+        Axes ``[amplitude, frequency]``; the legend beside the amplitude.
     """
-    figure, axes = axes_or_new(ax, (2, 1), sharex=True, figsize=(7.5, 6), layout="constrained")
+    figure, axes = axes_or_new(ax, (2, 1), sharex=True, figsize=(9, 6), layout="constrained")
     values, stable = branch.values, branch.stable
     for ax, series in zip(axes, (branch.amplitude, branch.omega)):
         start = 0
@@ -241,14 +272,14 @@ def branch_plot(branch, ax=None):
     axes[0].plot([], [], color="C0", label="exact orbits, stable")
     axes[0].plot([], [], color="C0", ls="--", label="exact orbits, unstable")
     axes[0].plot([], [], "o", color="C1", ms=4, label="describing function")
-    axes[0].legend(fontsize=8)
+    legend = legend_beside(axes[0], fontsize=8)
     axes[0].set_ylabel("A (rad)")
     if branch.amplitude.max() > 20.0 * branch.amplitude.min():
-        axes[0].set_yscale("log")
+        log_scale(axes[0].yaxis, branch.amplitude.min(), branch.amplitude.max())
     axes[1].set_ylabel("w (rad/s)")
-    axes[1].set_xlabel(branch.parameter)
-    axes[0].set_title(f"{branch.model}: limit cycles against {branch.parameter}")
-    return ResultPlot(figure, axes)
+    axes[1].set_xlabel(value_label(branch.parameter))
+    axes[0].set_title(f"{branch.model}: limit cycles against {branch.parameter}", fontsize="medium")
+    return ResultPlot(figure, axes, legend)
 
 
 # --------------------------------------------------------------------------- the continuation
@@ -367,26 +398,48 @@ def _special_points(points, tangents):
     return marks
 
 
-def _trace(extended, start, direction, bound, ds, ds_max, max_points, amplitude_bounds):
-    """Continue from ``start`` (a polished orbit) with the parameter first moving in ``direction``.
+@dataclasses.dataclass
+class _Trace:
+    """Where a trace stands: the points, tangents and folds so far, and the next predictor's y, tangent, ds."""
 
-    Returns (points, tangents, reason, folds): reason is None when ``bound`` was
-    reached; folds are :class:`SpecialPoint` located by :func:`_locate_fold`.
+    points: list
+    tangents: list
+    folds: list
+    y: np.ndarray
+    tangent: np.ndarray
+    ds: float
+
+    def apply(self, step, extended):
+        """Take one step of :func:`_step` (computed now or read from a checkpoint)."""
+        self.points += step["points"]
+        self.tangents += step["tangents"]
+        self.folds += step["folds"]
+        if not step["done"]:
+            self.y, self.tangent, self.ds = step["y"], step["tangent"], step["ds"]
+            extended.scale = np.array(step["scale"])
+
+
+def _end(reason, points=(), tangents=()):
+    """The last step of a trace; ``reason`` None: the bound was reached."""
+    return {"points": list(points), "tangents": list(tangents), "folds": [], "reason": reason, "done": True}
+
+
+def _step(extended, trace, direction, bound, ds_max, max_points, amplitude_bounds):
+    """From the last point of ``trace`` to the next accepted one (halving ds on failure), or to the trace's end.
+
+    Returns the step as a dict (what a checkpoint keeps): the points, tangents and
+    folds to append and, unless ``done``, the new y, tangent, ds and state scale.
     """
     rig, parameter, model = extended.rig, extended.parameter, extended.model
-    folds = []
-    y = np.append(_unknowns(start.orbit), start.parameter) / extended.scale
-    tangent = np.zeros(y.size)
-    tangent[-1] = direction
-    points, tangents = [start], []
-    tangent = _tangent(extended(y)[1], tangent)
-    tangents.append(tangent)
-    while len(points) < max_points:
+    y, tangent, ds = trace.y, trace.tangent, trace.ds
+    if len(trace.points) >= max_points:
+        return _end(f"stopped after {max_points} points")
+    orbit = None
+    while orbit is None:
         y_new, used, jacobian = _correct(extended, y + ds * tangent, tangent)
-        orbit = None
         if y_new is not None:
             unknowns, value = extended.split(y_new)
-            seed = dataclasses.replace(points[-1].orbit, state=unknowns[:-1], period=float(unknowns[-1]))
+            seed = dataclasses.replace(trace.points[-1].orbit, state=unknowns[:-1], period=float(unknowns[-1]))
             try:
                 orbit = _polish(_rig_of(rig, parameter, value), model, seed)
             except (OrbitNotFound, ValueError):
@@ -394,32 +447,56 @@ def _trace(extended, start, direction, bound, ds, ds_max, max_points, amplitude_
         if orbit is None:
             ds *= 0.5
             if ds < 1e-6:
-                return points, tangents, "the corrector failed at every step size (the orbit grazes or is lost)", folds
-            continue
-        if (value - bound) * direction > 0.0:  # past the end: land on it
-            try:
-                last = _polish(_rig_of(rig, parameter, bound), model, orbit)
-                points.append(BranchPoint(bound, last))
-                tangents.append(tangent)
-            except OrbitNotFound:
-                pass
-            return points, tangents, None, folds
-        points.append(BranchPoint(value, orbit))
-        if orbit.amplitude > amplitude_bounds[1]:
-            return points, tangents + [tangent], "amplitude cap", folds
-        if orbit.amplitude < amplitude_bounds[0]:
-            return points, tangents + [tangent], "amplitude floor", folds
-        # the corrector's last Jacobian (a step of < tol before) gives the new tangent;
-        # then the states are rescaled to their current size: relative steps as the orbit grows
-        previous, tangent = tangent, _tangent(jacobian, tangent)
-        if previous[-1] * tangent[-1] < 0.0:
-            folds.append(_locate_fold(extended, y, previous, ds, tangent[-1], points[-2:]))
-        factor = extended.rescale(_unknowns(orbit))
-        tangent = tangent * factor / np.linalg.norm(tangent * factor)
-        y = np.append(_unknowns(orbit), value) / extended.scale
-        tangents.append(tangent)
-        ds = min(ds * 2.0, ds_max) if used <= 4 else (0.5 * ds if used >= 7 else ds)
-    return points, tangents, f"stopped after {max_points} points", folds
+                return _end("the corrector failed at every step size (the orbit grazes or is lost)")
+    if (value - bound) * direction > 0.0:  # past the end: land on it
+        try:
+            return _end(None, [BranchPoint(bound, _polish(_rig_of(rig, parameter, bound), model, orbit))], [tangent])
+        except OrbitNotFound:
+            return _end(None)
+    point = BranchPoint(value, orbit)
+    if orbit.amplitude > amplitude_bounds[1]:
+        return _end("amplitude cap", [point], [tangent])
+    if orbit.amplitude < amplitude_bounds[0]:
+        return _end("amplitude floor", [point], [tangent])
+    # the corrector's last Jacobian (a step of < tol before) gives the new tangent;
+    # then the states are rescaled to their current size: relative steps as the orbit grows
+    new_tangent = _tangent(jacobian, tangent)
+    folds = []
+    if tangent[-1] * new_tangent[-1] < 0.0:
+        folds.append(_locate_fold(extended, y, tangent, ds, new_tangent[-1], [trace.points[-1], point]))
+    factor = extended.rescale(_unknowns(orbit))
+    new_tangent = new_tangent * factor / np.linalg.norm(new_tangent * factor)
+    ds = min(ds * 2.0, ds_max) if used <= 4 else (0.5 * ds if used >= 7 else ds)
+    return {"points": [point], "tangents": [new_tangent], "folds": folds, "done": False,
+            "y": np.append(_unknowns(orbit), value) / extended.scale, "tangent": new_tangent, "ds": ds,
+            "scale": extended.scale.copy()}
+
+
+def _trace(extended, start, direction, bound, ds, ds_max, max_points, amplitude_bounds, kept=None, name="forward"):
+    """Continue from ``start`` (a polished orbit) with the parameter first moving in ``direction``.
+
+    Each step (:func:`_step`) is kept in the checkpoint ``kept`` under ``(name, k)``;
+    the steps it holds already are taken from it, not computed again.
+
+    Returns (points, tangents, reason, folds): reason is None when ``bound`` was
+    reached; folds are :class:`SpecialPoint` located by :func:`_locate_fold`.
+    """
+    y = np.append(_unknowns(start.orbit), start.parameter) / extended.scale
+    along = np.zeros(y.size)
+    along[-1] = direction
+    tangent = _tangent(extended(y)[1], along)
+    trace = _Trace([start], [tangent], [], y, tangent, ds)
+    for count in itertools.count():
+        key = (name, count)
+        if kept is not None and key in kept:
+            step = kept[key]
+        else:
+            step = _step(extended, trace, direction, bound, ds_max, max_points, amplitude_bounds)
+            if kept is not None:
+                kept.add(key, step)
+        trace.apply(step, extended)
+        if step["done"]:
+            return trace.points, trace.tangents, step["reason"], trace.folds
 
 
 def _locate_fold(extended, y, tangent, ds, t_end, pair, tol=1e-7, iterations=12):
@@ -505,7 +582,8 @@ def _start(rig, parameter, model, values, seed):
 
 
 def continue_limit_cycles(rig, parameter, values_or_range, model=None, *, seed=None, ds=0.05, ds_max=1.0,
-                          max_points=200, max_amplitude=40.0, df_values=25, df_grid=(30, 40), executor=None):
+                          max_points=200, max_amplitude=40.0, df_values=25, df_grid=(30, 40), executor=None,
+                          checkpoint=None):
     """Trace the branch of exact periodic orbits over one rig value (module docs).
 
     Parameters
@@ -536,6 +614,16 @@ def continue_limit_cycles(rig, parameter, values_or_range, model=None, *, seed=N
         Scan grid of each DF prediction.
     executor : concurrent.futures.Executor, optional
         Runs the DF predictions (the continuation itself is sequential).
+    checkpoint : str, Path or Checkpoint, optional
+        Keeps the first orbit, every step of the branch (its point, tangent and
+        step size) and every DF prediction in this file as they are found
+        (:class:`~backlash_df.checkpoint.Checkpoint`; a path: a new file).
+        ``Checkpoint(path, resume=True)`` continues a stopped continuation: it
+        recomputes only the step in progress when it stopped (from the last kept
+        point), the DF predictions not kept, and the special points' cheap
+        post-processing (stability changes, grazing, the contact loop's limit);
+        the branch is identical to an uninterrupted one.  The file stays when the
+        branch is done.
 
     Returns
     -------
@@ -544,7 +632,8 @@ def continue_limit_cycles(rig, parameter, values_or_range, model=None, *, seed=N
     Raises
     ------
     ValueError
-        Unknown parameter, range of one value, a law the shooting solver cannot handle.
+        Unknown parameter, range of one value, a law the shooting solver cannot handle;
+        a checkpoint that exists without ``resume`` or belongs to another run.
     OrbitNotFound
         No orbit to start from anywhere in the range.
     """
@@ -554,18 +643,39 @@ def continue_limit_cycles(rig, parameter, values_or_range, model=None, *, seed=N
     lo, hi = float(values[0]), float(values[-1])
     model = rig.make_model(model).name
     rig_with(rig_with(rig, parameter, lo), parameter, hi)  # names and values checked before any work
-    starts = np.linspace(lo, hi, 5) if seed is None else np.array([lo])
-    start = _start(rig, parameter, model, starts, seed)
+    inputs = describe({"rig": rig, "parameter": parameter, "range": (lo, hi), "model": model, "seed": seed, "ds": ds,
+                       "ds_max": ds_max, "max_points": max_points, "max_amplitude": max_amplitude,
+                       "df_grid": tuple(df_grid)}, omit={"source"})
+    with opened(checkpoint, "continue", inputs) as kept:
+        points, special = _branch(rig, parameter, model, (lo, hi), seed, (ds, ds_max, max_points, max_amplitude),
+                                  kept)
+        df_at = np.linspace(lo, hi, df_values) if values.size == 2 else values
+        df_at = [float(value) for value in df_at]
+        predictions = run_cells(functools.partial(_df_prediction, rig, parameter, model, tuple(df_grid)), df_at,
+                                executor, kept, keys=[("df", value) for value in df_at])
+    return Branch(parameter, model, tuple(points), tuple(special), tuple(zip(df_at, predictions)), (lo, hi), rig)
+
+
+def _branch(rig, parameter, model, value_range, seed, steps, kept):
+    """The branch points and special points (:func:`continue_limit_cycles`), each step kept in ``kept``."""
+    (lo, hi), (ds, ds_max, max_points, max_amplitude) = value_range, steps
+    if kept is not None and ("start",) in kept:
+        start = kept[("start",)]
+    else:
+        start = _start(rig, parameter, model, np.linspace(lo, hi, 5) if seed is None else np.array([lo]), seed)
+        if kept is not None:
+            kept.add(("start",), start)
     unknowns = _unknowns(start.orbit)
     amplitude_bounds = (1e-3 * rig.plant.half_gap, max_amplitude * rig.plant.half_gap)
     direction = 1.0 if hi > lo else -1.0
     extended = _Extended(rig, parameter, model, np.append(_state_scale(unknowns), abs(hi - lo)))
-    forward, t_forward, why_forward, folds = _trace(extended, start, direction, hi, ds, ds_max, max_points, amplitude_bounds)
+    forward, t_forward, why_forward, folds = _trace(extended, start, direction, hi, ds, ds_max, max_points,
+                                                    amplitude_bounds, kept, "forward")
     points, tangents, reasons = forward, t_forward, [why_forward]
     if start.parameter != lo:
         extended = _Extended(rig, parameter, model, np.append(_state_scale(unknowns), abs(hi - lo)))
-        backward, t_backward, why_backward, back_folds = _trace(extended, start, -direction, lo, ds, ds_max, max_points,
-                                                    amplitude_bounds)
+        backward, t_backward, why_backward, back_folds = _trace(extended, start, -direction, lo, ds, ds_max,
+                                                                max_points, amplitude_bounds, kept, "backward")
         points = backward[::-1] + forward[1:]
         tangents = [-t for t in t_backward[::-1]] + t_forward[1:]
         reasons.append(why_backward)
@@ -581,8 +691,4 @@ def continue_limit_cycles(rig, parameter, values_or_range, model=None, *, seed=N
                                         f"contact loop at {parameter} = {value:.6g} (A -> 0 extrapolated)"))
         elif reason is not None:
             special.append(SpecialPoint("end", point.parameter, point.orbit.amplitude, reason))
-    df_at = np.linspace(lo, hi, df_values) if values.size == 2 else values
-    predictions = run_cells(functools.partial(_df_prediction, rig, parameter, model, tuple(df_grid)),
-                            [float(v) for v in df_at], executor)
-    return Branch(parameter, model, tuple(points), tuple(special), tuple(zip(df_at.tolist(), predictions)), (lo, hi),
-                  rig)
+    return points, special

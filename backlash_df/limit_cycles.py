@@ -39,7 +39,7 @@ from ._json import json_ready
 from .describing import BiasedDescribing, describing_function, saturation_describing_function
 from .loops import DriveLoop, drive_loop, frequency_response_of
 from .models import BacklashModel
-from .plotting import ResultPlot, axes_or_new
+from .plotting import ResultPlot, adaptive_curve, axes_or_new, legend_below, legend_beside
 from .report import figure_html, html_page, roundoff_zero, signed_percent, table_html, text_table
 from .simulation import simulated_limit_cycle
 from .system import command_channels
@@ -668,7 +668,9 @@ def limit_cycle_plot(predictions, ax=None, n_loci=7, n_amplitudes=200, g_omega=N
     frequency.  Cycles (o stable, x unstable by Loeb's criterion) and near
     misses (diamonds) are listed with A, w and distance in the legend, so no
     label covers another.  Both axes are in rad/(N m): G maps the shaft torque
-    to theta_d, and a cycle solves G(jw) = -1/N(A, w).
+    to theta_d, and a cycle solves G(jw) = -1/N(A, w).  G is sampled where it
+    turns in the view (:func:`~backlash_df.plotting.adaptive_curve`), so that it
+    stays smooth through the shaft's resonance.
 
     Parameters
     ----------
@@ -682,13 +684,14 @@ def limit_cycle_plot(predictions, ax=None, n_loci=7, n_amplitudes=200, g_omega=N
     n_amplitudes : int
         Points along each locus.
     g_omega : array_like, optional
-        Frequencies (rad/s) for the G curve (default: the searched band).
+        Frequencies (rad/s) for the G curve (default: the searched band, sampled
+        adaptively).
 
     Returns
     -------
     ResultPlot
-        One panel; the legend below it in a new figure (nothing is cut off by
-        ``savefig``), inside the axes given otherwise.
+        One panel; the legend below it in a new figure, beside it (outside the
+        data) in the axes given.
     """
     import matplotlib.pyplot as plt
 
@@ -696,48 +699,59 @@ def limit_cycle_plot(predictions, ax=None, n_loci=7, n_amplitudes=200, g_omega=N
     figure, axes = axes_or_new(ax, figsize=(8, 7.5), layout="constrained")
     ax = axes[0]
     first = predictions[0]
-    lo_w, hi_w = first.omega_range
-    g_omega = np.geomspace(lo_w, hi_w, 2000) if g_omega is None else np.asarray(g_omega, dtype=float)
-    g = frequency_response_of(first.linear, g_omega)
-    ax.plot(g.real, g.imag, color="k", lw=1.6, label="G(jw)")
-    points, thin = [g], []
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    for index, prediction in enumerate(predictions):
-        color = colors[index % len(colors)]
-        lo_a, hi_a = prediction.amplitude_range
-        amplitudes = prediction.half_gap + np.geomspace(lo_a - prediction.half_gap, hi_a - prediction.half_gap,
-                                                        n_amplitudes)
-        band = list(np.geomspace(lo_w, hi_w, n_loci)) + [cycle.omega for cycle in prediction.cycles]
-        for k, omega in enumerate(band):
-            locus = -1.0 / prediction.describing(amplitudes, omega)
-            bold = k >= n_loci
+    loci = [_loci(prediction, colors[index % len(colors)], n_loci, n_amplitudes)
+            for index, prediction in enumerate(predictions)]
+    view = _zoom(predictions, [locus[np.isfinite(locus)] for model in loci for locus, *_ in model])
+    if g_omega is None:
+        _, g = adaptive_curve(lambda w: frequency_response_of(first.linear, w), *first.omega_range, view)
+    else:
+        g = frequency_response_of(first.linear, np.asarray(g_omega, dtype=float))
+    ax.plot(g.real, g.imag, color="k", lw=1.6, label="G(jw)")
+    for prediction, model in zip(predictions, loci):
+        for k, (locus, _, color, bold) in enumerate(model):
             ax.plot(locus.real, locus.imag, color=color, lw=1.4 if bold else 0.6, alpha=1.0 if bold else 0.5,
                     label=f"-1/N(A, w) {prediction.model}" if k == 0 else None)
-            if not bold:
-                thin.append((locus, omega, color))
-            points.append(locus[np.isfinite(locus)])
-        for cycle in prediction.cycles:
-            at = -1.0 / complex(prediction.describing(cycle.amplitude, cycle.omega))
-            kind = "stable" if cycle.stable else "unstable"
-            ax.plot(at.real, at.imag, "o" if cycle.stable else "x", color=color, ms=8, ls="none",
-                    mfc=color if cycle.stable else "none",
-                    label=f"{prediction.model}: {kind} cycle A = {cycle.amplitude:.4g} rad, w = {cycle.omega:.4g} rad/s")
-        for miss in prediction.near_misses[:3]:
-            at = -1.0 / complex(prediction.describing(miss.amplitude, miss.omega))
-            ax.plot(at.real, at.imag, "d", color=color, ms=6, mfc="none", ls="none",
-                    label=f"{prediction.model}: near miss {100 * miss.distance:.2f} % at w = {miss.omega:.4g} rad/s")
-    _zoom(ax, predictions, points)
-    _label_loci(ax, thin)
+        _mark_cycles(ax, prediction, model[0][2])
+    ax.set_xlim(view[0], view[1])
+    ax.set_ylim(view[2], view[3])
+    _label_loci(ax, [(locus, omega, color) for model in loci for locus, omega, color, bold in model if not bold])
     ax.axhline(0.0, color="0.7", lw=0.5)
     ax.axvline(0.0, color="0.7", lw=0.5)
     ax.set_xlabel("real part (rad/(N m))")
     ax.set_ylabel("imaginary part (rad/(N m))")
-    ax.set_title("Nyquist overlay: G(jw) and -1/N(A, w); thin loci labelled with w (rad/s)")
+    ax.set_title("G(jw) and -1/N(A, w); thin loci labelled with w (rad/s)", fontsize="medium")
     if own_figure:
-        legend = figure.legend(loc="outside lower center", ncols=2, fontsize=8)
+        legend = legend_below(figure, fontsize=8)
     else:
-        legend = ax.legend(loc="best", fontsize=7)
+        legend = legend_beside(ax, fontsize=7)
     return ResultPlot(figure, axes, legend)
+
+
+def _loci(prediction, color, n_loci, n_amplitudes):
+    """``(locus, w, colour, bold)`` of one model: thin at ``n_loci`` w over the band, bold at each cycle's w."""
+    lo_w, hi_w = prediction.omega_range
+    lo_a, hi_a = prediction.amplitude_range
+    amplitudes = prediction.half_gap + np.geomspace(lo_a - prediction.half_gap, hi_a - prediction.half_gap,
+                                                    n_amplitudes)
+    band = [(omega, False) for omega in np.geomspace(lo_w, hi_w, n_loci)]
+    band += [(cycle.omega, True) for cycle in prediction.cycles]
+    return [(-1.0 / prediction.describing(amplitudes, omega), omega, color, bold) for omega, bold in band]
+
+
+def _mark_cycles(ax, prediction, color):
+    """The cycles (o stable, x unstable) and the first three near misses (diamonds), listed in the legend."""
+    for cycle in prediction.cycles:
+        at = -1.0 / complex(prediction.describing(cycle.amplitude, cycle.omega))
+        kind = "stable" if cycle.stable else "unstable"
+        ax.plot(at.real, at.imag, "o" if cycle.stable else "x", color=color, ms=8, ls="none",
+                mfc=color if cycle.stable else "none",
+                label=f"{prediction.model}: {kind} cycle A = {cycle.amplitude:.4g} rad, w = {cycle.omega:.4g} rad/s")
+    for miss in prediction.near_misses[:3]:
+        at = -1.0 / complex(prediction.describing(miss.amplitude, miss.omega))
+        ax.plot(at.real, at.imag, "d", color=color, ms=6, mfc="none", ls="none",
+                label=f"{prediction.model}: near miss {100 * miss.distance:.2f} % at A = {miss.amplitude:.4g} rad, "
+                      f"w = {miss.omega:.4g} rad/s")
 
 
 def _label_loci(ax, loci, gap=(0.06, 0.025)):
@@ -758,20 +772,16 @@ def _label_loci(ax, loci, gap=(0.06, 0.025)):
                     fontsize=7, color=color)
 
 
-def _zoom(ax, predictions, points):
-    """Frame the loci around the cycles and near misses (or the -1/N band)."""
+def _zoom(predictions, loci):
+    """``(x0, x1, y0, y1)``: a square view around the cycles and near misses (or the loci's ends)."""
     marks = []
     for prediction in predictions:
         for item in list(prediction.cycles) + list(prediction.near_misses[:3]):
             marks.append(-1.0 / complex(prediction.describing(item.amplitude, item.omega)))
-    if not marks:
-        ends = np.concatenate([p[-1:] for p in points[1:]]) if len(points) > 1 else points[0]
-        marks = list(ends)
-    marks = np.array(marks)
+    marks = np.array(marks if marks else [locus[-1] for locus in loci if locus.size])
     span = max(np.ptp(marks.real), np.ptp(marks.imag), 0.5 * np.abs(marks).max())
     center = 0.5 * (marks.real.min() + marks.real.max()) + 0.5j * (marks.imag.min() + marks.imag.max())
-    ax.set_xlim(center.real - span, center.real + span)
-    ax.set_ylim(center.imag - span, center.imag + span)
+    return center.real - span, center.real + span, center.imag - span, center.imag + span
 
 
 # --------------------------------------------------------------------------- tables and report

@@ -46,7 +46,7 @@ import dataclasses
 
 import numpy as np
 
-from .system import Command, LinearPart, closed_loop_matrix, frequency_response
+from .system import Command, LinearPart, closed_loop_matrix, closed_loop_response, frequency_response
 
 __all__ = ["DriveLoop", "drive_loop", "frequency_response_of"]
 
@@ -218,6 +218,31 @@ class DriveLoop:
         LinearPart
         """
         return _Builder(self.plant, self.controller).linear_part()
+
+    def reference_response(self, omega, stiffness, damping=0.0):
+        """The closed loop with the gear in contact, from the reference to the load: complex, dead time exact.
+
+        The shaft is the spring-damper ``T = k theta_d + c dtheta_d``; the
+        response is from the speed reference to the load speed (a speed loop) or
+        from the position reference to the load angle (a cascade): what the process
+        sees, the measured motor speed of a two-mass drive having a notch at the
+        anti-resonance ``sqrt(k / J_l)``.  The command unsaturated.
+
+        Parameters
+        ----------
+        omega : array_like
+            Frequencies, rad/s (> 0); any shape.
+        stiffness, damping : float
+            k (N m/rad) and c (N m s/rad).
+
+        Returns
+        -------
+        ndarray of complex
+            The shape of ``omega``; dimensionless (rad/s per rad/s, or rad per rad).
+        """
+        part = self.linear_part()
+        output = part.state_names.index("load_angle" if self.controller.cascade else "load_speed")
+        return closed_loop_response(part, omega, stiffness, damping, output)
 
     def linear_poles(self, stiffness, damping=0.0):
         """Closed-loop poles with the backlash replaced by the spring ``T = k theta_d + c dtheta_d``.

@@ -475,7 +475,8 @@ class BacklashModel:
         Returns
         -------
         ResultPlot
-            One panel; the colour bar beside it.
+            One panel (titled with the law, its equation and the shaft on a second
+            line); the colour bar beside it.
         """
         from matplotlib.colors import TwoSlopeNorm
 
@@ -492,7 +493,7 @@ class BacklashModel:
         ax.set_xlabel("theta_d (rad)")
         ax.set_ylabel("dtheta_d/dt (rad/s)")
         beta = f", beta = {self.rubber_thickness:.4g} rad" if self.name == "rubber" else ""
-        ax.set_title(f"{self.name} {EQUATIONS[self.name]}: k = {self.stiffness:.4g} N m/rad, "
+        ax.set_title(f"{self.name} {EQUATIONS[self.name]}\nk = {self.stiffness:.4g} N m/rad, "
                      f"c = {self.damping:.4g} N m s/rad, alpha = {self.half_gap:.4g} rad{beta}", fontsize="medium")
         return ResultPlot(figure, axes)
 

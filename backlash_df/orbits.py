@@ -3,21 +3,30 @@
 The describing function keeps the first harmonic only; this module finds the limit
 cycle of the piecewise-smooth loop itself.  With the shaft torque of a piecewise-affine
 law (dead-zone (24)-(25), (26), (27), phase plane (19)-(23), exact model (1), (14))
-the PI loop of :mod:`backlash_df.loops` is affine inside each *mode* (left contact,
-free, right contact)::
+every loop of :mod:`backlash_df.loops` (speed loop or cascade, PI, P or a user's LTI
+controllers) is affine inside each *mode*: a backlash mode (left contact, free, right
+contact) and, with a torque limit, a mode of the torque command
+(:data:`~backlash_df.system.COMMAND_MODES`: linear, saturated, the integrator
+clamped, sliding on the limit)::
 
-    dq/dt = F_m q + g_m,   m in {-1, 0, +1}
+    dq/dt = F_m q + g_m,   m = (b, c),  b in {-1, 0, +1},  c in {0, +-1, +-2, +-3}
 
 so the flow inside a mode is a matrix exponential of the augmented matrix
-``[[F_m, g_m], [0, 0]]``.  A mode is left when its boundary function crosses zero
-(contact: ``theta_d = alpha`` for (24)-(26), ``k (theta_d - alpha) + c dtheta_d = 0``
-for (27), ``theta_d = theta*(dtheta_d)`` for (19)-(23), ``theta_b = alpha`` for (14);
-release: ``theta_d = alpha`` for (24)-(26), ``k (theta_d - alpha) + c dtheta_d = 0``
-(Theorem 1) otherwise).  Each crossing is bracketed on the trajectory sampled at least
-128 times a period (a cubic fit of value and slope flags an excursion past zero between
-two samples) and located by binary search on a dyadic ladder ``exp(M h 2^-j)``, as the
-simulation kernel locates its events: to 2^-52 of the sample step, the state kept just
-past the boundary.
+``[[F_m, g_m], [0, 0]]`` (:func:`~backlash_df.system.mode_matrices`,
+:func:`~backlash_df.system.command_matrices`: the simulation kernel's own).  A mode
+is left when one of its boundary functions crosses zero.  The backlash's: contact
+``theta_d = alpha`` for (24)-(26), ``k (theta_d - alpha) + c dtheta_d = 0`` for (27),
+``theta_d = theta*(dtheta_d)`` for (19)-(23), ``theta_b = alpha`` for (14); release
+``theta_d = alpha`` for (24)-(26), ``k (theta_d - alpha) + c dtheta_d = 0`` (Theorem
+1) otherwise.  The command's, linear rows of the state: ``u = +-limit`` (saturation
+and its end), ``e = 0`` (the clamp engages or releases), and on the limit the two
+rates ``du/dt`` with the integrator clamped and integrating (the slide ends); the
+mode entered is that of :func:`~backlash_df.system.command_mode_of` at the event,
+as in the simulation kernels.  Each crossing is bracketed on the trajectory sampled
+at least 128 times a period (a cubic fit of value and slope flags an excursion past
+zero between two samples) and located by binary search on a dyadic ladder
+``exp(M h 2^-j)``, as the simulation kernel locates its events: to 2^-52 of the
+sample step, the state kept just past the boundary.
 
 **Shooting.**  The unknowns are the state ``q0`` on the Poincare section
 ``dtheta_d = 0`` (an extremum of theta_d) and the period ``T``; the residual
@@ -26,12 +35,16 @@ past the boundary.
 
 vanishes on a periodic orbit.  Its Jacobian ``[[M - I, f(phi_T(q0))], [c_v, 0]]`` is
 exact: the monodromy matrix ``M`` is the product of the mode flows ``exp(F_m t_m)``
-and, at every contact and release, the saltation matrix (Aizerman and Gantmacher,
-1958; Leine and Nijmeijer, 2004)
+and, at every event, the saltation matrix (Aizerman and Gantmacher, 1958; Leine and
+Nijmeijer, 2004)
 
     S = I + (f_after - f_before) n^T / (n^T f_before),
 
-with ``n`` the gradient of the boundary function at the event.  Damped Newton
+with ``n`` the gradient of the boundary function at the event.  The field jumps
+at contact and release, where the integrator is clamped or released on the limit,
+and where a slide along the limit begins (there ``n^T S = 0``: a deviation off the
+limit dies); it is continuous (``S = I``) at a plain saturation, at the clamp's
+``e = 0`` and where a slide ends.  Damped Newton
 (Armijo backtracking on the scaled residual) solves ``R = 0``.  The eigenvalues of
 ``M`` are the Floquet multipliers: one is the trivial 1 of an autonomous orbit
 (its distance from 1 measures the accuracy), the orbit is stable iff all others
@@ -39,14 +52,16 @@ lie inside the unit circle.  Unstable orbits are found as easily as stable ones.
 
 **State.**  ``q`` holds the loop states of
 :meth:`~backlash_df.loops.DriveLoop.linear_part` (``theta_d``, ``motor_speed``,
-``load_speed``, ``integrator``, then ``filtered_speed`` and ``motor_torque`` if
-present), then ``pade_1 .. pade_p`` if the loop has a dead time, then ``theta_b``
-for the exact model.  :func:`orbit_state_names` lists them.
+``load_speed``, then ``load_angle``, the controllers' states, ``filtered_speed`` and
+``motor_torque`` where present), then ``pade_1 .. pade_p`` if the loop has a dead
+time (``pade1_1 .. pade2_p`` for the speed and the position of a cascade), then
+``theta_b`` for the exact model.  :func:`orbit_state_names` lists them.
 
-**Dead time.**  An orbit with a delay is infinite-dimensional; here the delay of the
-measured speed is replaced by its Pade approximant of order ``pade_order`` (default 6)
-in the loop's state space, realised by :func:`backlash_df.system.with_pade` (the
-realisation the verdict's poles use).  The tests check that the orbit converges with
+**Dead time.**  An orbit with a delay is infinite-dimensional; here the delay of
+each measured signal is replaced by its Pade approximant of order ``pade_order``
+(default 6) in the loop's state space, realised by
+:func:`backlash_df.system.with_pade` (the realisation the verdict's poles use), the
+torque command carried over to its states.  The tests check that the orbit converges with
 the order (orders 4 and 6 agree to 1e-9 in amplitude on a near-critical tuning).
 
 **Not supported** (a ``ValueError`` says so): the rubber law with ``beta > 0`` (36)
@@ -74,7 +89,17 @@ from .models import (
 )
 from .plotting import ResultPlot, axes_or_new
 from .simulation import MeasuredCycle, SimulationResult, default_step, simulate_linear, upward_crossings
-from .system import closed_loop_matrix, exp_ladder, mode_matrices, with_pade
+from .system import (
+    COMMAND_MODES,
+    closed_loop_matrix,
+    command_index,
+    command_matrices,
+    command_mode_of,
+    exp_ladder,
+    initial_command_mode,
+    mode_matrices,
+    with_pade,
+)
 
 __all__ = [
     "OrbitNotFound",
@@ -94,6 +119,8 @@ _FIRST_TRY = 8  # Newton iterations from a harmonic seed before relaxing it by s
 _RELAX_PERIODS = 40  # seed periods simulated to relax a seed
 _COLLAPSED = 1e-6  # an orbit whose peak is below this fraction of alpha has collapsed (rest)
 _LEVELS = 53  # dyadic rungs step 2^-j: events located to 2^-52 of a sample step
+_SIDES = (-1, 0, 1)  # backlash modes in the order of mode_matrices: left contact, free, right contact
+_ON_LIMIT = {0: (True, True), 1: (True, False), 2: (False, True), 3: (False, False)}  # exits on u = +-limit, by |c|
 
 
 class OrbitNotFound(ValueError):
@@ -171,9 +198,13 @@ def _orbit_law(model, rig):
 class _Loop:
     """The closed loop as a piecewise-affine hybrid system (see module docs).
 
-    ``aug[m]`` is the augmented matrix ``[[F_m, g_m], [0, 0]]`` of mode ``m`` over
-    ``[q, 1]``, from :func:`backlash_df.system.mode_matrices` (the simulation
-    kernel's own), with the constant load torque in ``g_m`` and the speed reference 0.
+    A mode is a pair ``(backlash mode, command mode)``: -1 left contact, 0 free, +1
+    right contact; the command's of :data:`~backlash_df.system.COMMAND_MODES` (0
+    linear, +-1 saturated, +-2 the integrator clamped, +-3 sliding on the limit;
+    always 0 without a torque limit).  ``aug[mode]`` is the augmented matrix
+    ``[[F, g], [0, 0]]`` over ``[q, 1]`` from :func:`~backlash_df.system.mode_matrices`
+    and :func:`~backlash_df.system.command_matrices` (the simulation kernel's own),
+    with the constant load torque in ``g`` and the reference 0.
     """
 
     def __init__(self, rig, model, pade_order):
@@ -181,14 +212,13 @@ class _Loop:
         self.model, self.exact = model, self.law == EXACT
         self.k, self.c, self.alpha = model.stiffness, model.damping, model.half_gap
         part = drive_loop(rig).linear_part()
-        contact = closed_loop_matrix(part, self.k, self.c)
-        self.fast = max(np.abs(np.linalg.eigvals(contact)).max(), 1e-3, 1.0 / part.delay if part.delay else 0.0)
+        constant = np.array([0.0, rig.load.torque])  # reference 0, the load torque
+        self.fast = _fastest_rate(part, model, self.law, constant)
         self.pade_order = int(pade_order) if part.delay > 0.0 else 0
         self.part = with_pade(part, pade_order) if part.delay > 0.0 else part
         n = self.part.A.shape[0]
         keep = list(range(n)) + ([n] if self.exact else []) + [n + 1]  # q = [z, (theta_b)], then 1
-        matrices = mode_matrices(self.part, model, self.law, [], np.array([0.0, rig.load.torque]))
-        self.aug = {side: m_aug[np.ix_(keep, keep)] for side, m_aug in zip((-1, 0, 1), matrices)}
+        matrices = mode_matrices(self.part, model, self.law, [], constant)
         self.size = len(keep) - 1
         self.names = self.part.state_names + (("theta_b",) if self.exact else ())
         pad = np.zeros(self.size - n)
@@ -198,6 +228,17 @@ class _Loop:
         self.rows = np.array([self.c_x, self.c_v, e_b])  # (theta_d, dtheta_d, theta_b) = rows @ q
         self.damping_on = 0.0 if self.law == DEAD_ZONE else self.c
         self._ladders = {}
+        command = self.part.command
+        self.limit = 0.0 if command is None else command.limit
+        if command is None:
+            self.aug = {(side, 0): m_aug[np.ix_(keep, keep)] for side, m_aug in zip(_SIDES, matrices)}
+            return
+        self.clamps = command.integrator >= 0
+        per_mode, u_row, e_row, rates = command_matrices(self.part, matrices, [], constant)
+        self.aug = {(side, c): per_mode[b, command_index(c)][np.ix_(keep, keep)]
+                    for b, side in enumerate(_SIDES) for c in (COMMAND_MODES if self.clamps else COMMAND_MODES[:3])}
+        self.u_row, self.e_row = u_row[keep], e_row[keep]
+        self.rates = {(side, s): rates[b, 0 if s > 0 else 1][:, keep] for b, side in enumerate(_SIDES) for s in (1, -1)}
 
     # ------------------------------------------------------------------ modes and boundaries
 
@@ -208,30 +249,115 @@ class _Loop:
 
     def torque(self, mode, q):
         """Shaft torque (N m) of ``mode`` at ``q``."""
-        if mode == 0:
+        side = mode[0]
+        if side == 0:
             return 0.0
         x, v = self.c_x @ q, self.c_v @ q
-        return self.k * (x - mode * self.alpha) + self.damping_on * v
+        return self.k * (x - side * self.alpha) + self.damping_on * v
+
+    def command_row(self, mode):
+        """The torque command ``clip(u, -limit, limit)`` of ``mode`` as a row over ``[q, 1]`` (N m)."""
+        if mode[1] == 0:
+            return self.u_row
+        row = np.zeros(self.size + 1)
+        row[-1] = math.copysign(self.limit, mode[1])
+        return row
+
+    def _command_exits(self, mode, q):
+        """``[(value, gradient)]`` of the command's exit functions in ``mode`` (a value > 0: the mode is left).
+
+        Linear: ``u - limit``, ``-u - limit``; saturated on the side ``s``: ``limit -
+        s u`` (and ``s e``: the clamp engages); clamped: ``-s e`` (released), ``limit -
+        s u``; sliding: ``s du/dt`` with the integrator clamped (pushed off the limit:
+        clamped) and ``-s du/dt`` integrating (pulled back inside: linear).  The
+        values are formed from ``u``, ``e`` and the rates as
+        :func:`~backlash_df.system.command_mode_of` compares them, so that a value
+        past zero and its test there agree to the last bit.
+        """
+        side, command = mode
+        limit, du, de = self.limit, self.u_row[:-1], self.e_row[:-1]
+        u = du @ q + self.u_row[-1]
+        if command == 0:
+            return [(u - limit, du), (-u - limit, -du)]
+        s = 1 if command > 0 else -1
+        e = de @ q + self.e_row[-1]
+        if abs(command) == 1:
+            return [(limit - s * u, -s * du)] + ([(s * e, s * de)] if self.clamps else [])
+        if abs(command) == 2:
+            return [(-s * e, -s * de), (limit - s * u, -s * du)]
+        rates = self.rates[(side, s)]
+        clamped, integrating = rates @ np.append(q, 1.0)
+        return [(s * clamped, s * rates[0, :-1]), (-s * integrating, -s * rates[1, :-1])]
 
     def exits(self, mode, q):
-        """``[(target mode, value, gradient in q)]``: the mode is left where a value turns > 0."""
+        """``[(label, value, gradient in q)]``: the mode is left where a value turns > 0.
+
+        ``label`` is the backlash mode a contact or release enters, None for a
+        boundary of the command's modes (whose target :meth:`target` finds).
+        """
+        side = mode[0]
         x, v, tb = self.rows @ q
         args = (self.law, self.k, self.c, self.alpha, x, v, tb)
-        if mode == 0:
+        if side == 0:
             items = [(1, _contact_right(*args)), (-1, _mirrored(_contact_right, *args))]
-            return [(target, value, np.asarray(grad) @ self.rows) for target, (value, grad) in items]
-        value, grad = _release_right(*args) if mode > 0 else _mirrored(_release_right, *args)
-        return [(0, -value, -(np.asarray(grad) @ self.rows))]
+            out = [(target, value, np.asarray(grad) @ self.rows) for target, (value, grad) in items]
+        else:
+            value, grad = _release_right(*args) if side > 0 else _mirrored(_release_right, *args)
+            out = [(0, -value, -(np.asarray(grad) @ self.rows))]
+        if self.limit:
+            out += [(None, value, grad) for value, grad in self._command_exits(mode, q)]
+        return out
+
+    def on_limit(self, before, after):
+        """Indices of the exits of ``after`` that start on the limit: those of the ``u = +-limit`` surface
+        when the event ends a slide along it (the state is on it, the flow leaves it tangentially)."""
+        if not self.limit or abs(before[1]) != 3 or abs(after[1]) == 3:
+            return frozenset()
+        first = 2 if after[0] == 0 else 1  # the backlash exits come first
+        return frozenset(first + i for i, flag in enumerate(_ON_LIMIT[abs(after[1])]) if flag)
+
+    def command_mode(self, side, command, q):
+        """Command mode at ``q`` reached in ``command`` with the backlash in ``side``, by
+        :func:`~backlash_df.system.command_mode_of` (as the simulation kernels decide it)."""
+        u = self.u_row[:-1] @ q + self.u_row[-1]
+        if command:
+            limit_side = 1 if command > 0 else -1
+        else:
+            limit_side = 1 if u > self.limit else (-1 if u < -self.limit else 0)
+        if limit_side == 0:
+            return 0
+        clamped, integrating = self.rates[(side, limit_side)] @ np.append(q, 1.0)
+        return int(command_mode_of(command, u, self.e_row[:-1] @ q + self.e_row[-1], clamped, integrating,
+                                   self.limit, self.clamps))
+
+    def target(self, mode, label, q):
+        """Mode entered at an event of ``mode``'s exit ``label`` at the state ``q`` just past it."""
+        side = mode[0] if label is None else label
+        if not self.limit:
+            return side, 0
+        command = self.command_mode(side, mode[1], q)
+        if label is None and command == mode[1]:
+            raise OrbitNotFound("the orbit grazes a boundary of the torque command's modes (no switch at its event)")
+        return side, command
 
     def initial_mode(self, q):
-        """Mode at a section point: contact where both the contact and the holding function allow it."""
+        """Mode at a section point.
+
+        Backlash: contact where both the contact and the holding function allow it.
+        Command: :func:`~backlash_df.system.initial_command_mode`, as the simulation
+        kernels start a run.
+        """
         x, v, tb = self.rows @ q
         args = (self.law, self.k, self.c, self.alpha, x, v, tb)
+        side = 0
         if _contact_right(*args)[0] >= 0.0 and _release_right(*args)[0] >= 0.0:
-            return 1
-        if _mirrored(_contact_right, *args)[0] >= 0.0 and _mirrored(_release_right, *args)[0] >= 0.0:
-            return -1
-        return 0
+            side = 1
+        elif _mirrored(_contact_right, *args)[0] >= 0.0 and _mirrored(_release_right, *args)[0] >= 0.0:
+            side = -1
+        if not self.limit:
+            return side, 0
+        u, e = self.u_row[:-1] @ q + self.u_row[-1], self.e_row[:-1] @ q + self.e_row[-1]
+        return side, int(initial_command_mode(u, e, self.limit, self.clamps))
 
     def after_event(self, before, target, q, monodromy):
         """State and monodromy continued into ``target``: the exact model's theta_b set on its stop (14).
@@ -239,12 +365,12 @@ class _Loop:
         At contact and at release theta_b sits on the stop of the side touched
         (``+-alpha``): the projection removes round-off, and its derivative (the
         theta_b row zeroed) enters the monodromy; at contact the saltation matrix
-        has zeroed that row already.
+        has zeroed that row already.  Command events leave theta_b alone.
         """
-        if not self.exact:
+        if not self.exact or before[0] == target[0]:
             return q, monodromy
         q, monodromy = q.copy(), monodromy.copy()
-        q[-1] = (target or before) * self.alpha
+        q[-1] = (target[0] or before[0]) * self.alpha
         monodromy[-1] = 0.0
         return q, monodromy
 
@@ -253,7 +379,7 @@ class _Loop:
         f_before, f_after = self.field(before, q), self.field(after, q)
         rate = normal @ f_before
         if not abs(rate) > 1e-300:
-            raise OrbitNotFound("the orbit grazes a contact boundary (zero crossing rate): no saltation matrix")
+            raise OrbitNotFound("the orbit grazes a switching boundary (zero crossing rate): no saltation matrix")
         return np.eye(self.size) + np.outer(f_after - f_before, normal) / rate
 
     # ------------------------------------------------------------------ flow
@@ -281,29 +407,35 @@ class _Loop:
         """Affine map of an augmented transition matrix on a state."""
         return e_aug[:-1, :-1] @ q + e_aug[:-1, -1]
 
-    def segment(self, mode, q, remaining, step, track, start=0.0):
+    def segment(self, mode, q, remaining, step, track, start=0.0, on_limit=frozenset()):
         """Flow in ``mode`` for at most ``remaining`` s; returns (duration, state, exit or None, transition).
 
         Samples every ``step`` s check the exit functions (and, by a cubic Hermite
         fit of value and slope, an excursion past zero between two samples); a
-        crossing is located by :meth:`locate`.  ``track`` collects ``(start + t, q,
-        mode)``; the transition is the augmented matrix from ``q`` to the returned state.
+        crossing is located by :meth:`locate`, the earliest of several in one
+        sample interval taken.  ``on_limit``: exits that start on their boundary
+        (:meth:`on_limit`), not checked at the start nor for an excursion in the
+        first interval.  ``track`` collects ``(start + t, q, mode)``; the exit is
+        ``(label, index)`` of :meth:`exits`; the transition is the augmented matrix
+        from ``q`` to the returned state.
         """
         ladder = self.ladder(mode, step)
         transition = np.eye(self.size + 1)
         t_a, q_a, ex_a = 0.0, q, self.exits(mode, q)
-        if any(value > 0.0 for _, value, _ in ex_a):
-            raise OrbitNotFound("a mode is left as soon as it is entered (chattering at a contact boundary)")
+        if any(value > 0.0 for i, (_, value, _) in enumerate(ex_a) if i not in on_limit):
+            raise OrbitNotFound("a mode is left as soon as it is entered (chattering at a switching boundary)")
         while True:
             last = t_a + step >= remaining
             e_step = self.dyadic(ladder, (remaining - t_a) / step) if last else ladder[0]
             q_b = self.apply(e_step, q_a)
             ex_b = self.exits(mode, q_b)
             width = (remaining - t_a) / step if last else 1.0
-            crossing = self._crossing(mode, ladder, q_a, ex_a, ex_b, e_step, width, step)
-            if crossing is not None:
-                index, hi, e_hi = crossing
-                fraction, e_event = self.locate(ladder, q_a, lambda z: self.exits(mode, z)[index][1], hi, e_hi)
+            crossings = self._crossings(mode, ladder, q_a, ex_a, ex_b, e_step, width, step,
+                                        on_limit if t_a == 0.0 else frozenset())
+            if crossings:
+                located = [(*self.locate(ladder, q_a, lambda z, i=index: self.exits(mode, z)[i][1], hi, e_hi), index)
+                           for index, hi, e_hi in crossings]
+                fraction, e_event, index = min(located, key=lambda item: item[0])
                 return t_a + fraction * step, self.apply(e_event, q_a), (ex_a[index][0], index), e_event @ transition
             transition = e_step @ transition
             if track is not None:
@@ -312,23 +444,28 @@ class _Loop:
                 return remaining, q_b, None, transition
             t_a, q_a, ex_a = t_a + step, q_b, ex_b
 
-    def _crossing(self, mode, ladder, q_a, ex_a, ex_b, e_step, width, step):
-        """(exit index, bracket end as a fraction of the step, its transition) of the first exit crossed, or None.
+    def _crossings(self, mode, ladder, q_a, ex_a, ex_b, e_step, width, step, skip):
+        """[(exit index, bracket end as a fraction of the step, its transition)] of the exits crossed.
 
-        The sample interval is ``width`` steps of ``step`` s (1, or less at the end of the flow).
+        The sample interval is ``width`` steps of ``step`` s (1, or less at the end
+        of the flow); the exits in ``skip`` are not checked for an excursion.
         """
         q_b = self.apply(e_step, q_a)
         length = width * step
+        found = []
         for index, ((_, v_a, n_a), (_, v_b, n_b)) in enumerate(zip(ex_a, ex_b)):
             if v_b > 0.0:
-                return index, width, e_step
+                found.append((index, width, e_step))
+                continue
+            if index in skip:
+                continue
             slope_a, slope_b = n_a @ self.field(mode, q_a), n_b @ self.field(mode, q_b)
             if slope_a > 0.0 > slope_b:  # a maximum between the samples: could it peek past zero?
                 if _hermite_max(v_a, v_b, slope_a * length, slope_b * length) > 0.25 * min(v_a, v_b):
-                    found = self._excursion(mode, ladder, q_a, index, width)
-                    if found is not None:
-                        return (index, *found)
-        return None
+                    peak = self._excursion(mode, ladder, q_a, index, width)
+                    if peak is not None:
+                        found.append((index, *peak))
+        return found
 
     def _excursion(self, mode, ladder, q_a, index, width):
         """Where an exit function between two negative samples peaks above zero: (fraction, transition) or None."""
@@ -373,6 +510,7 @@ class _Loop:
         f_end : ndarray
             Vector field at ``q_end`` (``d phi_T / dT``).
         events : list of (time, from mode, to mode)
+            Modes as ``(backlash mode, command mode)`` pairs.
         segments : list of (start time, mode, start state, duration)
         """
         if not (period > 0.0 and math.isfinite(period)):
@@ -383,23 +521,26 @@ class _Loop:
         events, segments = [], []
         if track is not None:
             track.append((0.0, q, mode))
+        on_limit = frozenset()
         while True:
-            duration, q_end, exit_, transition = self.segment(mode, q, period - t, step, track, t)
+            duration, q_end, exit_, transition = self.segment(mode, q, period - t, step, track, t, on_limit)
             segments.append((t, mode, q, duration))
             monodromy = transition[:-1, :-1] @ monodromy
             t += duration
             if exit_ is None:
                 return q_end, monodromy, self.field(mode, q_end), events, segments
-            target, index = exit_
+            label, index = exit_
             normal = self.exits(mode, q_end)[index][2]
+            target = self.target(mode, label, q_end)
             monodromy = self.saltation(mode, target, q_end, normal) @ monodromy
             q, monodromy = self.after_event(mode, target, q_end, monodromy)
             events.append((t, mode, target))
+            on_limit = self.on_limit(mode, target)
             mode = target
             if track is not None:
                 track.append((t, q, mode))
             if len(events) > _MAX_EVENTS:
-                raise OrbitNotFound(f"more than {_MAX_EVENTS} contact events in one period (chattering)")
+                raise OrbitNotFound(f"more than {_MAX_EVENTS} switching events in one period (chattering)")
 
     def residual(self, unknowns, track=None):
         """Shooting residual and its exact Jacobian (module docs) at ``unknowns = (q0, T)``."""
@@ -427,12 +568,24 @@ class _Loop:
         phasor = response * (amplitude / (c_x @ response))
         border = np.zeros((n + 1, n + 1))
         border[:n, :n], border[:n, n], border[n, :n] = a_mat, b, c_x
-        rhs = np.concatenate([-self.aug[0][:n, -1], [bias]])
+        rhs = np.concatenate([-self.aug[0, 0][:n, -1], [bias]])
         mean = np.linalg.lstsq(border, rhs, rcond=None)[0][:n]
         q = mean + phasor.real  # omega t = pi / 2: theta_d = bias + A, dtheta_d = 0
         if self.exact:
             q = np.append(q, math.copysign(self.alpha, amplitude))
         return q
+
+
+def _fastest_rate(part, model, law, constant):
+    """Largest eigenvalue modulus (1/s) of the loop in contact, and of the torque command's modes in contact,
+    the dead time's term left out (:func:`~backlash_df.system.closed_loop_matrix`); at least ``1 / delay``."""
+    rates = [np.abs(np.linalg.eigvals(closed_loop_matrix(part, model.stiffness, model.damping))).max(), 1e-3,
+             1.0 / part.delay if part.delay else 0.0]
+    if part.command is not None:
+        n = part.A.shape[0]
+        contact = command_matrices(part, mode_matrices(part, model, law, [], constant), [], constant)[0][2]
+        rates += [np.abs(np.linalg.eigvals(m_aug[:n, :n])).max() for m_aug in contact]
+    return max(rates)
 
 
 @functools.lru_cache(maxsize=32)
@@ -495,6 +648,21 @@ class PeriodicOrbit:
         Order of the dead time's Pade approximant (0: no dead time).
     time, theta_d, dtheta_d, torque : ndarray
         One period sampled from the section (s, rad, rad/s, N m), for plots.
+    torque_limit : float
+        The loop's limit of the torque command, N m (0: none; the command
+        attributes below are then NaN, 0, empty and None).
+    command_amplitude : float
+        First-harmonic amplitude of the torque command ``clip(u, -limit, limit)``, N m,
+        integrated exactly per mode.
+    saturated_time, clamped_time : float
+        Time per period (s) with the command on its limit, and with the PI's
+        integrator clamped or sliding along the limit (a part of it).
+    command_events : tuple of (float, int, int)
+        ``(time after the section in s, command mode before, after)`` for every
+        switch of the command's mode (:data:`~backlash_df.system.COMMAND_MODES`: 0
+        linear, +-1 saturated, +-2 the integrator clamped, +-3 sliding on the limit).
+    command : ndarray or None
+        The torque command at the samples of ``time``, N m.
     """
 
     period: float
@@ -514,6 +682,17 @@ class PeriodicOrbit:
     theta_d: np.ndarray = dataclasses.field(default=None, compare=False)
     dtheta_d: np.ndarray = dataclasses.field(default=None, compare=False)
     torque: np.ndarray = dataclasses.field(default=None, compare=False)
+    torque_limit: float = 0.0
+    command_amplitude: float = math.nan
+    saturated_time: float = 0.0
+    clamped_time: float = 0.0
+    command_events: tuple = ()
+    command: np.ndarray = dataclasses.field(default=None, compare=False)
+
+    @property
+    def saturated_fraction(self):
+        """Share of the period with the torque command on its limit (0 without a limit)."""
+        return self.saturated_time / self.period
 
     @property
     def max_multiplier(self):
@@ -524,10 +703,21 @@ class PeriodicOrbit:
         kind = "stable" if self.stable else "unstable"
         return (f"PeriodicOrbit({self.model}: A={self.amplitude:.6g} rad, peak={self.peak:.6g} rad, "
                 f"omega={self.omega:.6g} rad/s, bias={self.bias:.3g} rad, {kind}, "
-                f"|mu|max={self.max_multiplier:.4g})")
+                f"|mu|max={self.max_multiplier:.4g}{self._command_text()})")
+
+    def _command_text(self):
+        if not self.torque_limit:
+            return ""
+        return (f", command {self.command_amplitude:.4g} N m, on its limit {100 * self.saturated_fraction:.0f} % "
+                f"of T")
 
     def to_dict(self):
-        """JSON-ready summary: rad, rad/s, s; multipliers as ``[re, im]`` pairs, the trivial one first."""
+        """JSON-ready summary: rad, rad/s, s, N m; multipliers as ``[re, im]`` pairs, the trivial one first.
+
+        ``command`` is null without a torque limit, else ``{"limit", "amplitude",
+        "saturated_time", "saturated_fraction", "clamped_time", "events"}`` (N m, s;
+        ``events``: switches of the command's mode per period).
+        """
         return {
             "model": self.model,
             "amplitude": float(self.amplitude),
@@ -541,6 +731,14 @@ class PeriodicOrbit:
             "residual": float(self.residual),
             "events": len(self.events),
             "pade_order": int(self.pade_order),
+            "command": None if not self.torque_limit else {
+                "limit": float(self.torque_limit),
+                "amplitude": float(self.command_amplitude),
+                "saturated_time": float(self.saturated_time),
+                "saturated_fraction": float(self.saturated_fraction),
+                "clamped_time": float(self.clamped_time),
+                "events": len(self.command_events),
+            },
         }
 
     def plot(self, ax=None):
@@ -553,7 +751,7 @@ class PeriodicOrbit:
         Returns
         -------
         ResultPlot
-            Axes ``[theta_d(t), T(t), phase plane]``.
+            Axes ``[theta_d(t), T(t) (and the torque command, if limited), phase plane]``.
         """
         import matplotlib.pyplot as plt
 
@@ -565,8 +763,11 @@ class PeriodicOrbit:
         figure, ax = axes_or_new(ax)
         ax[0].plot(self.time, self.theta_d)
         ax[0].set_ylabel("theta_d (rad)")
-        ax[1].plot(self.time, self.torque)
-        ax[1].set_ylabel("shaft torque T (N m)")
+        ax[1].plot(self.time, self.torque, label="shaft torque T")
+        if self.command is not None:
+            ax[1].plot(self.time, self.command, label="torque command")
+            ax[1].legend(loc="best", fontsize="small")
+        ax[1].set_ylabel("shaft torque T (N m)" if self.command is None else "torque (N m)")
         ax[1].set_xlabel("time from the section (s)")
         ax[2].plot(self.theta_d, self.dtheta_d)
         ax[2].set_xlabel("theta_d (rad)")
@@ -585,7 +786,8 @@ def orbit_state_names(rig, model=None, *, pade_order=DEFAULT_PADE_ORDER):
     Returns
     -------
     tuple of str
-        The loop's states, then ``pade_1 ..`` (dead time), then ``theta_b`` (exact model).
+        The loop's states, then ``pade_1 ..`` (dead time; ``pade1_1 .. pade2_p`` for
+        the two measured signals of a cascade), then ``theta_b`` (exact model).
     """
     return _loop(rig, _resolve_model(rig, model), pade_order).names
 
@@ -723,14 +925,14 @@ def _newton(loop, unknowns, tol, max_iter):
         try:
             step = np.linalg.solve(jacobian, -residual)
         except np.linalg.LinAlgError:
-            raise OrbitNotFound(f"singular shooting Jacobian with {len(events)} contact events per period "
+            raise OrbitNotFound(f"singular shooting Jacobian with {len(_contacts(events))} contact events per period "
                                 "(Newton heading for rest, or a degenerate orbit)") from None
         damping = min(1.0, _MAX_STEP / np.abs(step / scale).max())
         while True:
             trial = unknowns + damping * step
             try:
                 out = loop.residual(trial)
-                trial_norm = np.abs(out[0] / scale).max() if out[3] or not events else math.inf
+                trial_norm = np.abs(out[0] / scale).max() if _contacts(out[3]) or not _contacts(events) else math.inf
             except OrbitNotFound:
                 trial_norm = math.inf
             if trial_norm < (1.0 - 1e-4 * damping) * norm:
@@ -817,12 +1019,12 @@ def _is_simulation(seed):
 def _solve(loop, unknowns, tol, max_iter):
     """Newton from packed unknowns to a :class:`PeriodicOrbit` with shaft contact."""
     unknowns, norm, monodromy, events, _ = _newton(loop, unknowns, tol, max_iter)
-    if not events:
+    if not _contacts(events):
         raise OrbitNotFound("Newton converged to a motion without shaft contact (rest or drift in the gap)")
     orbit = _orbit(loop, unknowns, norm, monodromy, events)
     if orbit.peak < _COLLAPSED * loop.alpha:
         raise OrbitNotFound(f"Newton converged to rest against a side of the gap (peak {orbit.peak:.2g} rad, "
-                            f"{len(events)} events): a sliding contact, not a limit cycle")
+                            f"{len(_contacts(events))} events): a sliding contact, not a limit cycle")
     return orbit
 
 
@@ -855,14 +1057,28 @@ def _orbit(loop, unknowns, norm, monodromy, events):
     torque = np.array([loop.torque(mode, q) for _, q, mode in track])
     scale = _scales(loop, track, period)[:-1]
     multipliers = _sorted_multipliers(monodromy, loop.field(loop.initial_mode(q0), q0), scale)
+    command = {}
+    if loop.limit:
+        command = {
+            "torque_limit": float(loop.limit), "command_amplitude": float(abs(first[1])),
+            "saturated_time": float(sum(duration for _, mode, _, duration in segments if mode[1] != 0)),
+            "clamped_time": float(sum(duration for _, mode, _, duration in segments if abs(mode[1]) >= 2)),
+            "command_events": tuple((float(t), int(a[1]), int(b[1])) for t, a, b in events if a[1] != b[1]),
+            "command": np.array([loop.command_row(mode) @ np.append(q, 1.0) for _, q, mode in track]),
+        }
     return PeriodicOrbit(
-        period=period, omega=omega, amplitude=float(abs(first)), peak=_peak(loop, track, period, mean),
-        bias=float(mean),
+        period=period, omega=omega, amplitude=float(abs(first[0])), peak=_peak(loop, track, period, mean[0]),
+        bias=float(mean[0]),
         multipliers=multipliers, stable=bool(np.all(np.abs(multipliers[1:]) < 1.0)), state=q0.copy(),
-        residual=float(norm), events=tuple((float(t), int(a), int(b)) for t, a, b in events),
+        residual=float(norm), events=tuple((float(t), int(a[0]), int(b[0])) for t, a, b in _contacts(events)),
         model=loop.model.name, state_names=loop.names, pade_order=loop.pade_order,
-        time=time, theta_d=states @ loop.c_x, dtheta_d=states @ loop.c_v, torque=torque,
+        time=time, theta_d=states @ loop.c_x, dtheta_d=states @ loop.c_v, torque=torque, **command,
     )
+
+
+def _contacts(events):
+    """The contacts and releases among events of ``(time, mode, mode)`` (the backlash mode changes)."""
+    return [event for event in events if event[1][0] != event[2][0]]
 
 
 def _sorted_multipliers(monodromy, rate, scale):
@@ -883,28 +1099,37 @@ def _sorted_multipliers(monodromy, rate, scale):
 
 
 def _harmonics(loop, segments, omega):
-    """First-harmonic coefficient ``2/T int theta_d e^{-jwt} dt`` and mean of theta_d, exact per segment.
+    """First-harmonic coefficients ``2/T int y e^{-jwt} dt`` and means of theta_d and the torque command, exact.
 
     Per segment, the products ``q (cos wt, sin wt, 1)`` obey the linear system
     ``M (x) I + I (x) W`` (Kronecker; ``W`` generates the rotation), so their
-    integrals against theta_d are one matrix exponential.
+    integrals against the outputs ``y`` (theta_d, and ``clip(u, -limit, limit)``
+    with a torque limit: affine in each mode) are one matrix exponential.
+
+    Returns
+    -------
+    first, mean : ndarray
+        Complex coefficients and means: theta_d (rad), then the command (N m) if limited.
     """
     size = loop.size + 1
     rotation = np.array([[0.0, -omega, 0.0], [omega, 0.0, 0.0], [0.0, 0.0, 0.0]])
     c_aug = np.append(loop.c_x, 0.0)
     width = 3 * size
-    integrals = np.zeros(3)
+    outputs = 2 if loop.limit else 1
+    integrals = np.zeros(3 * outputs)
     for start, mode, q, duration in segments:
         if duration <= 0.0:
             continue
-        system = np.zeros((width + 3, width + 3))
+        rows = np.array([c_aug, loop.command_row(mode)] if loop.limit else [c_aug])
+        system = np.zeros((width + 3 * outputs, width + 3 * outputs))
         system[:width, :width] = np.kron(loop.aug[mode], np.eye(3)) + np.kron(np.eye(size), rotation)
-        system[width:, :width] = np.kron(c_aug, np.eye(3))
+        system[width:, :width] = np.kron(rows, np.eye(3))
         initial = np.concatenate([np.kron(np.append(q, 1.0), [math.cos(omega * start), math.sin(omega * start), 1.0]),
-                                  np.zeros(3)])
+                                  np.zeros(3 * outputs)])
         integrals += (exp_ladder(system, duration, 1)[0] @ initial)[width:]
     period = 2.0 * math.pi / omega
-    return 2.0 * (integrals[0] - 1j * integrals[1]) / period, integrals[2] / period
+    integrals = integrals.reshape(outputs, 3)
+    return 2.0 * (integrals[:, 0] - 1j * integrals[:, 1]) / period, integrals[:, 2] / period
 
 
 def _peak(loop, track, period, mean):

@@ -10,7 +10,7 @@ import io
 import math
 
 __all__ = ["figure_png", "figure_html", "table_html", "html_page", "signed_percent", "ROUNDOFF", "roundoff_zero",
-           "text_table"]
+           "bias_text", "text_table"]
 
 #: Relative size below which a computed value is round-off: printed as 0 (the JSON keeps the value).
 ROUNDOFF = 1e-12
@@ -121,3 +121,12 @@ def text_table(header, rows):
         raise ValueError(f"cells for columns not in the header: {', '.join(sorted(unknown))}")
     kept = [name for index, name in enumerate(header) if index == 0 or any(row.get(name, "") for row in rows)]
     return kept, [[row.get(name, "") for name in kept] for row in rows]
+
+
+def bias_text(bias, amplitude, digits=4):
+    """A cycle's bias (mean of theta_d, rad) as text; ``0`` where it is round-off (:func:`roundoff_zero`).
+
+    A symmetric cycle's computed mean is zero to round-off (``-5.9e-16`` rad on a
+    0.11 rad cycle); the JSON documents keep the computed value.
+    """
+    return f"{roundoff_zero(bias, amplitude):.{digits}g}"

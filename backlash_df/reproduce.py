@@ -46,7 +46,7 @@ import numpy as np
 from ._json import json_ready
 from .config import Plant
 from .models import exact_step, make_model, mode_torque
-from .plotting import ResultPlot, axes_or_new
+from .plotting import ResultPlot, axes_or_new, legend_beside
 from .simulation import simulate_two_mass
 
 __all__ = [
@@ -318,8 +318,9 @@ class TorqueComparison:
         Returns
         -------
         ResultPlot
+            One panel; the legend beside it.
         """
-        figure, axes = axes_or_new(ax, figsize=(8, 4), layout="constrained")
+        figure, axes = axes_or_new(ax, figsize=(9.5, 4), layout="constrained")
         ax = axes[0]
         t_ms = 1e3 * (self.time - self.time[0])
         styles = {"exact": dict(color="k", lw=2.5, alpha=0.5)}
@@ -328,8 +329,8 @@ class TorqueComparison:
         ax.axhline(0.0, color="0.6", lw=0.6)
         ax.set_xlabel("time in cycle (ms)")
         ax.set_ylabel("shaft torque T (N m)")
-        ax.set_title(f"{self.setup.name}: simulated with the {self.driver} law")
-        legend = ax.legend(fontsize=8)
+        ax.set_title(f"{self.setup.name}: simulated with the {self.driver} law", fontsize="medium")
+        legend = legend_beside(ax, fontsize=8)
         return ResultPlot(figure, axes, legend)
 
 
@@ -490,9 +491,9 @@ class TableOne:
         Returns
         -------
         ResultPlot
-            Axes ``[integral error, RMS error]``.
+            Axes ``[integral error, RMS error]``; the legend beside the first.
         """
-        figure, axes = axes_or_new(ax, (2, 1), sharex=True, figsize=(8, 6), layout="constrained")
+        figure, axes = axes_or_new(ax, (2, 1), sharex=True, figsize=(9.5, 6), layout="constrained")
         setups = [comparison.setup.name for comparison in self.comparisons]
         names = list(dict.fromkeys(row["model"] for row in self.rows if row["model"] != "exact"))
         width = 0.8 / max(len(names), 1)
@@ -508,8 +509,9 @@ class TableOne:
             ax.set_ylabel(label)
             ax.grid(True, axis="y", alpha=0.3)
         axes[1].set_xticks(np.arange(len(setups)), setups)
-        axes[0].set_title("Table I: each law along the simulated cycle against the exact model (1), (14)")
-        legend = axes[0].legend(fontsize=8)
+        axes[0].set_title("Table I: each law along the simulated cycle against the exact model (1), (14)",
+                          fontsize="medium")
+        legend = legend_beside(axes[0], fontsize=8)
         return ResultPlot(figure, axes, legend)
 
 

@@ -6,7 +6,10 @@ those values (:func:`rig_with`) is analysed by the describing function
 biased prediction of the dual-input describing function) and, optionally, simulated in
 closed loop.  The cells run on any :class:`concurrent.futures.Executor` (a
 process pool, or ``dask.distributed.Client.get_executor()``); ``None`` runs
-them one after the other.  The results do not depend on the executor.
+them one after the other.  The results do not depend on the executor.  Each cell
+is kept, as it finishes, in a checkpoint if one is given
+(:class:`~backlash_df.checkpoint.Checkpoint`): a map that is stopped resumes with
+the cells it has, and is identical to an uninterrupted one.
 
 Every cell gets a verdict per model, the classes of ``predict``:
 
@@ -34,17 +37,21 @@ import math
 import numpy as np
 
 from ._json import json_ready
-from .config import rig_from_dict
+from .checkpoint import describe, opened, run_cells
+from .config import RANGES, rig_from_dict
 from .limit_cycles import predict_limit_cycles, verify_limit_cycles
 from .loops import drive_loop
-from .plotting import ResultPlot, axes_or_new
+from .plotting import ResultPlot, axes_or_new, cell_edges, label_contours, legend_beside, log_scale
 from .report import figure_html, html_page, table_html
 from .verdict import VERDICTS, linear_stability
 
-__all__ = ["VERDICTS", "rig_with", "DesignMap", "design_map", "design_map_plot", "prediction_verdict",
-           "simulation_verdict", "run_cells"]
+__all__ = ["VERDICTS", "VERDICT_CODES", "rig_with", "value_label", "DesignMap", "design_map", "design_map_plot",
+           "prediction_verdict", "simulation_verdict", "run_cells"]
 
 _COLOURS = ("#d9f0d3", "#d6604d", "#f4a582", "#762a83", "#bababa")
+
+#: One character per verdict in the text grids of :meth:`DesignMap.tables`.
+VERDICT_CODES = {"no oscillation": ".", "limit cycle": "C", "bistable": "B", "unstable": "U", "undetermined": "?"}
 
 
 # --------------------------------------------------------------------------- rig values
@@ -106,6 +113,18 @@ def rig_with(rig, parameter, value):
         return tuned
     users = {name: getattr(rig.controller, name) for name in ("speed_controller", "position_controller")}
     return dataclasses.replace(tuned, controller=dataclasses.replace(tuned.controller, **users))
+
+
+def value_label(parameter):
+    """An axis label for a rig value: its name and its rig-file unit (:data:`~backlash_df.config.RANGES`).
+
+    Examples
+    --------
+    >>> value_label("ti"), value_label("load.torque"), value_label("gear_ratio")
+    ('ti (s)', 'load.torque (N m)', 'gear_ratio')
+    """
+    unit = RANGES.get(parameter.rsplit(".", 1)[-1], (None, None, ""))[2]
+    return f"{parameter} ({unit})" if unit else parameter
 
 
 # --------------------------------------------------------------------------- verdicts
@@ -199,6 +218,31 @@ class DesignMap:
         """Fraction of cells where the DF and the simulation agree on whether there is a cycle."""
         return float(np.mean(self.predicted[name] == self.simulated[name]))
 
+    def tables(self):
+        """The terminal's verdict grids: ``[(title, header, rows), ...]``, per law the DF's and the simulation's.
+
+        A row per ``x`` value, a column per ``y`` value (labelled with the values),
+        each cell one character of :data:`VERDICT_CODES`; :meth:`sentences` holds the key.
+        """
+        xs, ys = _labels(self.x), _labels(self.y)
+        tables = []
+        for name in self.models:
+            for kind, verdicts in (("DF", self.df_verdict), ("simulation", self.sim_verdict)):
+                if name in verdicts:
+                    rows = [[x, *(VERDICT_CODES[v] for v in row)] for x, row in zip(xs, verdicts[name])]
+                    tables.append((f"{name}, {kind} verdicts:", [f"{self.x_name} \\ {self.y_name}", *ys], rows))
+        return tables
+
+    def sentences(self):
+        """The key of the grids' characters, then per law the DF's cells per verdict and the agreement."""
+        lines = ["  ".join(f"{code} {verdict}" for verdict, code in VERDICT_CODES.items())]
+        for name in self.models:
+            counts = ", ".join(f"{v} {int((self.df_verdict[name] == v).sum())}" for v in VERDICTS)
+            agree = (f"; agrees with simulation on {100 * self.agreement(name):.1f} %" if name in self.sim_verdict
+                     else "")
+            lines.append(f"{name}: DF {counts}{agree}")
+        return lines
+
     def __repr__(self):
         sims = "with simulation" if self.sim_verdict else "DF only"
         return (f"<DesignMap {self.x_name} ({self.x.size}) x {self.y_name} ({self.y.size}), "
@@ -255,16 +299,29 @@ class DesignMap:
         return html_page(title or "Design map", sections)
 
 
+def _labels(values):
+    """Grid values as labels: 4 significant digits, more where two values would read the same."""
+    for digits in range(4, 18):
+        labels = [f"{value:.{digits}g}" for value in values]
+        if len(set(labels)) == len(labels):
+            return labels
+    return [repr(float(value)) for value in values]
+
+
 def _scale(values):
     values = np.asarray(values)
     return "log" if values.size > 2 and np.all(values > 0) and values.max() / values.min() > 20 else "linear"
 
 
-def design_map_plot(dmap, ax=None, levels=6):
+def design_map_plot(dmap, ax=None, levels=4):
     """Draw a design map: one row per model, DF verdicts left, simulation right.
 
-    Colours are the verdict classes (:data:`VERDICTS`), black contours the
-    amplitude A (rad) of the stable cycle.
+    Each cell is coloured by its verdict (:data:`VERDICTS`) and spans halfway to
+    its neighbours (geometric midpoints on a log axis), the outer cells ending at
+    the outer values: the map covers the swept range and no more.  Black
+    contours, labelled, are the amplitude A of theta_d (rad, first harmonic) of
+    the stable cycle; the axes carry the rig values' units
+    (:data:`~backlash_df.config.RANGES`).
 
     Parameters
     ----------
@@ -272,38 +329,44 @@ def design_map_plot(dmap, ax=None, levels=6):
     ax : array of Axes, optional
         Shape (n_models, 2) (or (n_models, 1) without simulation).
     levels : int
-        Number of amplitude contour levels.
+        Number of amplitude contour levels (about: they fall on round values).
 
     Returns
     -------
     ResultPlot
-        Axes of shape (n_models, columns).
+        Axes of shape (n_models, columns); the legend (verdicts and what the
+        contours measure) beside the top right panel.
     """
     from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
     columns = 2 if dmap.sim_verdict else 1
-    figure, axes = axes_or_new(ax, (len(dmap.models), columns), figsize=(4.6 * columns, 3.8 * len(dmap.models)),
+    figure, axes = axes_or_new(ax, (len(dmap.models), columns), figsize=(4.6 * columns + 2.2, 3.8 * len(dmap.models)),
                                sharex=True, sharey=True, layout="constrained")
     axes = np.asarray(axes).reshape(len(dmap.models), columns)
     cmap, norm = ListedColormap(_COLOURS), BoundaryNorm(np.arange(len(VERDICTS) + 1) - 0.5, len(VERDICTS))
+    x_order, y_order = np.argsort(dmap.x), np.argsort(dmap.y)
+    x, y = dmap.x[x_order], dmap.y[y_order]
+    x_edges, y_edges = cell_edges(x, _scale(x)), cell_edges(y, _scale(y))
     for row, name in enumerate(dmap.models):
         panels = [("DF", dmap.df_verdict, dmap.df_amplitude), ("simulation", dmap.sim_verdict, dmap.sim_amplitude)]
         for ax, (kind, verdicts, amplitudes) in zip(axes[row], panels[:columns]):
-            codes = np.vectorize(VERDICTS.index)(verdicts[name])
-            ax.pcolormesh(dmap.x, dmap.y, codes.T, cmap=cmap, norm=norm, shading="nearest")
-            amplitude = np.ma.masked_invalid(amplitudes[name].T)
+            codes = np.vectorize(VERDICTS.index)(verdicts[name])[np.ix_(x_order, y_order)]
+            ax.pcolormesh(x_edges, y_edges, codes.T, cmap=cmap, norm=norm, shading="flat")
+            amplitude = np.ma.masked_invalid(amplitudes[name][np.ix_(x_order, y_order)].T)
+            for axis, values in ((ax.xaxis, x), (ax.yaxis, y)):
+                if _scale(values) == "log":
+                    log_scale(axis, values.min(), values.max())
             if amplitude.count() > 3 and np.ptp(amplitude.compressed()) > 0:
-                drawn = ax.contour(dmap.x, dmap.y, amplitude, levels=levels, colors="k", linewidths=0.8)
-                ax.clabel(drawn, fontsize=7, fmt="%.3g")
-            ax.set_xscale(_scale(dmap.x))
-            ax.set_yscale(_scale(dmap.y))
+                label_contours(ax, ax.contour(x, y, amplitude, levels=levels, colors="k", linewidths=0.8))
             ax.set_title(f"{name}: {kind}", fontsize="medium")
-        axes[row, 0].set_ylabel(dmap.y_name)
+        axes[row, 0].set_ylabel(value_label(dmap.y_name))
     for ax in axes[-1]:
-        ax.set_xlabel(dmap.x_name)
+        ax.set_xlabel(value_label(dmap.x_name))
     handles = [Patch(color=c, label=v) for c, v in zip(_COLOURS, VERDICTS)]
-    legend = axes[0, -1].legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    handles.append(Line2D([], [], color="k", lw=0.8, label="contours: amplitude A\nof theta_d (rad)"))
+    legend = legend_beside(axes[0, -1], handles=handles, fontsize=7)
     return ResultPlot(figure, axes, legend)
 
 
@@ -347,28 +410,8 @@ def _cell(settings, point):
     return out
 
 
-def run_cells(function, items, executor=None):
-    """``[function(item) for item in items]``, on ``executor`` if given (order kept).
-
-    Parameters
-    ----------
-    function : callable
-        A picklable function (module level, or a :func:`functools.partial` of one).
-    items : iterable
-    executor : concurrent.futures.Executor, optional
-        ``None`` runs serially in this process.
-
-    Returns
-    -------
-    list
-    """
-    if executor is None:
-        return [function(item) for item in items]
-    return list(executor.map(function, items))
-
-
 def design_map(rig, x_values, y_values, x="kp", y="ti", models=("phase-plane", "damped-dead-zone"), simulate=True,
-               grid=(30, 40), t_end=10.0, max_t_end=40.0, executor=None):
+               grid=(30, 40), t_end=10.0, max_t_end=40.0, executor=None, checkpoint=None):
     """Scan two rig values: DF verdicts and amplitudes of each model and, optionally, time simulation.
 
     Parameters
@@ -390,18 +433,34 @@ def design_map(rig, x_values, y_values, x="kp", y="ti", models=("phase-plane", "
         Simulated times, s.
     executor : concurrent.futures.Executor, optional
         Runs the cells (a ``ProcessPoolExecutor``, or a Dask client's
-        ``get_executor()``); ``None``: serially.  Results are identical.
+        ``get_executor()``, which runs a cell whose worker dies again on
+        another worker); ``None``: serially.  Results are identical.
+    checkpoint : str, Path or Checkpoint, optional
+        Keeps each finished cell, keyed by its two values, in this file
+        (:class:`~backlash_df.checkpoint.Checkpoint`; a path: a new file).
+        ``Checkpoint(path, resume=True)`` continues a stopped map: the cells kept
+        are not computed again and the map is identical to an uninterrupted one.
+        The file stays when the map is done.
 
     Returns
     -------
     DesignMap
+
+    Raises
+    ------
+    ValueError
+        A bad rig value name or value (before any cell runs); a checkpoint that
+        exists without ``resume`` or that belongs to another map (one line naming
+        the inputs that differ).
     """
     x_values = np.atleast_1d(np.asarray(x_values, dtype=float))
     y_values = np.atleast_1d(np.asarray(y_values, dtype=float))
     settings = _Settings(rig, x, y, tuple(models), bool(simulate), tuple(grid), float(t_end), float(max_t_end))
     rig_with(rig_with(rig, x, x_values[0]), y, y_values[0])  # bad names fail here, not in a worker
     points = [(float(a), float(b)) for a in x_values for b in y_values]
-    cells = run_cells(functools.partial(_cell, settings), points, executor)
+    inputs = describe(settings, omit={"source"})
+    with opened(checkpoint, "map", inputs) as kept:
+        cells = run_cells(functools.partial(_cell, settings), points, executor, kept)
     shape = (x_values.size, y_values.size)
     fields = [{}, {}, {}, {}, {}, {}]
     for m, name in enumerate(settings.models):

@@ -45,6 +45,7 @@ __all__ = [
     "frequency_response",
     "command_channels",
     "closed_loop_matrix",
+    "closed_loop_response",
     "with_pade",
     "mode_matrices",
     "COMMAND_MODES",
@@ -52,6 +53,7 @@ __all__ = [
     "augmented_row",
     "command_matrices",
     "command_mode_of",
+    "initial_command_mode",
     "exp_ladder",
     "lti_linear_part",
     "two_mass_system",
@@ -279,6 +281,38 @@ def closed_loop_matrix(part, stiffness, damping=0.0):
     ndarray, shape (n, n)
     """
     return part.A + np.outer(part.b, stiffness * part.c_x + damping * part.c_v)
+
+
+def closed_loop_response(part, omega, stiffness, damping, output, channel=0):
+    """Response of the loop closed through the linear shaft, from input ``channel`` to state ``output``.
+
+    ``(jw I - A - b (k c_x + c c_v) - e_d d e^{-jw delay})^{-1} E[:, channel]``, the
+    dead time exact, the command unsaturated.
+
+    Parameters
+    ----------
+    part : LinearPart
+    omega : array_like
+        Frequencies, rad/s (> 0); any shape.
+    stiffness, damping : float
+        k (N m/rad) and c (N m s/rad).
+    output : int
+        Index of the state read.
+    channel : int
+        Input channel (0: the reference).
+
+    Returns
+    -------
+    ndarray of complex
+        The shape of ``omega``.
+    """
+    omega = np.asarray(omega, dtype=float)
+    n = part.n_states
+    jw = 1j * omega.reshape(-1)[:, None, None]
+    mats = jw * np.eye(n) - closed_loop_matrix(part, stiffness, damping) - np.exp(-jw * part.delay) * (
+        part.e_d @ part.d)
+    source = np.broadcast_to(part.E[:, channel][:, None], (jw.shape[0], n, 1)).astype(complex)
+    return np.linalg.solve(mats, source)[:, output, 0].reshape(omega.shape)
 
 
 def with_pade(part, order):
@@ -524,6 +558,21 @@ def command_mode_of(mode, u, e, rate_clamped, rate_integrating, limit, clamps):
     if side * rate_clamped > 0.0:
         return 2 * side
     return 0 if side * rate_integrating < 0.0 else mode
+
+
+@_jit
+def initial_command_mode(u, e, limit, clamps):
+    """The command mode of a state that no event reached (a run's start, an orbit's section point).
+
+    Linear inside the limit; beyond it saturated, with the integrator clamped where
+    ``e`` has the sign of ``u``.  Never sliding: off the limit, the clamped flow
+    brings ``u`` back onto it first, and :func:`command_mode_of` decides at that event
+    (a slide holds ``u``, so one begun beyond the limit would stay there).
+    """
+    side = 1 if u > limit else (-1 if u < -limit else 0)
+    if side == 0:
+        return 0
+    return 2 * side if clamps and side * e > 0.0 else side
 
 
 @_jit

@@ -59,7 +59,7 @@ from .equilibria import PADE_ORDER, LinearStability, contact_shaft, linear_stabi
 from .loops import DriveLoop, drive_loop
 from .models import BacklashModel
 from .orbits import exact_orbits, periodic_orbit
-from .plotting import ResultPlot, axes_or_new
+from .plotting import ResultPlot, axes_or_new, legend_beside, log_scale
 from .report import roundoff_zero, signed_percent, text_table
 from .simulation import simulated_limit_cycle
 from .system import lti_linear_part
@@ -342,9 +342,11 @@ class LoopVerdict:
         Returns
         -------
         ResultPlot
+            One panel; the legend beside it.
         """
-        figure, axes = axes_or_new(ax, figsize=(7, 4), layout="constrained")
+        figure, axes = axes_or_new(ax, figsize=(9, 4), layout="constrained")
         ax = axes[0]
+        sizes = [p.scale for p in self.probes]
         levels = [p.measured.amplitude for p in self.probes if p.outcome == "cycle"]
         levels += [c.amplitude for c in (self.prediction.cycles if self.prediction is not None else ())]
         levels += [o.amplitude for o in self.orbits]
@@ -364,13 +366,13 @@ class LoopVerdict:
         ax.plot([], [], color="C0", label="DF cycle (dashed: unstable)")
         if self.orbits:
             ax.plot([], [], color="C1", lw=1.6, alpha=0.6, label="exact orbit (dashed: unstable)")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
+        log_scale(ax.xaxis, min(sizes, default=low), max(sizes, default=high))
+        log_scale(ax.yaxis, low, high)
         ax.set_ylim(low, high)
         ax.set_xlabel("disturbance: twist / alpha, motor-speed kick / (alpha w_n)")
         ax.set_ylabel("amplitude A the run ends on (rad)")
         ax.set_title(f"{self.model}: {self.verdict}", fontsize="medium")
-        legend = ax.legend(fontsize=7, loc="upper left")
+        legend = legend_beside(ax, fontsize=7)
         return ResultPlot(figure, axes, legend)
 
 

@@ -19,6 +19,11 @@ Run: ``python benchmarks/bench_orbits.py``.
 3. **Dead time.**  The near-critical tuning of issue 10 (motor feedback, c = 10, kp = 222,
    ti = 0.3 s, filter 7.6 ms, lag 1.5 ms, delay 0.5 ms): the orbit's amplitude for Pade
    orders 1..8 and the simulation's cycle at decreasing steps against it.
+4. **Torque limit and cascades** (``load_feedback.toml`` retuned): shooting from a
+   simulated seed (CPU time, best of three) against the simulation from a kick of 1 rad/s
+   at ``dt = T / 2048`` for the shortest time whose measurement agrees with the orbit to
+   1e-5 in amplitude and 1e-6 in frequency (CPU time, best of three of that run); the
+   command's share of the period on its limit and its first-harmonic amplitude.
 """
 
 import dataclasses
@@ -148,12 +153,56 @@ def dead_time_table():
             print(f"  simulation dt = {label:>8} s: {measured.verdict}")
 
 
+LIMITED = {
+    "kp=3000 limit 50": {"kp": 3000.0, "torque_limit": 50.0},
+    "kp=3000 limit 200": {"kp": 3000.0, "torque_limit": 200.0},
+    "kp=300 limit 30": {"kp": 300.0, "torque_limit": 30.0},
+    "ti=2ms limit 30, T_l=20": {"kp": 100.0, "ti": 0.002, "torque_limit": 30.0},
+    "cascade motor kv=20": {"structure": "cascade", "kv": 20.0, "position_feedback": "motor"},
+    "cascade load, limit 30": {"structure": "cascade", "kv": 20.0, "position_feedback": "load", "kp": 300.0,
+                               "torque_limit": 30.0},
+    "  + delay 0.5 ms": {"structure": "cascade", "kv": 20.0, "position_feedback": "load", "kp": 300.0,
+                         "torque_limit": 30.0, "delay": 0.0005},
+}
+
+
+def limited_table(base):
+    print("\n4. Torque limit and cascades (load_feedback.toml retuned; CPU s)")
+    print(f"{'loop':24} {'orbit A':>8} {'w':>7} {'on limit':>8} {'cmd N m':>8} {'|mu|max':>7} {'shoot s':>8} "
+          f"{'sim t_end':>9} {'sim s':>7} {'dA/A':>9} {'dw/w':>9}")
+    for name, values in LIMITED.items():
+        load = 20.0 if "T_l" in name else 0.0
+        rig = dataclasses.replace(base, controller=dataclasses.replace(base.controller, **values),
+                                  load=dataclasses.replace(base.load, torque=load))
+        _, result = simulated_limit_cycle(rig, "phase-plane", t_end=5.0, kick=1.0)
+        seconds, orbit = timing.best_of(lambda: periodic_orbit(rig, "phase-plane", result), 3)
+        dt, t_end, found = orbit.period / 2048, 1.0, None
+        while t_end <= 256.0 and found is None:
+            def run():
+                return measure_limit_cycle(bd.simulate(rig, "phase-plane", t_end=t_end, dt=dt, kick=1.0),
+                                           periods=20, rtol=1e-5)
+
+            measured = run()
+            if (measured.found and abs(measured.amplitude / orbit.amplitude - 1.0) < 1e-5
+                    and abs(measured.omega / orbit.omega - 1.0) < 1e-6):
+                found = timing.best_of(run, 3)
+            else:
+                t_end *= 2.0
+        limit = (f"{orbit.saturated_fraction:8.1%} {orbit.command_amplitude:8.2f}" if orbit.torque_limit
+                 else f"{'none':>8} {'':>8}")
+        simulated = (f"{t_end:9.0f} {found[0]:7.2f} {found[1].amplitude / orbit.amplitude - 1.0:9.1e} "
+                     f"{found[1].omega / orbit.omega - 1.0:9.1e}" if found else f"{'>256 s':>9}")
+        print(f"{name:24} {orbit.amplitude:8.4f} {orbit.omega:7.2f} {limit} {orbit.max_multiplier:7.4f} "
+              f"{seconds:8.3f} {simulated}")
+
+
 def main():
     all_rigs = rigs()
     periodic_orbit(all_rigs["load_feedback"], "phase-plane", (0.166, 98.7))  # compile the kernels once
     timing_table(all_rigs)
     df_error_table(all_rigs)
     dead_time_table()
+    limited_table(all_rigs["load_feedback"])
 
 
 if __name__ == "__main__":

@@ -15,10 +15,16 @@ Run: ``python benchmarks/bench_sweeps.py [--size 40] [--sim-size 12] [--repeat 1
    simulation is the independent reference).
 3. ``continue_limit_cycles`` over kp in [5, 60] (target < 30 s), its amplitude checked
    against simulation (dt = 2e-5 s) at three gains.
+4. What a checkpoint costs (``--checkpoint-size``, DF only, serial, CPU time of this
+   process): the map without and with a checkpoint written cell by cell, and the map
+   resumed from the complete checkpoint (every cell read back, none computed); the
+   three maps must be identical.
 """
 
 import argparse
+import json
 import os
+import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -26,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from backlash_df import load_rig, simulated_limit_cycle
+from backlash_df.checkpoint import Checkpoint
 from backlash_df.continuation import continue_limit_cycles
 from backlash_df.sweeps import design_map, rig_with
 
@@ -110,16 +117,40 @@ def continuation():
               f"relative difference {orbit.amplitude / measured.amplitude - 1:+.1e}")
 
 
+def checkpoint_cost(size):
+    kp, ti = np.linspace(5.0, 60.0, size), np.geomspace(0.1, 2.0, size)
+    cells = size * size
+    path = os.path.join(tempfile.mkdtemp(), "map.checkpoint")
+
+    def timed(checkpoint):
+        start = time.process_time()
+        dmap = design_map(RIG, kp, ti, models=("phase-plane",), simulate=False, checkpoint=checkpoint)
+        return time.process_time() - start, json.dumps(dmap.to_dict())
+
+    bare, reference = timed(None)
+    written, with_checkpoint = timed(path)
+    resumed, from_checkpoint = timed(Checkpoint(path, resume=True))
+    assert reference == with_checkpoint == from_checkpoint
+    print(f"checkpoint of a {size} x {size} map (DF only, serial), CPU time of this process:")
+    print(f"  {'no checkpoint':30s} {1e3 * bare / cells:8.2f} ms/cell")
+    print(f"  {'checkpoint written':30s} {1e3 * written / cells:8.2f} ms/cell  ratio {written / bare:.3f}"
+          f"  ({os.path.getsize(path) / cells:.0f} bytes/cell)")
+    print(f"  {'resumed, all cells kept':30s} {1e3 * resumed / cells:8.2f} ms/cell  ratio {resumed / bare:.4f}"
+          "; maps identical")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=40)
     parser.add_argument("--sim-size", type=int, default=12)
     parser.add_argument("--repeat", type=int, default=1)
+    parser.add_argument("--checkpoint-size", type=int, default=12)
     args = parser.parse_args()
     print(f"{os.cpu_count()} CPUs")
     compare(np.linspace(5.0, 60.0, args.size), np.geomspace(0.1, 2.0, args.size), False, args.repeat)
     compare(np.linspace(5.0, 60.0, args.sim_size), np.geomspace(0.1, 2.0, args.sim_size), True, args.repeat)
     continuation()
+    checkpoint_cost(args.checkpoint_size)
 
 
 if __name__ == "__main__":

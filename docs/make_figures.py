@@ -30,9 +30,9 @@ def nyquist_overlay(path=STATIC / "nyquist_overlay.png"):
     """Save the Nyquist overlay of the motor-lag example; returns the predictions."""
     rig = bd.load_rig(RIG)
     predictions = [bd.predict_limit_cycles(rig, model) for model in MODELS]
-    ax = limit_cycle_plot(predictions)
-    ax.set_title(f"{RIG.name}: G(jw) and -1/N(A, w); thin loci labelled with w (rad/s)")
-    ax.figure.savefig(path, dpi=110)
+    drawn = limit_cycle_plot(predictions)
+    drawn.ax.set_title(f"{RIG.name}: G(jw) and -1/N(A, w); thin loci labelled with w (rad/s)", fontsize="medium")
+    drawn.figure.savefig(path, dpi=110)
     return predictions
 
 

@@ -10,6 +10,12 @@ from pathlib import Path
 import pytest
 
 import backlash_df as bd
+from backlash_df.disturbances import standard_disturbances
+from backlash_df.continuation import continue_limit_cycles
+from backlash_df.identify import predict, replay
+from backlash_df.loaded import load_limit
+from backlash_df.reproduce import TableOne, compare_torques
+from backlash_df.simulation import simulate_two_mass
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
@@ -56,3 +62,70 @@ def motor_lag_rig():
 def loaded_rig():
     """``examples/loaded_feedback.toml``: load feedback under a load torque of 100 N m."""
     return example_rig("loaded_feedback")
+
+
+@pytest.fixture(scope="session")
+def results():
+    """One instance of every public result class, from the bundled examples (small grids, short runs).
+
+    tests/test_result_protocol.py checks that the classes cover the package's public ones.
+    """
+    rig = example_rig("load_feedback")
+    lag = example_rig("motor_lag_feedback")
+    analysis = bd.analyse_loop(lag, ["phase-plane"], exact=True)
+    verdict = analysis.verdicts[0]
+    prediction = verdict.prediction
+    orbit = verdict.orbits[0]
+    branch = continue_limit_cycles(rig, "kp", (29.0, 31.0), "phase-plane", df_values=2, df_grid=(12, 16))
+    dmap = bd.design_map(rig, [20.0, 30.0], [0.3, 0.5], models=("phase-plane",), grid=(12, 16), simulate=True,
+                         t_end=2.0, max_t_end=4.0)
+    data = bd.load_measurements(EXAMPLES / "diagnose_rubber.csv")
+    diagnosis_rig = example_rig("diagnose_rig")
+    diagnosis = bd.diagnose(data, diagnosis_rig, candidates=["rubber"], workers=1)
+    comparison = compare_torques("one-sided", dt=1e-4, warmup_cycles=2)
+    measured, _ = bd.simulated_limit_cycle(rig, "phase-plane", t_end=2.0, max_t_end=2.0, kick=5.0)
+    model = rig.make_model("phase-plane")
+    tuning = bd.tune(example_rig("load_feedback"), {"kp": (20.0, 40.0)})  # hunts at every gain: the least hunting
+    return {
+        "LimitCyclePrediction": prediction,
+        "LimitCycle": prediction.cycles[0],
+        "NearMiss": bd.predict_limit_cycles(example_rig("loaded_feedback"), grid=(24, 32)).near_misses[0],
+        "LoopVerdict": verdict,
+        "Probe": verdict.probes[0],
+        "LinearStability": verdict.contact_loop,
+        "LoopAnalysis": analysis,
+        "PeriodicOrbit": orbit,
+        "Branch": branch,
+        "BranchPoint": branch.points[0],
+        "SpecialPoint": bd.continuation.SpecialPoint("fold", 30.0, 0.1, "a turning point"),
+        "DesignMap": dmap,
+        "SimulationResult": simulate_two_mass(bd.reproduce.PAPER_PLANT, "phase-plane", 0.05, 1e-4, motor_torque=1.0),
+        "MeasuredCycle": measured,
+        "DescribingFunctionResult": bd.describing_function_grid(model, [0.06, 0.1], [10.0, 100.0]),
+        "ValidityMap": bd.phase_plane_validity(5895.0, 3.0, 0.05, [0.5, 2.0], [0.01, 0.1]),
+        "TorqueComparison": comparison,
+        "TableOne": TableOne((comparison,)),
+        "Measurements": data,
+        "Diagnosis": diagnosis,
+        "Cause": diagnosis.causes[0],
+        "CandidateResult": diagnosis.extended,
+        "Calibration": diagnosis.extended.calibration,
+        "FitParameter": next(iter(diagnosis.extended.calibration.parameters.values())),
+        "Replay": predict(data, diagnosis_rig),
+        "FreeRunReplay": replay(data, diagnosis_rig),
+        "ResidualAnalysis": diagnosis.residuals_extended,
+        "LoadLimit": load_limit(rig, "phase-plane", rtol=0.2, grid=(12, 16)),
+        "Tuning": tuning,
+        "Certificate": tuning.best,
+        "Candidate": tuning.screen[0],
+        "Disturbance": standard_disturbances(rig)[0],
+    }
+
+
+#: Keys of ``results`` whose class draws a picture (``plot(ax=None)``).
+PLOTS = ["LimitCyclePrediction", "LoopVerdict", "LoopAnalysis", "PeriodicOrbit", "Branch", "DesignMap",
+         "SimulationResult", "DescribingFunctionResult", "ValidityMap", "TorqueComparison", "TableOne", "Measurements",
+         "Diagnosis", "Replay", "FreeRunReplay", "ResidualAnalysis", "Tuning"]
+
+#: Keys of ``results`` whose class writes a report (``report_html(title="", rig_text="")``).
+REPORTS = ["LimitCyclePrediction", "LoopAnalysis", "Branch", "DesignMap", "Diagnosis", "Tuning"]

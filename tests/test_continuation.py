@@ -1,11 +1,15 @@
-"""Continuation: every point an orbit, the branch against simulation, folds and births where they are."""
+"""Continuation: every point an orbit, the branch against simulation, folds and births where they are, no step lost."""
 
 import json
 
 import numpy as np
 import pytest
+from click.testing import CliRunner
 
 import backlash_df as bd
+import backlash_df.continuation
+from backlash_df.checkpoint import Checkpoint
+from backlash_df.cli import main
 from backlash_df.continuation import continue_limit_cycles
 from backlash_df.loops import drive_loop
 from backlash_df.orbits import orbit_residual
@@ -54,7 +58,7 @@ def test_json_and_plot(short_branch):
     assert data["parameter"] == "kp" and len(data["points"]) == len(short_branch.points)
     assert data["df"][0]["cycles"][0]["stable"] is True
     drawn = short_branch.plot()
-    assert drawn.axes[1].get_xlabel() == "kp"
+    assert drawn.axes[1].get_xlabel() == "kp (N m s/rad)"  # the rig value with its unit
     import matplotlib.pyplot as plt
 
     plt.close(drawn.figure)
@@ -93,3 +97,80 @@ def test_load_fold_is_where_simulation_loses_the_cycle():
     for torque, cycles in ((0.98 * fold.parameter, True), (1.02 * fold.parameter, False)):
         rig = rig_with(RIG, "load.torque", torque)
         assert _simulated(rig, stable, t_end=20.0).found is cycles, torque
+
+
+# --------------------------------------------------------------------------- checkpoints and the printed text
+
+
+class _Counted:
+    """Stand-ins for ``continuation.periodic_orbit`` and ``continuation.predict_limit_cycles``: count the calls,
+    raise Ctrl-C at a given call of each."""
+
+    def __init__(self, monkeypatch, orbit_at=None, prediction_at=None):
+        self.orbits, self.predictions = 0, 0
+        self.orbit_at, self.prediction_at = orbit_at, prediction_at
+        monkeypatch.setattr(backlash_df.continuation, "periodic_orbit", self.orbit)
+        monkeypatch.setattr(backlash_df.continuation, "predict_limit_cycles", self.prediction)
+
+    def orbit(self, *args, **kwargs):
+        self.orbits += 1
+        if self.orbits == self.orbit_at:
+            raise KeyboardInterrupt
+        return bd.periodic_orbit(*args, **kwargs)
+
+    def prediction(self, *args, **kwargs):
+        self.predictions += 1
+        if self.predictions == self.prediction_at:
+            raise KeyboardInterrupt
+        return bd.predict_limit_cycles(*args, **kwargs)
+
+
+def test_interrupted_continuation_resumes_to_the_same_branch_and_recomputes_no_finished_step(short_branch, tmp_path,
+                                                                                           monkeypatch):
+    path = tmp_path / "branch.checkpoint"
+    args = (RIG, "kp", (25.0, 35.0), "phase-plane")
+    whole = _Counted(monkeypatch)
+    assert json.dumps(continue_limit_cycles(*args, df_values=3, checkpoint=path).to_dict()) == json.dumps(
+        short_branch.to_dict())
+    path.unlink()
+    # the first orbit takes one DF prediction, each branch point one polished orbit (the step past kp = 35
+    # one more: it is polished where it lands, then on the end), then come three DF predictions
+    assert whole.predictions == 1 + 3 and whole.orbits == len(short_branch.points) + 1
+    _Counted(monkeypatch, orbit_at=5)  # Ctrl-C while polishing the fifth orbit
+    with pytest.raises(KeyboardInterrupt):
+        continue_limit_cycles(*args, df_values=3, checkpoint=path)
+    second = _Counted(monkeypatch, prediction_at=2)  # resumed at the fifth orbit, Ctrl-C in the second DF cell
+    with pytest.raises(KeyboardInterrupt):
+        continue_limit_cycles(*args, df_values=3, checkpoint=Checkpoint(path, resume=True))
+    assert (second.orbits, second.predictions) == (whole.orbits - 4, 2)  # the first orbit is not sought again
+    third = _Counted(monkeypatch)
+    resumed = continue_limit_cycles(*args, df_values=3, checkpoint=Checkpoint(path, resume=True))
+    assert (third.orbits, third.predictions) == (0, 2)
+    assert json.dumps(resumed.to_dict()) == json.dumps(short_branch.to_dict())
+    with pytest.raises(ValueError, match=r"another run \(it differs in ds_max\)"):
+        continue_limit_cycles(*args, df_values=3, ds_max=0.5, checkpoint=Checkpoint(path, resume=True))
+
+
+def test_continue_prints_the_df_values_it_computed_and_round_off_bias_as_zero(tmp_path):
+    result = CliRunner().invoke(main, ["continue", str(EXAMPLES / "load_feedback.toml"), "--parameter", "kp",
+                                       "--from", "25", "--to", "35", "--df-values", "3", "--json",
+                                       str(tmp_path / "b.json")])
+    assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    orbits = lines.index("exact periodic orbits (shooting; stability by Floquet multipliers):")
+    df = lines.index("describing function at 3 values (stability by Loeb's criterion):")
+    assert lines[df + 1].split() == ["kp", "A", "DF", "(rad)", "w", "DF", "(rad/s)", "bias", "(rad)", "Loeb"]
+    model = RIG.make_model("phase-plane")
+    rows = [line.split() for line in lines[df + 2:df + 5]]
+    assert [float(row[0]) for row in rows] == [25.0, 30.0, 35.0]
+    for kp, amplitude, omega, bias, loeb in rows:
+        # each printed cycle solves the harmonic balance 1 + G(jw) N(A, w) = 0 to its printed digits
+        g = drive_loop(rig_with(RIG, "kp", float(kp))).frequency_response(np.array([float(omega)]))
+        n = bd.describing_function(model, float(amplitude), np.array([float(omega)]))
+        assert abs(1 + g * n)[0] < 3e-4 and (bias, loeb) == ("0", "stable")
+    data = json.loads((tmp_path / "b.json").read_text())
+    printed = [line.split()[3] for line in lines[orbits + 2:orbits + 2 + len(data["points"])]]
+    # the computed bias of these symmetric orbits is round-off (|bias| < 1e-12 A): the JSON keeps it, the text says 0
+    assert any(point["bias"] != 0.0 for point in data["points"])
+    assert all(abs(point["bias"]) < 1e-12 * point["amplitude"] for point in data["points"])
+    assert printed == ["0"] * len(data["points"])

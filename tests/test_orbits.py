@@ -7,6 +7,8 @@ and convergence of the Pade approximant of a dead time with its order.
 """
 
 import dataclasses
+import functools
+import json
 import math
 
 import numpy as np
@@ -149,20 +151,26 @@ def test_every_switch_lies_on_the_laws_boundary_to_round_off(load_orbit):
 # --------------------------------------------------------------------------- Floquet stability
 
 
-def _deviation_along(rig, model, orbit, periods, size):
-    """Component along the dominant non-trivial Floquet mode, sampled once a period, of a perturbed run."""
+def _deviation_along(rig, model, orbit, periods, size, real=True):
+    """Component along the dominant non-trivial Floquet mode, sampled once a period, of a perturbed run.
+
+    ``real``: the dominant multiplier must be real (returned as a float); else a
+    complex pair is allowed, the run starts along the real part of its mode and the
+    component is complex.
+    """
     values, right = np.linalg.eig(_monodromy(rig, model, orbit))
     order = np.argsort(-np.abs(values))
     dominant = next(i for i in order if abs(values[i] - 1.0) > 1e-6)
     mu = values[dominant]
-    assert abs(mu.imag) < 1e-12  # a real dominant multiplier on these rigs
-    left = np.linalg.inv(right)[dominant].real
+    if real:
+        assert abs(mu.imag) < 1e-12  # a real dominant multiplier on these rigs
+    left = np.linalg.inv(right)[dominant]
     mode = right[:, dominant].real
     offset = size * mode / np.abs(mode).max() * np.abs(orbit.state).max()
     steps = 2048
     result = _simulate_from(rig, model, orbit, periods * orbit.period, orbit.period / steps, offset)
     returns = result.states[::steps] - orbit.state
-    return mu.real, returns @ left
+    return (mu.real, returns @ left.real) if real else (mu, returns @ left)
 
 
 def test_stable_orbit_perturbation_decays_at_the_floquet_rate(load_rig, load_orbit):
@@ -198,19 +206,7 @@ def test_the_separating_orbit_divides_rest_from_the_stable_cycle(lag_rig, lag_or
 @pytest.mark.parametrize("model", ["phase-plane", "exact", "damped-dead-zone", "revised-dead-zone"])
 def test_monodromy_matches_finite_differences_of_the_period_map(load_rig, load_orbit, model):
     orbit = periodic_orbit(load_rig, model, load_orbit)
-    unknowns = np.append(orbit.state, orbit.period)
-    _, jacobian = orbit_residual(load_rig, model, unknowns)
-    scale = np.append(np.abs(orbit.state).max() * np.ones(orbit.state.size), orbit.period)
-    numeric = np.empty_like(jacobian)
-    for j, name in enumerate(orbit.state_names + ("period",)):
-        h = 1e-6 * scale[j]
-        plus, _ = orbit_residual(load_rig, model, unknowns + h * np.eye(unknowns.size)[j])
-        if name == "theta_b":  # on its stop in contact: theta_b < alpha would open the gap (one-sided)
-            numeric[:, j] = (plus - orbit_residual(load_rig, model, unknowns)[0]) / h
-            continue
-        minus, _ = orbit_residual(load_rig, model, unknowns - h * np.eye(unknowns.size)[j])
-        numeric[:, j] = (plus - minus) / (2.0 * h)
-    error = np.abs(numeric - jacobian) * scale  # each column in units of its unknown's size
+    jacobian, error, scale = _jacobian_error(load_rig, model, orbit)
     assert error.max() < 1e-6 * (np.abs(jacobian) * scale).max()
     if model != "revised-dead-zone":  # (27) is continuous at its switches: saltation = identity
         # the check is sharp enough to see the saltation matrices: without them M is far off
@@ -218,27 +214,59 @@ def test_monodromy_matches_finite_differences_of_the_period_map(load_rig, load_o
         assert (np.abs(no_saltation - jacobian[:-1, :-1]) * scale[:-1]).max() > 1e3 * error.max()
 
 
-def _flows_only(load_rig, model, orbit):
+def _jacobian_error(rig, model, orbit):
+    """The shooting Jacobian, its error against central differences (each column in units of its
+    unknown's size) and those sizes."""
+    def residual(unknowns):
+        return orbit_residual(rig, model, unknowns, pade_order=orbit.pade_order or 6)
+
+    unknowns = np.append(orbit.state, orbit.period)
+    _, jacobian = residual(unknowns)
+    scale = np.append(np.abs(orbit.state).max() * np.ones(orbit.state.size), orbit.period)
+    numeric = np.empty_like(jacobian)
+    for j, name in enumerate(orbit.state_names + ("period",)):
+        h = 1e-6 * scale[j]
+        plus, _ = residual(unknowns + h * np.eye(unknowns.size)[j])
+        if name == "theta_b":  # on its stop in contact: theta_b < alpha would open the gap (one-sided)
+            numeric[:, j] = (plus - residual(unknowns)[0]) / h
+            continue
+        minus, _ = residual(unknowns - h * np.eye(unknowns.size)[j])
+        numeric[:, j] = (plus - minus) / (2.0 * h)
+    return jacobian, np.abs(numeric - jacobian) * scale, scale
+
+
+def _flows_only(rig, model, orbit):
     """M - I without the saltation matrices: what a naive product of mode flows gives.
 
-    The mode sequence and durations come from the orbit's events; each mode's
-    state matrix from :func:`backlash_df.system.mode_matrices` (left contact,
-    free, right contact; the loop has no dead time: its states, then theta_b for
-    the exact model).
+    The mode sequence and durations come from the orbit's events (contacts and
+    releases, and the torque command's switches, merged by time); each mode's state
+    matrix from :func:`backlash_df.system.mode_matrices` (left contact, free, right
+    contact) and, with a torque limit, :func:`backlash_df.system.command_matrices`
+    (the loop has no dead time: its states, then theta_b for the exact model).
     """
     from scipy.linalg import expm
 
-    from backlash_df.system import mode_matrices
+    from backlash_df.system import COMMAND_MODES, command_matrices, mode_matrices
 
-    law = load_rig.make_model(model)
-    part = bd.drive_loop(load_rig).linear_part()
+    law = rig.make_model(model)
+    part = bd.drive_loop(rig).linear_part()
     n = orbit.state.size
-    flows = {side: m_aug[:n, :n] for side, m_aug in zip((-1, 0, 1), mode_matrices(part, law, law.law))}
-    times = [0.0] + [t for t, _, _ in orbit.events] + [orbit.period]
-    modes = [orbit.events[0][1]] + [after for _, _, after in orbit.events]
+    matrices = mode_matrices(part, law, law.law)
+    per_mode = matrices[:, None] if part.command is None else command_matrices(part, matrices)[0]
+    switches = sorted([(t, 0, after) for t, _, after in orbit.events] +
+                      [(t, 1, after) for t, _, after in orbit.command_events])
+    mode = [orbit.events[0][1], orbit.command_events[0][1] if orbit.command_events else 0]
+    times, modes = [0.0], [tuple(mode)]
+    for time, kind, after in switches:
+        mode[kind] = after
+        if time > times[-1]:
+            times.append(time)
+            modes.append(tuple(mode))
+        modes[-1] = tuple(mode)
     product = np.eye(n)
-    for mode, start, stop in zip(modes, times[:-1], times[1:]):
-        product = expm(flows[mode] * (stop - start)) @ product
+    for (side, command), start, stop in zip(modes, times, times[1:] + [orbit.period]):
+        flow = per_mode[side + 1, COMMAND_MODES.index(command) if part.command is not None else 0][:n, :n]
+        product = expm(flow * (stop - start)) @ product
     return product - np.eye(n)
 
 
@@ -261,6 +289,182 @@ def test_dead_time_states_are_named(lag_rig):
     rig = dataclasses.replace(lag_rig, controller=dataclasses.replace(lag_rig.controller, delay=1e-4))
     names = orbit_state_names(rig, "exact", pade_order=3)
     assert names[-4:] == ("pade_1", "pade_2", "pade_3", "theta_b")
+
+
+# --------------------------------------------------------------------------- torque limit, cascade, user controllers
+
+
+def _tuned(rig, load=0.0, **controller):
+    """The rig with ``[controller]`` values changed and a constant load torque (N m)."""
+    return dataclasses.replace(rig, controller=dataclasses.replace(rig.controller, **controller),
+                               load=dataclasses.replace(rig.load, torque=load))
+
+
+def _user_pi(kp, ti, lag=0.0):
+    """The PI ``kp (1 + 1 / (ti s))`` (and a first-order lag) as a user's python-control LTI."""
+    import control as ct
+
+    return ct.tf([kp * ti, kp], [ti, 0.0]) * ct.tf([1.0], [lag, 1.0])
+
+
+#: Loops of examples/load_feedback.toml with a torque limit (kp = 3000: the contact loop is unstable and
+#: the limit caps the growth), a slide along the limit (a fast integrator under a load torque), cascades
+#: (kv = 20 1/s, both position feedbacks), a dead time on both measured signals, a user's PI (no clamp).
+LIMITED = {
+    "kp3000-limit50": {"kp": 3000.0, "torque_limit": 50.0},
+    "kp3000-limit200": {"kp": 3000.0, "torque_limit": 200.0},
+    "kp300-limit30": {"kp": 300.0, "torque_limit": 30.0},
+    "sliding": {"kp": 100.0, "ti": 0.002, "torque_limit": 30.0, "load": 20.0},
+    "cascade-motor": {"structure": "cascade", "kv": 20.0, "position_feedback": "motor"},
+    "cascade-load-limit30": {"structure": "cascade", "kv": 20.0, "position_feedback": "load", "kp": 300.0,
+                             "torque_limit": 30.0},
+    "cascade-delay-limit30": {"structure": "cascade", "kv": 20.0, "position_feedback": "load", "kp": 300.0,
+                              "torque_limit": 30.0, "delay": 0.0005},
+}
+
+
+@functools.cache
+def _limited(name, model="phase-plane"):
+    """(rig, orbit) of a loop of LIMITED (``"user-limit30"``: kp300-limit30 with the PI as a user's LTI),
+    seeded by a simulation from a kick."""
+    load_rig = bd.load_rig(EXAMPLES / "load_feedback.toml")
+    if name == "user-limit30":
+        rig = _tuned(load_rig, kp=300.0, torque_limit=30.0).with_controller(speed=_user_pi(300.0, 0.5))
+    else:
+        rig = _tuned(load_rig, **LIMITED[name])
+    _, result = simulated_limit_cycle(rig, model, t_end=5.0, kick=1.0)
+    return rig, periodic_orbit(rig, model, result)
+
+
+def _last_periods(result, period, periods):
+    """Samples of a run covering the last ``periods`` periods (the nearest whole number of steps)."""
+    steps = round(periods * period / (result.time[1] - result.time[0]))
+    return slice(result.time.size - 1 - steps, result.time.size)
+
+
+@pytest.mark.parametrize("name", list(LIMITED))
+def test_limited_and_cascade_orbits_match_a_long_converged_simulation(name):
+    rig, orbit = _limited(name)
+    assert orbit.stable and orbit.residual < 1e-10
+    assert abs(orbit.multipliers[0] - 1.0) < 1e-8
+    for dt in (2e-5, 1e-5):  # the step halved: both runs agree with the orbit
+        measured, result = simulated_limit_cycle(rig, "phase-plane", t_end=10.0, dt=dt, kick=1.0, periods=20,
+                                                 rtol=1e-5)
+        assert measured.found, (name, dt)
+        assert measured.omega == pytest.approx(orbit.omega, rel=1e-6)
+        assert measured.amplitude == pytest.approx(orbit.amplitude, rel=1e-5)
+        assert measured.bias == pytest.approx(orbit.bias, abs=1e-5 * orbit.amplitude)
+        if rig.controller.torque_limit:
+            # the command's first harmonic and its time on the limit, from the run's own command trace
+            window = _last_periods(result, orbit.period, 20)
+            time, command = result.time[window], result.command[window]
+            span = time[-1] - time[0]
+            harmonic = 2.0 * np.trapezoid(command * np.exp(-1j * measured.omega * time), time) / span
+            assert abs(harmonic) == pytest.approx(orbit.command_amplitude, rel=1e-4)
+            on_limit = np.mean(result.command_mode[window] != 0)
+            assert on_limit == pytest.approx(orbit.saturated_fraction, abs=2e-3)
+    if name.startswith("kp3000"):  # without the limit the loop in contact is unstable
+        poles = bd.drive_loop(rig).linear_poles(rig.plant.stiffness, rig.plant.damping)
+        assert poles.real.max() > 0.0
+
+
+def _run_length(codes):
+    """The values of a sequence with repeats collapsed."""
+    codes = np.asarray(codes)
+    return codes[np.r_[True, codes[1:] != codes[:-1]]].tolist()
+
+
+@pytest.mark.parametrize("name, model", [("kp3000-limit50", "phase-plane"), ("sliding", "phase-plane"),
+                                         ("kp300-limit30", "exact"), ("cascade-load-limit30", "phase-plane"),
+                                         ("user-limit30", "phase-plane")])
+def test_one_period_of_simulation_from_a_limited_orbit_returns_to_it(name, model):
+    # the kernel switches the command on its own (bisection, no saltation matrices); started on the
+    # section point (beyond the limit, the integrator clamped) it holds no slide there
+    rig, orbit = _limited(name, model)
+    steps = 4096
+    result = _simulate_from(rig, model, orbit, orbit.period, orbit.period / steps)
+    loop_states = result.states.shape[1]
+    scale = np.abs(result.states).max(axis=0)
+    assert np.abs((result.states[-1] - orbit.state[:loop_states]) / scale).max() < 1e-9
+    assert result.events == len(orbit.events) + len(orbit.command_events)
+    first = orbit.command_events[0][1]
+    assert _run_length(result.command_mode) == [first] + [after for _, _, after in orbit.command_events]
+    kinds = {abs(code) for _, before, after in orbit.command_events for code in (before, after)}
+    assert kinds == ({0, 1} if name.startswith("user") else {0, 2, 3} if name == "sliding" else {0, 2})
+
+
+@pytest.mark.parametrize("name, model", [("kp3000-limit50", "phase-plane"), ("sliding", "phase-plane"),
+                                         ("kp300-limit30", "exact"), ("user-limit30", "phase-plane"),
+                                         ("cascade-delay-limit30", "phase-plane")])
+def test_limited_monodromy_matches_finite_differences_of_the_period_map(name, model):
+    # 1e-8: a hundredth of what dropping the saltation at the clamp's events leaves on kp3000-limit50
+    # (1.1e-6; there the integrator's rate jumps by e); S = I is exact at a plain saturation (user-limit30)
+    rig, orbit = _limited(name, model)
+    jacobian, error, scale = _jacobian_error(rig, model, orbit)
+    assert error.max() < 1e-8 * (np.abs(jacobian) * scale).max()
+    if not orbit.pade_order:
+        no_saltation = _flows_only(rig, model, orbit)
+        assert (np.abs(no_saltation - jacobian[:-1, :-1]) * scale[:-1]).max() > 1e3 * error.max()
+
+
+def test_limited_orbit_perturbation_decays_at_the_floquet_rate():
+    rig, orbit = _limited("kp300-limit30")
+    mu, deviation = _deviation_along(rig, "phase-plane", orbit, periods=12, size=1e-4)
+    assert orbit.max_multiplier == pytest.approx(mu) and mu < 1.0
+    assert np.allclose(deviation[1:] / deviation[:-1], mu, rtol=2e-5)
+
+
+def test_sliding_orbit_perturbation_decays_at_the_complex_floquet_rate():
+    # the slide along the limit kills a deviation off it (a multiplier 0); the dominant pair is complex
+    rig, orbit = _limited("sliding")
+    mu, deviation = _deviation_along(rig, "phase-plane", orbit, periods=6, size=1e-4, real=False)
+    assert abs(mu.imag) > 0.1 and abs(mu) == pytest.approx(orbit.max_multiplier)
+    assert np.allclose(deviation[1:] / deviation[:-1], mu, rtol=1e-4)
+    assert np.abs(orbit.multipliers).min() < 1e-12
+
+
+def test_cascade_with_dead_times_converges_with_the_pade_order():
+    rig, orbit = _limited("cascade-delay-limit30")
+    assert orbit.state_names[6:9] == ("pade1_1", "pade1_2", "pade1_3") and orbit.state_names[-1] == "pade2_6"
+    lower = periodic_orbit(rig, "phase-plane", orbit, pade_order=4)
+    assert lower.amplitude == pytest.approx(orbit.amplitude, rel=1e-8)
+    assert lower.period == pytest.approx(orbit.period, rel=1e-8)
+
+
+def test_a_users_controller_gives_the_orbit_of_the_same_loop(load_rig, load_orbit):
+    # K(s) = PI / (tau s + 1) as a user's LTI and the rig's PI with torque_lag = tau: the same G,
+    # other states (no torque limit: the lag's place before or after it does not matter)
+    lagged = _tuned(load_rig, torque_lag=0.001)
+    user = load_rig.with_controller(speed=_user_pi(30.0, 0.5, lag=0.001))
+    rig_orbit = periodic_orbit(lagged, "phase-plane", load_orbit)
+    user_orbit = periodic_orbit(user, "phase-plane", load_orbit)
+    assert user_orbit.state_names != rig_orbit.state_names
+    assert user_orbit.amplitude == pytest.approx(rig_orbit.amplitude, rel=1e-9)
+    assert user_orbit.period == pytest.approx(rig_orbit.period, rel=1e-9)
+    assert np.allclose(np.sort_complex(user_orbit.multipliers[1:]), np.sort_complex(rig_orbit.multipliers[1:]),
+                       atol=1e-8)
+
+
+def test_limited_result_object(load_orbit):
+    _, orbit = _limited("kp3000-limit50")
+    data = json.loads(json.dumps(orbit.to_dict(), allow_nan=False))
+    command = data["command"]
+    assert command["limit"] == 50.0 and command["events"] == len(orbit.command_events) == 4
+    assert command["saturated_fraction"] == pytest.approx(command["saturated_time"] / data["period"])
+    assert 0.95 < command["saturated_fraction"] < 1.0
+    assert command["clamped_time"] == command["saturated_time"]  # the integrator clamped whenever saturated
+    # nearly a square wave of +-50 N m: its first harmonic is 4 limit / pi, the ramps take a little off
+    assert 0.99 * 200.0 / math.pi < command["amplitude"] < 200.0 / math.pi
+    assert np.all(np.abs(orbit.command) <= 50.0) and np.isclose(np.abs(orbit.command).max(), 50.0)
+    assert "on its limit 99 % of T" in repr(orbit)
+    import matplotlib
+
+    matplotlib.use("Agg")
+    drawn = orbit.plot()
+    assert len(drawn.axes[1].get_lines()) == 2
+    # a loop without a limit has none of it
+    assert load_orbit.to_dict()["command"] is None and load_orbit.command is None
+    assert load_orbit.command_events == () and load_orbit.saturated_time == 0.0
 
 
 # --------------------------------------------------------------------------- seeds, results, errors

@@ -143,8 +143,11 @@ _INSPECT_PAGE = """(() => {
   const figures = Array.from(document.querySelectorAll('figure')).map((figure) => ({
     images: figure.querySelectorAll('img, svg, canvas').length, rendered: box(figure),
   }));
-  return {title: document.title, text: document.body.innerText, images, figures,
-          height: document.documentElement.scrollHeight};
+  const tables = Array.from(document.querySelectorAll('table')).map((table) => ({
+    width: box(table)[0], tallest_row: Math.max(...Array.from(table.rows).map((row) => box(row)[1])),
+  }));
+  return {title: document.title, text: document.body.innerText, images, figures, tables,
+          body_width: box(document.body)[0], height: document.documentElement.scrollHeight};
 })()"""
 
 
@@ -246,7 +249,8 @@ def run_cli(*args, cwd):
 
 
 def assert_page_sound(facts):
-    """No console problem; every figure holds a decoded image with a non-zero rendered size."""
+    """No console problem; every figure holds a decoded image with a non-zero rendered size; every table
+    fits the page's column and no row of it runs taller than about four lines (a squeezed column)."""
     assert facts["problems"] == [], f"console errors: {facts['problems']}"
     assert facts["figures"], "the report shows no figure"
     for figure in facts["figures"]:
@@ -254,6 +258,9 @@ def assert_page_sound(facts):
     for image in facts["images"]:
         assert image["complete"] and min(image["natural"]) > 0, f"image not decoded: {image['alt']}"
         assert min(image["rendered"]) > 0, f"image not rendered: {image['alt']}"
+    for table in facts["tables"]:
+        assert table["width"] <= facts["body_width"] + 1.0, f"a table wider than the page: {table}"
+        assert table["tallest_row"] < 100.0, f"a table row of {table['tallest_row']:.0f} px: a column is squeezed"
 
 
 @pytest.fixture

@@ -4,9 +4,10 @@ Each class: ``to_dict()`` is JSON-ready (``json.dumps(..., allow_nan=False)``
 accepts it and gives the same data back), the repr is one short line, ``plot(ax=None)``
 returns a :class:`~backlash_df.ResultPlot` whose ``figure`` holds its ``axes`` (and
 draws into axes it is given), and ``report_html(title="", rig_text="")`` where a
-report exists shows the title and the rig text, escaped.  The list of classes is
-checked against the package: a new public class with a ``to_dict`` must be added
-here.
+report exists shows the title and the rig text, escaped.  The instances are the
+``results`` fixture of ``conftest.py`` (tests/test_plot_layout.py walks the same
+ones); the list of classes is checked against the package: a new public class with
+a ``to_dict`` must be added there.
 """
 
 import importlib
@@ -24,71 +25,9 @@ import pytest  # noqa: E402
 from matplotlib.axes import Axes  # noqa: E402
 
 import backlash_df as bd  # noqa: E402
-from backlash_df.continuation import continue_limit_cycles  # noqa: E402
-from backlash_df.identify import predict, replay  # noqa: E402
-from backlash_df.loaded import load_limit  # noqa: E402
-from backlash_df.reproduce import TableOne, compare_torques  # noqa: E402
-from backlash_df.simulation import simulate_two_mass  # noqa: E402
-from conftest import EXAMPLES, example_rig  # noqa: E402
+from conftest import PLOTS, REPORTS, example_rig  # noqa: E402
 
 RIG_TEXT = "[plant]\n# a <b>rig</b> & its text\n"
-
-
-@pytest.fixture(scope="module")
-def results():
-    """One instance of every public result class, from the bundled examples (small grids, short runs)."""
-    rig = example_rig("load_feedback")
-    lag = example_rig("motor_lag_feedback")
-    analysis = bd.analyse_loop(lag, ["phase-plane"], exact=True)
-    verdict = analysis.verdicts[0]
-    prediction = verdict.prediction
-    orbit = verdict.orbits[0]
-    branch = continue_limit_cycles(rig, "kp", (29.0, 31.0), "phase-plane", df_values=2, df_grid=(12, 16))
-    dmap = bd.design_map(rig, [20.0, 30.0], [0.3, 0.5], models=("phase-plane",), grid=(12, 16), simulate=True,
-                         t_end=2.0, max_t_end=4.0)
-    data = bd.load_measurements(EXAMPLES / "diagnose_rubber.csv")
-    diagnosis_rig = example_rig("diagnose_rig")
-    diagnosis = bd.diagnose(data, diagnosis_rig, candidates=["rubber"], workers=1)
-    comparison = compare_torques("one-sided", dt=1e-4, warmup_cycles=2)
-    measured, _ = bd.simulated_limit_cycle(rig, "phase-plane", t_end=2.0, max_t_end=2.0, kick=5.0)
-    model = rig.make_model("phase-plane")
-    return {
-        "LimitCyclePrediction": prediction,
-        "LimitCycle": prediction.cycles[0],
-        "NearMiss": bd.predict_limit_cycles(example_rig("loaded_feedback"), grid=(20, 30)).near_misses[0],
-        "LoopVerdict": verdict,
-        "Probe": verdict.probes[0],
-        "LinearStability": verdict.contact_loop,
-        "LoopAnalysis": analysis,
-        "PeriodicOrbit": orbit,
-        "Branch": branch,
-        "BranchPoint": branch.points[0],
-        "SpecialPoint": bd.continuation.SpecialPoint("fold", 30.0, 0.1, "a turning point"),
-        "DesignMap": dmap,
-        "SimulationResult": simulate_two_mass(bd.reproduce.PAPER_PLANT, "phase-plane", 0.05, 1e-4, motor_torque=1.0),
-        "MeasuredCycle": measured,
-        "DescribingFunctionResult": bd.describing_function_grid(model, [0.06, 0.1], [10.0, 100.0]),
-        "ValidityMap": bd.phase_plane_validity(5895.0, 3.0, 0.05, [0.5, 2.0], [0.01, 0.1]),
-        "TorqueComparison": comparison,
-        "TableOne": TableOne((comparison,)),
-        "Measurements": data,
-        "Diagnosis": diagnosis,
-        "Cause": diagnosis.causes[0],
-        "CandidateResult": diagnosis.extended,
-        "Calibration": diagnosis.extended.calibration,
-        "FitParameter": next(iter(diagnosis.extended.calibration.parameters.values())),
-        "Replay": predict(data, diagnosis_rig),
-        "FreeRunReplay": replay(data, diagnosis_rig),
-        "ResidualAnalysis": diagnosis.residuals_extended,
-        "LoadLimit": load_limit(rig, "phase-plane", rtol=0.2, grid=(12, 16)),
-    }
-
-
-#: Result classes with a picture and a report.
-PLOTS = ["LimitCyclePrediction", "LoopVerdict", "LoopAnalysis", "PeriodicOrbit", "Branch", "DesignMap",
-         "SimulationResult", "DescribingFunctionResult", "ValidityMap", "TorqueComparison", "TableOne", "Measurements",
-         "Diagnosis", "Replay", "ResidualAnalysis"]
-REPORTS = ["LimitCyclePrediction", "LoopAnalysis", "Branch", "DesignMap", "Diagnosis"]
 
 
 def _public_result_classes():
@@ -116,7 +55,8 @@ def test_every_public_result_class_is_covered(results):
                                          "SpecialPoint", "DesignMap", "SimulationResult", "MeasuredCycle",
                                          "DescribingFunctionResult", "ValidityMap", "TorqueComparison", "TableOne",
                                          "Measurements", "Diagnosis", "Cause", "CandidateResult", "Calibration",
-                                         "FitParameter", "Replay", "FreeRunReplay", "ResidualAnalysis", "LoadLimit"]))
+                                         "FitParameter", "Replay", "FreeRunReplay", "ResidualAnalysis", "LoadLimit",
+                                         "Tuning", "Certificate", "Candidate", "Disturbance"]))
 def test_to_dict_is_json_and_the_repr_one_line(results, name):
     result = results[name]
     data = result.to_dict()

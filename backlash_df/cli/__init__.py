@@ -17,6 +17,7 @@ from .diagnose import diagnose_command
 from .predict import predict_command
 from .reproduce import reproduce_command
 from .sweeps import continue_command, map_command
+from .tune import tune_command
 
 __all__ = ["main"]
 
@@ -36,5 +37,6 @@ main.add_command(predict_command)
 main.add_command(df_command)
 main.add_command(continue_command)
 main.add_command(map_command)
+main.add_command(tune_command)
 main.add_command(diagnose_command)
 main.add_command(reproduce_command)

@@ -8,9 +8,9 @@ import numpy as np
 from ..config import load_rig
 from ..continuation import continue_limit_cycles
 from ..report import figure_png
-from ..sweeps import VERDICTS, design_map, rig_with
-from .common import FINITE, MODEL, read_text
-from .executors import executor_for, executor_options
+from ..sweeps import design_map, rig_with
+from .common import FINITE, MODEL, echo_table, read_text
+from .executors import checkpoint_for, checkpoint_options, executor_for, executor_options, stopped_note
 from .outputs import Outputs
 
 __all__ = ["map_command", "continue_command", "parse_values"]
@@ -60,12 +60,19 @@ def _write_results(outputs, rig_file, result, title):
               help="Torque law (repeatable; default: the rig's [model] backlash).")
 @click.option("--no-simulate", is_flag=True, help="DF verdicts only (no time simulation).")
 @executor_options
+@checkpoint_options
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), help="Write the map as JSON.")
 @click.option("--report", "report_out", type=click.Path(dir_okay=False), help="Write a self-contained HTML report.")
 @click.option("--plot", "plot_out", type=click.Path(dir_okay=False), help="Save the figure (PNG).")
-def map_command(rig_file, x_spec, y_spec, models, no_simulate, workers, dask, scheduler, json_out, report_out,
-                plot_out):
+def map_command(rig_file, x_spec, y_spec, models, no_simulate, workers, dask, scheduler, checkpoint_path, resume,
+                json_out, report_out, plot_out):
     """Design map of RIG_FILE over two rig values: DF verdicts and simulation side by side.
+
+    Prints one grid of verdicts per law (rows: the first value, columns: the
+    second; C limit cycle, B bistable, U unstable, . no oscillation,
+    ? undetermined), the DF's and the simulation's.  Finished cells are kept in a
+    checkpoint; after Ctrl-C, the same command with --resume computes only the
+    others, and the map is the same as an uninterrupted one.
 
     Example: backlash-df map RIG --x kp 5:60:40 --y ti 0.1:2:40:log --workers 2
     """
@@ -77,15 +84,20 @@ def map_command(rig_file, x_spec, y_spec, models, no_simulate, workers, dask, sc
         rig.make_model(name)  # a law the rig cannot describe (rubber without beta) stops here
     x_values, y_values = parse_values("--x", x_spec[1]), parse_values("--y", y_spec[1])
     rig_with(rig_with(rig, x_spec[0], x_values[0]), y_spec[0], y_values[0])  # names checked before any work
-    with executor_for(workers, dask, scheduler) as executor:
+    checkpoint = checkpoint_for(outputs, "map", checkpoint_path, resume)
+    with stopped_note(checkpoint, "cells", x_values.size * y_values.size), \
+            executor_for(workers, dask, scheduler) as executor:
         dmap = design_map(rig, x_values, y_values, x=x_spec[0], y=y_spec[0], models=models,
-                          simulate=not no_simulate, executor=executor)
+                          simulate=not no_simulate, executor=executor, checkpoint=checkpoint)
     click.echo(f"design map of {rig_file}: {x_spec[0]} ({x_values.size}) x {y_spec[0]} ({y_values.size})")
-    for name in dmap.models:
-        counts = ", ".join(f"{v} {int((dmap.df_verdict[name] == v).sum())}" for v in VERDICTS)
-        agree = f"; agrees with simulation on {100 * dmap.agreement(name):.1f} %" if name in dmap.sim_verdict else ""
-        click.echo(f"  {name}: DF {counts}{agree}")
+    for title, header, rows in dmap.tables():
+        click.echo(title)
+        echo_table(header, rows)
+    for line in dmap.sentences():
+        click.echo(line)
     _write_results(outputs, rig_file, dmap, f"Design map: {rig_file}")
+    if checkpoint is not None:
+        checkpoint.remove()
 
 
 @click.command("continue")
@@ -99,32 +111,36 @@ def map_command(rig_file, x_spec, y_spec, models, no_simulate, workers, dask, sc
 @click.option("--df-values", type=click.IntRange(min=2), default=25, show_default=True,
               help="Parameter values at which the describing function is evaluated beside the branch.")
 @executor_options
+@checkpoint_options
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), help="Write the branch as JSON.")
 @click.option("--report", "report_out", type=click.Path(dir_okay=False), help="Write a self-contained HTML report.")
 @click.option("--plot", "plot_out", type=click.Path(dir_okay=False), help="Save the figure (PNG).")
-def continue_command(rig_file, parameter, start, stop, model_name, df_values, workers, dask, scheduler, json_out,
-                     report_out, plot_out):
+def continue_command(rig_file, parameter, start, stop, model_name, df_values, workers, dask, scheduler,
+                     checkpoint_path, resume, json_out, report_out, plot_out):
     """Branch of exact periodic orbits of RIG_FILE's loop over one rig value, the DF beside it.
 
     Pseudo-arclength continuation of the shooting orbits, through folds; marks
-    folds, stability changes (Floquet), grazing and births.  The executor options
-    run the DF predictions.
+    folds, stability changes (Floquet), grazing and births.  Prints the orbits,
+    the DF's cycles at the --df-values values and the special points.  The
+    executor options run the DF predictions.  The first orbit, every step of the
+    branch and every DF prediction are kept in a checkpoint; after Ctrl-C, the
+    same command with --resume goes on from the last step kept.
 
     Example: backlash-df continue RIG --parameter kp --from 5 --to 60
     """
     outputs = Outputs({"--json": json_out, "--report": report_out, "--plot": plot_out})
     rig = load_rig(rig_file)
     rig.require_controller()
-    with executor_for(workers, dask, scheduler) as executor:
+    checkpoint = checkpoint_for(outputs, "continue", checkpoint_path, resume)
+    with stopped_note(checkpoint, "steps"), executor_for(workers, dask, scheduler) as executor:
         branch = continue_limit_cycles(rig, parameter, (start, stop), model_name, df_values=df_values,
-                                       executor=executor)
+                                       executor=executor, checkpoint=checkpoint)
     click.echo(repr(branch))
-    click.echo(f"{parameter:>12} {'A (rad)':>10} {'w (rad/s)':>10} {'bias (rad)':>11} {'|mu|max':>8}  stable")
-    for point in branch.points:
-        orbit = point.orbit
-        click.echo(f"{point.parameter:12.6g} {orbit.amplitude:10.5g} {orbit.omega:10.5g} {orbit.bias:11.4g} "
-                   f"{orbit.max_multiplier:8.4f}  {'yes' if orbit.stable else 'no'}")
-    for special in branch.special:
-        click.echo(f"{special.kind} at {parameter} = {special.parameter:.6g} (A = {special.amplitude:.4g} rad): "
-                   f"{special.detail}")
+    for title, header, rows in branch.tables():
+        click.echo(title)
+        echo_table(header, rows)
+    for line in branch.sentences():
+        click.echo(line)
     _write_results(outputs, rig_file, branch, f"Continuation in {parameter}: {rig_file}")
+    if checkpoint is not None:
+        checkpoint.remove()

@@ -49,7 +49,7 @@ import numpy as np
 
 from .._json import json_ready
 from ..models import LAW_CODES, PHASE_PLANE, RUBBER, held_mode, mode_torque
-from ..plotting import ResultPlot, axes_or_new
+from ..plotting import ResultPlot, axes_or_new, legend_beside
 from .effects import get_effect, smoothing_speeds
 
 __all__ = [
@@ -297,14 +297,15 @@ class Replay:
         Returns
         -------
         ResultPlot
+            One panel per speed; the legend beside the first.
         """
-        figure, axes = axes_or_new(ax, (len(self.names), 1), sharex=True, figsize=(8, 2.2 * len(self.names)),
+        figure, axes = axes_or_new(ax, (len(self.names), 1), sharex=True, figsize=(9.5, 2.2 * len(self.names)),
                                    layout="constrained")
         for j, name in enumerate(self.names):
             axes[j].plot(self.time, self.measured[:, j], color="0.6", lw=1.0, label="measured")
             axes[j].plot(self.time, self.simulated[:, j], lw=1.0, label=label or self.mode)
             axes[j].set_ylabel(f"{name} (rad/s)")
-            axes[j].legend(loc="upper right", fontsize="small")
+        legend_beside(axes[0])
         axes[-1].set_xlabel("time (s)")
         return ResultPlot(figure, axes)
 

@@ -62,7 +62,7 @@ import warnings
 import numpy as np
 
 from .._json import json_ready
-from ..plotting import ResultPlot, axes_or_new
+from ..plotting import ResultPlot, axes_or_new, legend_beside
 from ..report import figure_html, html_page, table_html
 from .calibrate import (DEFAULT_HORIZON, PLANT_PARAMETERS, calibrate, data_states, predict, refine, segment_bounds,
                         single_threaded_blas, speed_noise)
@@ -317,9 +317,10 @@ class Diagnosis:
         Returns
         -------
         ResultPlot
+            One panel per speed; the legend beside the first.
         """
         names = self.measurements.speed_names
-        figure, axes = axes_or_new(ax, (len(names), 1), sharex=True, figsize=(9, 2.4 * len(names)),
+        figure, axes = axes_or_new(ax, (len(names), 1), sharex=True, figsize=(9.5, 2.4 * len(names)),
                                    layout="constrained")
         base, ext = self.baseline.prediction, self.extended.prediction
         for j, name in enumerate(names):
@@ -329,7 +330,7 @@ class Diagnosis:
                 axes[j].plot(ext.time, ext.simulated[:, j], lw=1.0, ls="--",
                              label=f"extended ({' + '.join(self.extended.effects)})")
             axes[j].set_ylabel(f"{name} (rad/s)")
-            axes[j].legend(loc="upper right", fontsize="small")
+        legend_beside(axes[0])
         axes[-1].set_xlabel(f"time (s), validation part, {base.mode}")
         return ResultPlot(figure, axes)
 
@@ -347,21 +348,25 @@ class Diagnosis:
                                                   "before (baseline) and after (extended) the extension.")
         residual_figures = []
         for label, analysis in (("baseline", self.residuals_baseline), ("extended", self.residuals_extended)):
-            fig = analysis.plot().figure
-            fig.suptitle(f"Residuals of the {label} model")
+            fig = analysis.plot(title=f"Residuals of the {label} model").figure
             residual_figures.append(figure_html(
                 fig, f"{label}: residual over time, against theta_d and shaft torque, spectrum, "
                      f"autocorrelation and cross-correlation with the motor torque (99 % band grey)."))
-        search = [[" + ".join(c.effects) or "none", f"{c.mean_fit_percent:.2f}",
-                   " / ".join(f"{v:.2f}" for v in c.fit_percent.values()),
-                   " / ".join(f"{v:.2f}" for v in c.ahead_fit_percent.values()),
-                   " / ".join(f"{v:.2f}" for v in c.free_run_fit_percent.values()),
-                   f"{100 * c.gain:.1f}", f"{c.t_statistic:.1f}", _format_parameter(c.parameter),
-                   "yes" if c.accepted else "no", c.reason] for c in self.candidates]
-        search_table = table_html(
-            ["model", "k-step fit % (mean)", "k-step fit % per speed", f"{VALIDATION_HORIZON:g} s ahead fit % per speed",
-             "free-run fit % per speed", "gain %", "t", "added parameter (95 % CI)", "accepted", "why"], search,
-            text_columns=(0, 7, 8, 9))
+        search = [[str(step), _effects_name(c), f"{c.mean_fit_percent:.2f}", f"{100 * c.gain:.1f}",
+                   f"{c.t_statistic:.1f}", _format_parameter(c.parameter), "yes" if c.accepted else "no"]
+                  for step, c in enumerate(self.candidates, start=1)]
+        search_table = table_html(["#", "model", "k-step fit % (mean)", "gain %", "t", "added parameter (95 % CI)",
+                                   "accepted"], search, text_columns=(1, 5, 6))
+        why = "".join(f"<li><b>{html.escape(_effects_name(c))}</b>: {html.escape(c.reason)}</li>"
+                      for c in self.candidates)
+        search_table += f"<p>Why each model was accepted or not (numbered as in the table):</p><ol>{why}</ol>"
+        speeds = list(self.candidates[0].fit_percent) if self.candidates else []
+        kinds = (("k-step", "fit_percent"), (f"{VALIDATION_HORIZON:g} s ahead", "ahead_fit_percent"),
+                 ("free run", "free_run_fit_percent"))
+        fits = [[str(step), *(f"{getattr(c, key)[name]:.2f}" for name in speeds for _, key in kinds)]
+                for step, c in enumerate(self.candidates, start=1)]
+        fit_table = table_html(["#", *(f"{name}: {kind}" for name in speeds for kind, _ in kinds)],
+                               fits, text_columns=())
         parameter_rows = [[name, f"{p.nominal:.5g}", f"{p.value:.5g}", f"{p.stderr:.3g}",
                            f"{p.ci95[0]:.5g} .. {p.ci95[1]:.5g}", f"{p.lower:.4g} .. {p.upper:.4g}", p.unit]
                           for name, p in self.extended.calibration.parameters.items()]
@@ -377,6 +382,7 @@ class Diagnosis:
             ("", summary), *rig,
             ("Measured against predicted", overlay),
             ("Forward selection and backward check", search_table + f"<p>{html.escape(RULE)}</p>"),
+            ("Validation fit per speed (%) of each model searched, numbered as above", fit_table),
             ("What the model gets wrong", "\n".join(residual_figures)),
             ("Calibrated parameters of the extended model (start = rig file value; effects start at 0)", parameters),
         ])
@@ -392,6 +398,11 @@ RULE = (f"an effect is added (forward selection, then backward elimination) if t
         f"effect at least {100 * MIN_TORQUE_SHARE:g} % of the RMS motor torque, rubber at least "
         f"{100 * MIN_RUBBER_SHARE:g} % of the half gap and wider than the twist's uncertainty); "
         f"no cause is named when the baseline's validation fit is below {BASELINE_MIN_FIT:g} % on a speed")
+
+
+def _effects_name(candidate):
+    """A candidate model by its effects ("rubber + torque_offset"; "none" for the baseline)."""
+    return " + ".join(candidate.effects) or "none"
 
 
 def _format_parameter(parameter):

@@ -47,7 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from .._json import json_ready
-from ..plotting import ResultPlot, axes_or_new
+from ..plotting import ResultPlot, axes_or_new, legend_beside
 
 __all__ = [
     "Measurements",
@@ -234,9 +234,10 @@ class Measurements:
         Returns
         -------
         ResultPlot
+            One panel per quantity, each with its legend beside it.
         """
         rows = 3 if self.twist is not None else 2
-        figure, axes = axes_or_new(ax, (rows, 1), sharex=True, figsize=(8, 2.2 * rows), layout="constrained")
+        figure, axes = axes_or_new(ax, (rows, 1), sharex=True, figsize=(9.5, 2.2 * rows), layout="constrained")
         axes[0].plot(self.time, self.motor_torque, label="motor_torque")
         if self.load_torque is not None:
             axes[0].plot(self.time, self.load_torque, label="load_torque")
@@ -249,7 +250,7 @@ class Measurements:
             axes[2].set_ylabel("twist (mrad)")
         axes[-1].set_xlabel("time (s)")
         for panel in axes:
-            panel.legend(loc="upper right", fontsize="small")
+            legend_beside(panel)
         return ResultPlot(figure, axes)
 
 

@@ -22,7 +22,7 @@ import dataclasses
 import numpy as np
 
 from .._json import json_ready
-from ..plotting import ResultPlot
+from ..plotting import ResultPlot, legend_beside
 
 __all__ = ["ResidualAnalysis", "residual_analysis", "correlation", "BAND_99"]
 
@@ -121,24 +121,27 @@ class ResidualAnalysis:
                            "band": self.band, "lags": self.lags, "autocorrelation": self.autocorrelation,
                            "cross_correlation": self.cross_correlation, "outside_band": self.outside_band()})
 
-    def plot(self, ax=None):
+    def plot(self, ax=None, title=""):
         """Residuals over time, against theta_d and shaft torque, spectrum, auto- and cross-correlation.
 
         Parameters
         ----------
         ax : Figure or sequence of 6 Axes, optional
             A figure to fill with the six panels, or the panels; a new figure by default.
+        title : str
+            The figure's title (which model's residuals, say).
 
         Returns
         -------
         ResultPlot
-            Axes of shape (3, 2).
+            Axes of shape (3, 2), each titled with what it shows; one legend (the
+            signals and the 99 % band) beside the top right panel.
         """
         import matplotlib.pyplot as plt
         from matplotlib.figure import Figure
 
         if ax is None or isinstance(ax, Figure):
-            fig = ax or plt.figure(figsize=(10, 7), layout="constrained")
+            fig = ax or plt.figure(figsize=(11, 7.5), layout="constrained")
             axes = fig.subplots(3, 2)
         else:
             axes = np.asarray(ax, dtype=object).reshape(3, 2)
@@ -157,15 +160,21 @@ class ResidualAnalysis:
             ax_cross.stem(self.lags + 0.2 * j, self.cross_correlation[j], markerfmt=" ", basefmt=" ",
                           linefmt=f"C{j}-", label=name)
         for ax in (ax_auto, ax_cross):
-            ax.axhspan(-self.band, self.band, color="0.85", zorder=0, label="99 % band")
-            ax.set_xlabel("lag (samples)")
-        ax_time.set(xlabel="time (s)", ylabel="residual (rad/s)")
-        ax_state.set(xlabel="theta_d (rad, simulated)", ylabel="mean residual")
-        ax_torque.set(xlabel="shaft torque (N m, simulated)", ylabel="mean residual")
-        ax_psd.set(xlabel="frequency (Hz)", ylabel="PSD ((rad/s)^2/Hz)")
-        ax_auto.set_ylabel("autocorrelation")
-        ax_cross.set_ylabel("cross-corr. with motor torque")
-        ax_time.legend(fontsize="small")
+            band = ax.axhspan(-self.band, self.band, color="0.85", zorder=0, label="99 % band")
+            ax.set(xlabel="lag (samples)", ylabel="correlation")
+        ax_time.set(xlabel="time (s)", ylabel="residual (rad/s)", title="measured - simulated speed")
+        ax_state.set(xlabel="theta_d (rad, simulated)", ylabel="mean residual (rad/s)",
+                     title="mean residual against theta_d")
+        ax_torque.set(xlabel="shaft torque (N m, simulated)", ylabel="mean residual (rad/s)",
+                      title="mean residual against shaft torque")
+        ax_psd.set(xlabel="frequency (Hz)", ylabel="PSD ((rad/s)^2/Hz)", title="spectrum of the residual (Welch)")
+        ax_auto.set_title("autocorrelation (whiteness)")
+        ax_cross.set_title("cross-correlation with the motor torque")
+        for panel in axes.flat:
+            panel.title.set_fontsize("medium")
+        legend_beside(ax_state, handles=[*ax_time.get_lines(), band])
+        if title:
+            fig.suptitle(title)
         return ResultPlot(fig, axes)
 
 

@@ -22,7 +22,7 @@ import numpy as np
 from .._jit import copy_into as _copy
 from .._jit import jit as _jit
 from ..models import EXACT, exact_step, held_mode, mode_torque
-from ..system import command_index, command_mode_of
+from ..system import command_index, command_mode_of, initial_command_mode
 
 __all__ = ["run_rk4", "run_exact", "LEVELS", "BLOW_UP"]
 
@@ -319,7 +319,10 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
     mode = _mode_of(law, p, 0, x, v, theta_b)
     cmode = 0
     _record(0, z, theta_b, mode, cmode, law, p, sys[3], sys[4], d_rows, Z, T, THETA, MODES, CMODES, hist)
-    cmode = _command_mode_rk4(mode, 0, z, 0.0, sys, cmd, law, p, W, hist, dt, work, wvals, dvals)
+    if cmd[3] > 0.0:  # the command mode of the initial state
+        _signals(0.0, sys, W, hist, dt, wvals, dvals)
+        cmode = initial_command_mode(_row_value(cmd[1], z, wvals, dvals), _row_value(cmd[2], z, wvals, dvals), cmd[3],
+                                     cmd[4] >= 0)
     events = 0
     for i in range(n_steps + 1):
         _record(i, z, theta_b, mode, cmode, law, p, sys[3], sys[4], d_rows, Z, T, THETA, MODES, CMODES, hist)
@@ -564,7 +567,7 @@ def run_exact(ladders, rows, limit, clamps, law, p, W, z0, theta_b0, delay, d_ro
             break
         _set_step_inputs(q, i, W, hist, delay, dt, n)
         if i == 0 and limit > 0.0:  # the command mode of the initial state, its inputs set
-            cmode = _command_mode_exact(mode, 0, q, rows, limit, clamps)
+            cmode = initial_command_mode(_dot(rows[0], q), _dot(rows[1], q), limit, clamps)
             CMODES[0] = cmode
         mode, cmode, found = _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, rows, limit, clamps, work)
         events += found

@@ -1,0 +1,691 @@
+"""Tune: the fastest loop whose verdict is certified ``no oscillation``.
+
+:func:`tune` searches one or two rig values (``kp``, ``ti``, ``speed_filter``,
+and ``kv`` of a cascade) on a log scale for the largest bandwidth whose loop does
+not hunt, and says why that answer can be trusted.
+
+**Objective.**  The bandwidth ``omega_b`` of the loop with the gear held in contact
+(shaft ``T = k theta_d + c dtheta_d``, linear, the dead time exact): the smallest
+``omega > 0`` at which the closed-loop gain from the speed reference to the load
+speed (a cascade: from the position reference to the load angle) falls to
+``1/sqrt(2)`` (:func:`contact_bandwidth`).  A tuning whose contact loop is unstable
+is infeasible (a torque-limited one hunts at the limit instead).
+
+**Constraint: certified no oscillation** (:class:`Certificate`), for the rig's
+torque law (or ``model``): (1) the -1/N(A, w) loci do not meet G(jw), the near
+miss's distance reported; (2) exact shooting seeded at the near misses and at the
+simulations finds no periodic orbit; (3) no sustained oscillation from the
+standard disturbance set (:func:`~backlash_df.disturbances.standard_disturbances`)
+and the verdict's other probes: the verdict of :func:`~backlash_df.verdict.judge_loop`
+with its exact orbits is ``no oscillation``.  With ``tolerance = A > 0`` a stable
+cycle whose first-harmonic amplitude of theta_d is at most ``A`` is accepted
+(hunting within tolerance) and its amplitude reported.
+
+**Search.**  The range is screened on a grid by the describing function (cheap:
+the bandwidth and the DF's stable cycles of every cell, on any
+``concurrent.futures.Executor``); the boundary between a cell the DF clears and a
+neighbour that hunts is refined by bisection on the log scale; the candidates are
+certified in order of decreasing bandwidth, the first certified is the answer,
+and where a faster candidate fails its certificate the boundary between the two is
+bisected with certificates.  The **margin** is the factor by which the varied
+values can move toward the nearest hunting tuning found; the **front** is the
+best bandwidth for each tolerance from 0 up to the largest cycle in range.  Where
+no tuning in range is certified the answer says so and gives the tuning of the
+smallest hunting amplitude.
+"""
+
+import dataclasses
+import functools
+import html
+import math
+import time
+
+import numpy as np
+
+from ._json import json_ready
+from .limit_cycles import predict_limit_cycles, verify_limit_cycles
+from .disturbances import shaft_mode
+from .loops import drive_loop
+from .models import BacklashModel
+from .plotting import ResultPlot, axes_or_new
+from .report import figure_html, html_page, table_html
+from .sweeps import rig_with, run_cells
+from .system import closed_loop_response
+from .verdict import judge_loop, linear_stability
+
+__all__ = ["TUNABLE", "Candidate", "Certificate", "FrontPoint", "Tuning", "contact_bandwidth", "certify", "tune"]
+
+#: Rig values tune varies, with their units (``kv``: a cascade's only).
+TUNABLE = {"kp": "N m s/rad", "ti": "s", "speed_filter": "s", "kv": "1/s"}
+
+_DF_GRID = (24, 32)  # the DF scan of a screened cell (the design map's coarse grid)
+_SCREEN = {1: 17, 2: 9}  # screened values per varied parameter
+_BISECTIONS = 5  # DF bisections of a boundary segment: 1/32 of a screened cell
+_CERTIFIED_BISECTIONS = 4  # bisections with certificates where the DF cleared a hunting tuning
+
+
+# --------------------------------------------------------------------------- the objective
+
+
+def contact_bandwidth(rig, model=None):
+    """The bandwidth of the loop with the gear in contact (module docs), rad/s.
+
+    Parameters
+    ----------
+    rig : Rig
+    model : str or BacklashModel, optional
+        The shaft's k and c (default: the rig's law).
+
+    Returns
+    -------
+    float
+        ``omega_b``; NaN when the contact loop is unstable (or marginal), 0 when the
+        gain is below ``1/sqrt(2)`` at every frequency scanned (1e-4 w_n and above).
+
+    Examples
+    --------
+    >>> import backlash_df as bd
+    >>> rig = bd.rig_from_dict({"plant": {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0,
+    ...     "damping": 3.0, "half_gap": 0.05}, "controller": {"kp": 30.0, "ti": 0.5, "feedback": "motor"}})
+    >>> round(contact_bandwidth(rig), 2)
+    6.99
+    """
+    shaft = model if isinstance(model, BacklashModel) else rig.make_model(model)
+    part = drive_loop(rig).linear_part()
+    if linear_stability(part, shaft.stiffness, shaft.damping).status != "stable":
+        return math.nan
+    output = part.state_names.index("load_angle" if rig.controller.cascade else "load_speed")
+
+    def gain(omega):
+        return np.abs(closed_loop_response(part, omega, shaft.stiffness, shaft.damping, output))
+
+    omega = np.geomspace(1e-4, 30.0, 1200) * shaft_mode(rig)
+    below = np.flatnonzero(gain(omega) <= 1.0 / math.sqrt(2.0))
+    if below.size == 0:
+        return math.inf
+    if below[0] == 0:
+        return 0.0
+    lo, hi = omega[below[0] - 1], omega[below[0]]
+    for _ in range(3):  # the first crossing, 64 log-spaced points a round: to 1e-9 relative
+        inner = np.geomspace(lo, hi, 64)
+        first = int(np.argmax(gain(inner) <= 1.0 / math.sqrt(2.0)))
+        lo, hi = inner[first - 1], inner[first]
+    return float(math.sqrt(lo * hi))
+
+
+# --------------------------------------------------------------------------- the range
+
+
+def _validated(rig, vary, tolerance):
+    """``(names, ranges)`` of a ``vary`` mapping, or a one-line ``ValueError``."""
+    controller = rig.require_controller()
+    if not isinstance(vary, dict) or not 1 <= len(vary) <= 2:
+        raise ValueError(f"tune: vary one or two rig values, e.g. {{'kp': (1.0, 1000.0)}}; got {vary!r}")
+    if not (isinstance(tolerance, (int, float)) and math.isfinite(tolerance) and tolerance >= 0.0):
+        raise ValueError(f"tune: the tolerance is a first-harmonic amplitude of theta_d in rad, >= 0; got {tolerance!r}")
+    names, ranges = [], []
+    for name, bounds in vary.items():
+        if name not in TUNABLE:
+            raise ValueError(f"tune: {name!r} is not a value tune varies; choose from: {', '.join(TUNABLE)}")
+        if name == "kv" and not controller.cascade:
+            raise ValueError('tune: kv varies only with [controller] structure = "cascade" (a position loop)')
+        if name == "ti" and not math.isfinite(controller.ti):
+            raise ValueError("tune: ti does not vary: the rig's speed controller is P (ti = inf)")
+        if name in ("kp", "ti") and controller.speed_controller is not None:
+            raise ValueError(f"tune: {name} does not vary: the rig's speed controller is a user's LTI")
+        try:
+            low, high = (float(value) for value in bounds)
+        except (TypeError, ValueError):
+            raise ValueError(f"tune: the range of {name} is two numbers (low, high), got {bounds!r}") from None
+        if not (0.0 < low < high and math.isfinite(high)):
+            raise ValueError(f"tune: the range of {name} needs 0 < low < high (searched on a log scale); "
+                             f"got {low:g}, {high:g}")
+        rig_with(rig_with(rig, name, low), name, high)  # values the rig file accepts
+        names.append(name)
+        ranges.append((low, high))
+    if len(set(names)) != len(names):
+        raise ValueError(f"tune: {names[0]} given twice")
+    return tuple(names), tuple(ranges)
+
+
+def _tuned(rig, names, values):
+    for name, value in zip(names, values):
+        rig = rig_with(rig, name, float(value))
+    return rig
+
+
+# --------------------------------------------------------------------------- screening
+
+
+@dataclasses.dataclass(frozen=True)
+class Candidate:
+    """One tuning as the describing function screens it.
+
+    Attributes
+    ----------
+    values : tuple of float
+        The varied values, in the order of :attr:`Tuning.names`.
+    bandwidth : float
+        ``omega_b``, rad/s (:func:`contact_bandwidth`); NaN where the contact loop is unstable.
+    amplitude : float
+        The largest stable DF cycle's amplitude A of theta_d, rad; 0 where the DF finds none.
+    near_miss : float
+        The closest approach ``|1 + G N|`` of the loci where they do not meet; NaN if none.
+    hunts : bool
+        The DF says it hunts beyond the tolerance (or the contact loop is unstable).
+    """
+
+    values: tuple
+    bandwidth: float
+    amplitude: float
+    near_miss: float
+    hunts: bool
+
+    def to_dict(self):
+        """JSON-ready."""
+        return json_ready(dataclasses.asdict(self))
+
+
+@dataclasses.dataclass(frozen=True)
+class _Settings:
+    """What every cell of one tuning shares (picklable)."""
+
+    rig: object
+    names: tuple
+    model: str
+    tolerance: float
+
+
+def _screen_cell(settings, values):
+    """The DF's view of one tuning: bandwidth, largest stable cycle, near miss."""
+    tuned = _tuned(settings.rig, settings.names, values)
+    bandwidth = contact_bandwidth(tuned, settings.model)
+    prediction = predict_limit_cycles(tuned, settings.model, grid=_DF_GRID)
+    stable = prediction.stable_cycles
+    amplitude = max((c.amplitude for c in stable), default=0.0)
+    near = prediction.near_misses[0].distance if prediction.near_misses else math.nan
+    hunts = (not math.isfinite(bandwidth)) or amplitude > settings.tolerance or bool(prediction.note)
+    return Candidate(tuple(float(v) for v in values), bandwidth, float(amplitude), float(near), bool(hunts))
+
+
+def _bisect_boundary(settings, pair):
+    """The last DF-clear point on the log segment from a clear tuning to a hunting one (``_BISECTIONS`` halvings)."""
+    clear, hunting = pair
+    for _ in range(_BISECTIONS):
+        middle = _screen_cell(settings, tuple(math.sqrt(a * b) for a, b in zip(clear.values, hunting.values)))
+        clear, hunting = (clear, middle) if middle.hunts else (middle, hunting)
+    return clear, hunting
+
+
+# --------------------------------------------------------------------------- certificates
+
+
+@dataclasses.dataclass(frozen=True)
+class Certificate:
+    """The evidence that a tuning does not hunt (module docs), or that it does.
+
+    Attributes
+    ----------
+    values : tuple of float
+    bandwidth : float
+        rad/s.
+    verdict : LoopVerdict
+        The verdict with its exact orbits and probes.
+    certified : bool
+        (1) the DF loci do not meet, (2) shooting finds no periodic orbit, (3) every
+        probe settles; or, with a tolerance, the loop hunts within it.
+    amplitude : float
+        The hunting amplitude A of theta_d the simulations reached, rad; 0 where they settle.
+    """
+
+    values: tuple
+    bandwidth: float
+    verdict: object
+    certified: bool
+    amplitude: float
+
+    def __repr__(self):
+        word = "certified" if self.certified else "not certified"
+        return f"<Certificate {word}: {self.verdict.verdict}, bandwidth {self.bandwidth:.4g} rad/s>"
+
+    def to_dict(self):
+        """JSON-ready: the three checks and their evidence."""
+        verdict = self.verdict
+        prediction = verdict.prediction
+        near = prediction.near_misses[0].distance if prediction is not None and prediction.near_misses else None
+        return json_ready({
+            "certified": self.certified,
+            "verdict": verdict.verdict,
+            "reason": verdict.reason,
+            "df": {"cycles": [c.to_dict() for c in prediction.cycles] if prediction is not None else [],
+                   "near_miss": near, "loci_meet": bool(prediction.cycles) if prediction is not None else None},
+            "exact_orbits": [orbit.to_dict() for orbit in verdict.orbits],
+            "orbit_note": verdict.orbit_note or None,
+            "probes": [probe.to_dict() for probe in verdict.probes],
+            "amplitude": self.amplitude,
+        })
+
+
+def certify(rig, model=None, tolerance=0.0):
+    """Certify one tuning: the verdict with exact orbits, and the three checks of the module docs.
+
+    Parameters
+    ----------
+    rig : Rig
+        The tuned rig.
+    model : str, optional
+        Torque law (default the rig's).
+    tolerance : float
+        Largest first-harmonic amplitude of theta_d (rad) accepted as hunting within tolerance.
+
+    Returns
+    -------
+    Certificate
+    """
+    name = rig.make_model(model).name
+    prediction = verify_limit_cycles(rig, predict_limit_cycles(rig, name))
+    verdict = judge_loop(rig, prediction, exact=True)
+    amplitude = verdict.cycle.amplitude if verdict.cycle is not None else 0.0
+    quiet = verdict.verdict == "no oscillation" and not prediction.cycles and not verdict.orbits
+    within = (tolerance > 0.0 and verdict.verdict in ("limit cycle", "bistable") and verdict.cycle is not None
+              and amplitude <= tolerance and not any(p.outcome in ("diverged", "unsettled") for p in verdict.probes))
+    return Certificate((), contact_bandwidth(rig, name), verdict, bool(quiet or within), float(amplitude))
+
+
+def _certify_cell(settings, values):
+    certificate = certify(_tuned(settings.rig, settings.names, values), settings.model, settings.tolerance)
+    return dataclasses.replace(certificate, values=tuple(float(v) for v in values))
+
+
+# --------------------------------------------------------------------------- the answer
+
+
+@dataclasses.dataclass(frozen=True)
+class FrontPoint:
+    """The best bandwidth at one tolerance of hunting.
+
+    Attributes
+    ----------
+    tolerance : float
+        Largest accepted amplitude A of theta_d, rad.
+    values : tuple of float
+    bandwidth : float
+        rad/s.
+    amplitude : float
+        The hunting amplitude of that tuning, rad: simulated where the simulation
+        reached a cycle, the DF's otherwise; 0 for the certified tuning.
+    """
+
+    tolerance: float
+    values: tuple
+    bandwidth: float
+    amplitude: float
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Tuning:
+    """What :func:`tune` found: the best tuning, its certificate and margin, the front, the searched range.
+
+    Attributes
+    ----------
+    names : tuple of str
+        The varied rig values.
+    ranges : tuple of (float, float)
+        Their searched ranges (the rig file's units).
+    tolerance : float
+        rad.
+    model : str
+        The torque law certified.
+    feasible : bool
+        A tuning in range is certified.
+    best : Certificate
+        The certified tuning of largest bandwidth; where none is, the tuning of the
+        smallest hunting amplitude (``feasible`` False).
+    margin : dict
+        ``{"factor", "toward", "source"}``: the nearest hunting tuning found (its
+        values), by what factor (``exp`` of the log distance) the best one can move
+        toward it, and where it was found (``"DF boundary"`` or ``"certificate"``);
+        empty where none is known.
+    front : tuple of FrontPoint
+        By increasing tolerance; the bandwidth never decreases along it.
+    screen : tuple of Candidate
+        The screened grid (``shape``), then the refined boundary points in ``boundary``.
+    shape : tuple of int
+    boundary : tuple of Candidate
+        The last DF-clear points found by bisection toward a hunting neighbour.
+    certificates : tuple of Certificate
+        Every certificate tried, in order.
+    seconds : dict
+        Wall time of ``screening``, ``refinement`` and ``certification``, s.
+    source : str
+        The rig's file.
+    """
+
+    names: tuple
+    ranges: tuple
+    tolerance: float
+    model: str
+    feasible: bool
+    best: Certificate
+    margin: dict
+    front: tuple
+    screen: tuple
+    shape: tuple
+    boundary: tuple
+    certificates: tuple
+    seconds: dict
+    source: str = ""
+
+    def values(self, point=None):
+        """The varied values of ``point`` (default the best tuning) by name."""
+        point = self.best if point is None else point
+        return dict(zip(self.names, point.values))
+
+    def __repr__(self):
+        best = ", ".join(f"{name} = {value:.4g}" for name, value in self.values().items())
+        word = "certified" if self.feasible else "NO tuning in range certified; least hunting"
+        return (f"<Tuning {word}: {best}, bandwidth {self.best.bandwidth:.4g} rad/s "
+                f"({self.best.verdict.verdict}); {len(self.front)} front points>")
+
+    def to_dict(self):
+        """The ``tune`` JSON (contract page)."""
+        return json_ready({
+            "best": {"values": self.values(), "bandwidth": self.best.bandwidth, "verdict": self.best.verdict.verdict,
+                     "certificate": self.best.to_dict(), "margin": self.margin or None},
+            "front": [{"tolerance": p.tolerance, "values": self.values(p), "bandwidth": p.bandwidth,
+                       "amplitude": p.amplitude} for p in self.front],
+            "feasible": self.feasible,
+            "model": self.model,
+            "tolerance": self.tolerance,
+            "vary": {name: list(bounds) for name, bounds in zip(self.names, self.ranges)},
+            "rig": self.source,
+            "searched": {"screened": len(self.screen), "boundary": len(self.boundary),
+                         "certified": [{"values": self.values(c), "bandwidth": c.bandwidth,
+                                        "verdict": c.verdict.verdict, "certified": c.certified}
+                                       for c in self.certificates]},
+            "seconds": self.seconds,
+        })
+
+    def plot(self, ax=None):
+        """The searched range with the DF's hunting cells, the boundary and the best tuning; the front beside.
+
+        One varied value: the bandwidth against it, hunting cells marked; two: the
+        bandwidth's colour map over the grid, hunting cells hatched.  The second
+        panel is the front: the best bandwidth against the accepted amplitude.
+
+        Returns
+        -------
+        ResultPlot
+            Axes ``[range, front]``.
+        """
+        figure, axes = axes_or_new(ax, (1, 2), figsize=(11, 4.5), layout="constrained")
+        _draw_range(self, axes[0])
+        _draw_front(self, axes[1])
+        return ResultPlot(figure, axes)
+
+    def report_html(self, title="", rig_text=""):
+        """A self-contained HTML page: the answer and its certificate, the map with the boundary, the front.
+
+        Parameters
+        ----------
+        title : str
+            Page title (default "Tuning" and the rig's source).
+        rig_text : str
+            The rig file's text, shown as it is.
+        """
+        best = ", ".join(f"{name} = {value:.5g} {TUNABLE[name]}" for name, value in self.values().items())
+        verdict = self.best.verdict
+        answer = (f"<b>{'Certified' if self.feasible else 'No tuning in the range is certified'}: {html.escape(best)}"
+                  f"</b>, bandwidth {self.best.bandwidth:.4g} rad/s; verdict <b>{verdict.verdict}</b>: "
+                  f"{html.escape(verdict.reason)}")
+        if self.margin:
+            answer += (f"<br>Margin: a factor {self.margin['factor']:.3g} toward the nearest hunting tuning found "
+                       f"({html.escape(', '.join(f'{k} = {v:.4g}' for k, v in self.margin['toward'].items()))}, "
+                       f"{self.margin['source']}).")
+        sections = [("", f'<div class="summary"><p>{answer}</p></div>')]
+        if rig_text:
+            sections.append(("Rig", f"<pre>{html.escape(rig_text)}</pre>"))
+        sections.append(("Searched range, boundary and front", figure_html(
+            self.plot().figure, "Left: bandwidth over the range (hatched: the DF says it hunts); dots: the boundary; "
+                                "star: the best certified tuning. Right: best bandwidth against the accepted "
+                                "hunting amplitude.")))
+        probes = [[_disturbance_text(p), p.outcome, f"{p.measured.amplitude:.4g}" if p.measured.found else ""]
+                  for p in verdict.probes]
+        sections.append(("Certificate: the probes", table_html(["disturbance", "outcome", "cycle A (rad)"], probes,
+                                                               text_columns=(0, 1))))
+        front = [[f"{p.tolerance:.4g}", ", ".join(f"{v:.4g}" for v in p.values), f"{p.bandwidth:.4g}",
+                  f"{p.amplitude:.4g}"] for p in self.front]
+        sections.append(("Front: bandwidth bought by accepted hunting", table_html(
+            ["tolerance (rad)", ", ".join(self.names), "bandwidth (rad/s)", "amplitude (rad)"], front)))
+        return html_page(title or f"Tuning: {self.source}", sections)
+
+
+def _disturbance_text(probe):
+    """A probe's disturbance in its unit."""
+    disturbance = probe.disturbance
+    return f"{disturbance:.4g} rad" if isinstance(disturbance, float) else str(disturbance)
+
+
+def _draw_range(tuning, ax):
+    """The screened range: bandwidth and hunting cells; boundary points; the best tuning."""
+    points = np.array([c.values for c in tuning.screen])
+    bandwidth = np.array([c.bandwidth for c in tuning.screen])
+    hunts = np.array([c.hunts for c in tuning.screen])
+    unit = {name: TUNABLE[name] for name in tuning.names}
+    if len(tuning.names) == 1:
+        order = np.argsort(points[:, 0])
+        ax.plot(points[order, 0], bandwidth[order], "-", color="0.5", lw=1, label="bandwidth (DF screen)")
+        ax.plot(points[hunts, 0], np.nan_to_num(bandwidth[hunts]), "x", color="C3", label="DF: hunts")
+        boundary = np.array([c.values[0] for c in tuning.boundary])
+        if boundary.size:
+            ax.plot(boundary, [c.bandwidth for c in tuning.boundary], "o", color="C1", ms=4, label="boundary")
+        ax.plot(tuning.best.values[0], tuning.best.bandwidth, "*", color="C2" if tuning.feasible else "C3", ms=14,
+                label="best certified" if tuning.feasible else "least hunting")
+        ax.set_xscale("log")
+        ax.set_xlabel(f"{tuning.names[0]} ({unit[tuning.names[0]]})")
+        ax.set_ylabel("bandwidth omega_b (rad/s)")
+    else:
+        rows, columns = tuning.shape
+        x = points[:, 0].reshape(rows, columns)[:, 0]
+        y = points[:, 1].reshape(rows, columns)[0]
+        grid = bandwidth.reshape(rows, columns)
+        mesh = ax.pcolormesh(x, y, grid.T, shading="nearest", cmap="viridis")
+        ax.figure.colorbar(mesh, ax=ax, label="bandwidth omega_b (rad/s)")
+        ax.contourf(x, y, hunts.reshape(rows, columns).T.astype(float), levels=[0.5, 1.5], colors="none",
+                    hatches=["//"])
+        if tuning.boundary:
+            boundary = np.array([c.values for c in tuning.boundary])
+            ax.plot(boundary[:, 0], boundary[:, 1], "o", color="C1", ms=4, label="boundary")
+        ax.plot(*tuning.best.values, "*", color="w" if tuning.feasible else "C3", mec="k", ms=16,
+                label="best certified" if tuning.feasible else "least hunting")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel(f"{tuning.names[0]} ({unit[tuning.names[0]]})")
+        ax.set_ylabel(f"{tuning.names[1]} ({unit[tuning.names[1]]})")
+    ax.set_title(f"{tuning.model}: hatched or x where the DF says it hunts", fontsize="medium")
+    ax.legend(fontsize=7, loc="best")
+
+
+def _draw_front(tuning, ax):
+    """The front: best bandwidth against the accepted hunting amplitude."""
+    tolerance = np.array([p.tolerance for p in tuning.front])
+    ax.step(tolerance, [p.bandwidth for p in tuning.front], where="post", color="C0")
+    ax.plot(tolerance, [p.bandwidth for p in tuning.front], "o", color="C0", ms=4)
+    ax.set_xlabel("accepted hunting: amplitude A of theta_d (rad)")
+    ax.set_ylabel("best bandwidth omega_b (rad/s)")
+    ax.set_title("front: bandwidth bought by accepted hunting", fontsize="medium")
+    ax.grid(True, alpha=0.3)
+
+
+# --------------------------------------------------------------------------- the search
+
+
+def _grid(ranges):
+    """The screened values: log-spaced, the ends included."""
+    count = _SCREEN[len(ranges)]
+    axes = [np.geomspace(low, high, count) for low, high in ranges]
+    mesh = np.meshgrid(*axes, indexing="ij")
+    return [tuple(float(m.flat[i]) for m in mesh) for i in range(mesh[0].size)], tuple(a.size for a in axes)
+
+
+def _pairs(screen, shape):
+    """Grid neighbours (clear, hunting) worth refining: the clear side's bandwidth near the best clear one."""
+    clear = [c.bandwidth for c in screen if not c.hunts and math.isfinite(c.bandwidth)]
+    if not clear:
+        return []
+    best = max(clear)
+    index = np.arange(len(screen)).reshape(shape)
+    found = []
+    for axis in range(len(shape)):
+        for a, b in zip(np.take(index, range(shape[axis] - 1), axis).ravel(),
+                        np.take(index, range(1, shape[axis]), axis).ravel()):
+            for c, h in ((screen[a], screen[b]), (screen[b], screen[a])):
+                if (not c.hunts and h.hunts and c.bandwidth >= 0.5 * best
+                        and not (math.isfinite(h.bandwidth) and h.bandwidth <= c.bandwidth)):
+                    found.append((c, h))
+    return found
+
+
+def _log_distance(a, b):
+    return math.sqrt(sum(math.log(x / y) ** 2 for x, y in zip(a, b)))
+
+
+def _margin(names, best, hunting_points):
+    """The nearest hunting tuning to the best one, and the factor to it."""
+    if not hunting_points:
+        return {}
+    values, source = min(hunting_points, key=lambda item: _log_distance(best.values, item[0]))
+    return {"factor": math.exp(_log_distance(best.values, values)), "toward": dict(zip(names, values)),
+            "source": source}
+
+
+def _front(settings, screen, best, feasible, executor):
+    """Best bandwidth per tolerance: 0 (the certified tuning), then the DF amplitudes of hunting cells."""
+    stable = [c for c in screen if math.isfinite(c.bandwidth) and c.amplitude > 0.0]
+    levels = sorted({c.amplitude for c in stable})
+    if len(levels) > 6:
+        levels = [levels[int(round(i))] for i in np.linspace(0, len(levels) - 1, 6)]
+    chosen = []
+    for level in levels:
+        inside = [c for c in stable if c.amplitude <= level]
+        top = max(inside, key=lambda c: c.bandwidth)
+        if (feasible and top.bandwidth <= best.bandwidth) or (chosen and top.bandwidth <= chosen[-1][1].bandwidth):
+            continue
+        chosen.append((level, top))
+    simulated = run_cells(functools.partial(_simulated_amplitude, settings), [c.values for _, c in chosen], executor)
+    front = [FrontPoint(0.0, best.values, best.bandwidth, 0.0)] if feasible else []
+    for (level, candidate), amplitude in zip(chosen, simulated):
+        front.append(FrontPoint(float(max(level, amplitude)), candidate.values, candidate.bandwidth, float(amplitude)))
+    front.sort(key=lambda p: p.tolerance)
+    monotone, top = [], -math.inf
+    for point in front:  # a larger tolerance never buys less: keep the points that buy more
+        if point.bandwidth > top:
+            monotone.append(point)
+            top = point.bandwidth
+    return tuple(monotone)
+
+
+def _simulated_amplitude(settings, values):
+    """The hunting amplitude a simulation from the DF's largest stable cycle settles to (the DF's if it finds none)."""
+    tuned = _tuned(settings.rig, settings.names, values)
+    prediction = verify_limit_cycles(tuned, predict_limit_cycles(tuned, settings.model, grid=_DF_GRID))
+    found = [c.simulated.amplitude for c in prediction.stable_cycles if c.simulated is not None and c.simulated.found]
+    return max(found) if found else max(c.amplitude for c in prediction.stable_cycles)
+
+
+def tune(rig, vary, tolerance=0.0, model=None, executor=None, progress=None):
+    """The tuning of largest contact-loop bandwidth whose verdict is certified ``no oscillation`` (module docs).
+
+    Parameters
+    ----------
+    rig : Rig
+        Plant, ``[controller]`` and ``[load]``; the varied values are replaced.
+    vary : dict of str to (float, float)
+        One or two of :data:`TUNABLE` and their ranges ``(low, high)``, searched on a
+        log scale (``{"kp": (1.0, 1000.0), "ti": (0.01, 2.0)}``).
+    tolerance : float
+        Largest accepted hunting amplitude A of theta_d, rad (0: none).
+    model : str, optional
+        Torque law (default the rig's).
+    executor : concurrent.futures.Executor, optional
+        Runs the screened cells, the boundary bisections and the certificates.
+    progress : callable, optional
+        ``progress(stage, done, total)``.
+
+    Returns
+    -------
+    Tuning
+
+    Raises
+    ------
+    ValueError
+        An unknown or non-varying value, a range with low >= high or not positive,
+        a tolerance < 0: one line.
+    """
+    names, ranges = _validated(rig, vary, tolerance)
+    name = rig.make_model(model).name
+    settings = _Settings(rig, names, name, float(tolerance))
+    report = progress or (lambda stage, done, total: None)
+    seconds = {}
+
+    start = time.perf_counter()
+    points, shape = _grid(ranges)
+    report("screening", 0, len(points))
+    screen = run_cells(functools.partial(_screen_cell, settings), points, executor)
+    report("screening", len(points), len(points))
+    seconds["screening"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    pairs = _pairs(screen, shape)
+    report("refinement", 0, len(pairs))
+    refined = run_cells(functools.partial(_bisect_boundary, settings), pairs, executor)
+    report("refinement", len(pairs), len(pairs))
+    boundary = tuple(clear for clear, _ in refined)
+    seconds["refinement"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    hunting = [(h.values, "DF boundary") for _, h in refined] + [(c.values, "DF screen") for c in screen if c.hunts]
+    candidates = sorted([c for c in list(screen) + list(boundary) if not c.hunts and math.isfinite(c.bandwidth)],
+                        key=lambda c: -c.bandwidth)
+    certificates, best = [], None
+    for candidate in candidates:
+        report("certification", len(certificates), len(candidates))
+        certificate = _certify_cell(settings, candidate.values)
+        certificates.append(certificate)
+        if certificate.certified:
+            best = certificate
+            break
+        hunting.append((certificate.values, "certificate"))
+    if best is not None:
+        best = _tighten(settings, best, certificates, hunting, report)
+    seconds["certification"] = time.perf_counter() - start
+
+    feasible = best is not None
+    if not feasible:  # the least hunting tuning in range, its verdict stated
+        stable = [c for c in screen if math.isfinite(c.bandwidth)] or list(screen)
+        least = min(stable, key=lambda c: (c.amplitude, -np.nan_to_num(c.bandwidth)))
+        best = _certify_cell(settings, least.values)
+        certificates.append(best)
+    front = _front(settings, screen, best, feasible, executor)
+    report("done", 1, 1)
+    return Tuning(names, ranges, float(tolerance), name, feasible, best, _margin(names, best, hunting) if feasible else {},
+                  front, tuple(screen), shape, boundary, tuple(certificates), seconds, rig.source)
+
+
+def _tighten(settings, best, certificates, hunting, report):
+    """Bisect, with certificates, toward every faster tuning that failed its certificate."""
+    failed = [c for c in certificates if not c.certified and c.bandwidth > best.bandwidth]
+    for fast in failed:
+        lo, hi = best, fast
+        for step in range(_CERTIFIED_BISECTIONS):
+            report("certification", len(certificates), len(certificates) + _CERTIFIED_BISECTIONS - step)
+            middle = _certify_cell(settings, tuple(math.sqrt(a * b) for a, b in zip(lo.values, hi.values)))
+            certificates.append(middle)
+            if middle.certified:
+                lo = middle
+            else:
+                hi = middle
+                hunting.append((middle.values, "certificate"))
+        if lo.bandwidth > best.bandwidth:
+            best = lo
+    return best

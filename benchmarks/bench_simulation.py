@@ -1,0 +1,542 @@
+"""Work-precision curves of the closed-loop simulation: the kernel against solve_ivp, compiled RK and CVODE.
+
+Run: ``python benchmarks/bench_simulation.py [--repeat 3] [--cases N] [--no-profile]``
+(about 10 minutes on one core with the defaults; ``--cases 1`` only the first case).
+
+Cases: the PI loops of ``examples/load_feedback.toml`` with the phase plane law
+(19)-(23) and the damped dead-zone (26), and of ``examples/motor_lag_feedback.toml``
+with the phase plane law; 2 s from a kick dtheta_d(0) = 15 rad/s (the least-norm state,
+:func:`backlash_df.simulation.initial_state`), which settles towards the limit cycle
+through about 120 switches.  All three laws are piecewise affine.
+
+**Error**: the largest |theta_d - theta_d,ref| over one output grid (every 1 ms,
+2001 points, the same for every method), divided by the range of theta_d,ref.
+
+**Reference**: the exact flow of each mode, the exponential of the mode's affine
+matrix in long double (64-bit mantissa; balanced, scaled and squared, Taylor series),
+from event to event and from output point to output point; the switching surfaces are
+scanned on a 1 us grid and every crossing bisected to 1e-21 s in long double.  It is written here from the
+rig's :class:`~backlash_df.system.LinearPart` and the law's surfaces
+(``switched.py``), independent of the package's kernels.  Checked by refinement
+(scan grid 0.25 us) and against the same computation in double precision: both
+differences are printed and lie far below 1e-13.
+
+**Methods**, each on the same right-hand side ``dz/dt = A_m z + f_m`` of mode m:
+
+* the package's kernel, :func:`backlash_df.simulate`, at steps 1, 1/2, 1/5, 1/10 and
+  1/20 of the output spacing (exact between events; the step only decides which short
+  contacts it sees and how events are bracketed);
+* ``scipy.integrate.solve_ivp`` RK45, DOP853, LSODA and Radau, integrated mode by mode
+  with event location at the switching surfaces and a restart at every switch, rtol
+  1e-5 ... 1e-13 (atol 1e-3 rtol); Radau and LSODA get the exact Jacobian ``A_m``;
+* DP5 and DOP853 compiled with numba (``compiled_rk.py``), events bisected on their
+  dense output, rtol 1e-5 ... 1e-13;
+* SUNDIALS CVODE with root finding (scikit-sundae), Adams and BDF (exact Jacobian),
+  restarted at every root, rtol 1e-5 ... 1e-13.
+
+**CPU time**: ``time.process_time`` of this process, best of ``--repeat`` (a run over
+2 s: once; runs under 0.1 s as many times as fill 0.3 s, at most 50), of the whole call a
+user makes (the kernel: ``simulate`` with its setup); a method whose run takes over 20 s
+is not run at tighter tolerances.
+**Work**: the kernel's steps; the others' right-hand side evaluations as each reports
+them (``nfev``; the compiled pairs count their own, dense-output stages included).
+
+After each case's table: the kernel's time as a cost per call plus a cost per step
+(least squares over its five runs); the **floor**, a numba loop doing the kernel's work per step
+(one product with the (n + 2) x (n + 2) mode matrix of the augmented state, the state,
+torque and mode recorded, the mode guard :func:`~backlash_df.models.held_mode`) and the
+kernel's time per step against it; and the **profile** of the kernel's run by ``perf``
+(sampled at 4 kHz over 200 runs after the warm-up; numba's code named through a perf map
+written from the compiled libraries): the share of the process of the top three
+functions.  Last, the summary at errors 1e-6 and 1e-10: the cheapest run of each method
+and the kernel's time against the best competitor's; ``build/work_precision.png``.
+"""
+
+import argparse
+import math
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numba
+import numpy as np
+from scipy.linalg import expm, matrix_balance
+from sksundae.cvode import CVODE
+
+from backlash_df import load_rig, simulate
+from backlash_df.loops import drive_loop
+from backlash_df.models import EQUATIONS, held_mode, mode_torque
+from backlash_df.simulation import initial_state
+from backlash_df.system import mode_matrices
+import compiled_rk
+from switched import dead_zone_surfaces, on_state, phase_plane_surfaces, solve_modes
+from timing import best_of
+
+ROOT = Path(__file__).resolve().parents[1]
+CASES = (("load_feedback.toml", "phase-plane"), ("load_feedback.toml", "damped-dead-zone"),
+         ("motor_lag_feedback.toml", "phase-plane"))
+T_END, KICK, GRID = 2.0, 15.0, 1e-3
+SPLITS = (1, 2, 5, 10, 20)  # kernel steps GRID / split
+RTOLS = 10.0 ** -np.arange(5, 14)
+SCAN, BISECT_TO = 1e-6, 1e-21  # the reference's surface scan and event precision, s
+TARGETS = (1e-6, 1e-10)
+ONCE_ABOVE = 2.0
+MIN_TIMED, MAX_REPEAT = 0.3, 50  # s: runs shorter than MIN_TIMED / repeat are repeated more, up to MAX_REPEAT
+GIVE_UP = 20.0  # s: a method slower than this per run is not run at tighter tolerances
+PROFILE_RUNS = 200
+COMPILED = {"numba DP5 + events": compiled_rk.DP5, "numba DOP853 + events": compiled_rk.DP8}
+
+
+class ClosedLoop:
+    """One case: a rig's PI loop and a piecewise-affine law, as per-mode affine systems ``dz/dt = A_m z + f_m``."""
+
+    def __init__(self, rig_name, law_name):
+        self.rig_name, self.law_name = rig_name, law_name
+        self.rig = load_rig(ROOT / "examples" / rig_name)
+        self.name = f"{rig_name}, {law_name} {EQUATIONS[law_name]}"
+        self.label = f"{Path(rig_name).stem}/{law_name}"
+        self.model = self.rig.make_model(law_name)
+        self.part = part = drive_loop(self.rig).linear_part()
+        k, c, alpha, _ = self.model.params
+        inputs = part.E @ np.array([0.0, self.rig.load.torque])  # simulate's defaults: r = 0, the rig's load
+        contact = np.outer(part.b, k * part.c_x + c * part.c_v)
+        self.affine = {m: (part.A + (contact if m else 0.0), inputs - np.sign(m) * k * alpha * part.b)
+                       for m in (-2, 0, 2)}
+        self.mats = np.stack([self.affine[m][0] for m in (-2, 0, 2)])
+        self.offs = np.stack([self.affine[m][1] for m in (-2, 0, 2)])
+        self.z0 = initial_state(part, None, KICK)
+        self.t_eval = np.arange(round(T_END / GRID) + 1) * GRID
+        if law_name == "phase-plane":
+            self.surfaces = lambda mode: phase_plane_surfaces(mode, k, c, alpha)
+        else:
+            self.surfaces = lambda mode: dead_zone_surfaces(mode, alpha)
+
+    def xv(self, z):
+        return self.part.c_x @ z, self.part.c_v @ z
+
+    def rhs(self, mode):
+        a_m, f_m = self.affine[mode]
+        return lambda t, z: a_m @ z + f_m
+
+    def jac(self, mode):
+        a_m = self.affine[mode][0]
+        return lambda t, z: a_m
+
+    def guards(self, mode):
+        return on_state(self.surfaces(mode), self.xv)
+
+
+# --------------------------------------------------------------------------- the reference
+
+
+def expm_taylor(m, dtype=np.longdouble):
+    """``exp(m)`` in ``dtype``: balanced (exact powers of 2), scaled and squared, Taylor series to degree 30.
+
+    Without the balancing, the loop's mixed units (rad against rad/s, entries from 1 to
+    1e4) leave a relative error some 1e5 times the precision after the squarings.
+    """
+    _, (scaling, _) = matrix_balance(np.asarray(m, dtype=float), permute=False, separate=True)
+    scaling = scaling.astype(dtype)
+    x = np.asarray(m, dtype=dtype) * scaling[None, :] / scaling[:, None]
+    norm = float(np.abs(x).sum(axis=1).max())
+    squarings = max(0, math.ceil(math.log2(norm))) if norm > 0.0 else 0
+    x = x / dtype(2.0) ** squarings
+    term = result = np.eye(m.shape[0], dtype=dtype)
+    for j in range(1, 31):
+        term = term @ x / j
+        result = result + term
+    for _ in range(squarings):
+        result = result @ result
+    return result * scaling[:, None] / scaling[None, :]
+
+
+def exact_reference(loop, scan=SCAN, dtype=np.longdouble):
+    """theta_d on ``loop.t_eval`` by the exact flow of each mode; (theta_d, switches).
+
+    The state ``q = (z, 1)`` is carried in ``dtype`` from event to event and from output
+    to output with ``exp(M_m s)``; each mode's surfaces are scanned on a grid of ``scan``
+    seconds (in double) and every crossing bisected on the exact flow to ``BISECT_TO``.
+    """
+    n = loop.z0.size
+    augmented = {}
+    for mode, (a_m, f_m) in loop.affine.items():
+        m_aug = np.zeros((n + 1, n + 1))
+        m_aug[:n, :n], m_aug[:n, n] = a_m, f_m
+        augmented[mode] = m_aug
+    def exp(m):
+        return expm_taylor(m, dtype)
+
+    steps = round(GRID / scan)
+    scans = {mode: np.stack([expm(m_aug * scan * j) for j in range(1, steps + 1)]) for mode, m_aug in augmented.items()}
+    rows = np.array([loop.part.c_x, loop.part.c_v])
+    q = np.append(loop.z0, 1.0).astype(dtype)
+    t, mode, switches = dtype(0.0), 0, 0
+    out = np.empty(loop.t_eval.size)
+    out[0] = float(loop.part.c_x @ loop.z0)
+
+    def crossed(state, surfaces):
+        x, v = (rows @ state[:n].astype(float)) if state.ndim == 1 else rows @ state[:, :n].T.astype(float)
+        return np.array([np.asarray(g(x, v)) < 0.0 for g, _ in surfaces])
+
+    for i in range(1, loop.t_eval.size):
+        while True:
+            span = dtype(loop.t_eval[i]) - t
+            surfaces = loop.surfaces(mode)
+            count = min(steps, math.ceil(float(span) / scan))
+            ahead = np.vstack([scans[mode][:count - 1] @ q.astype(float), exp(augmented[mode] * span) @ q])
+            below = crossed(ahead, surfaces)
+            if not below.any():
+                q, t = ahead[-1].astype(dtype), t + span
+                break
+            first = int(np.argmax(below.any(axis=0)))
+            lo, hi = dtype(first * scan), min(dtype((first + 1) * scan), span)
+            while hi - lo > BISECT_TO and lo < (lo + hi) / 2 < hi:
+                mid = (lo + hi) / 2
+                if crossed(exp(augmented[mode] * mid) @ q, surfaces).any():
+                    hi = mid
+                else:
+                    lo = mid
+            state = exp(augmented[mode] * hi) @ q
+            mode = surfaces[int(np.argmax(crossed(state, surfaces)))][1]
+            q, t, switches = state, t + hi, switches + 1
+        out[i] = float(rows[0] @ q[:n].astype(float))
+    return out, switches
+
+
+# --------------------------------------------------------------------------- the methods
+
+
+def kernel_run(loop, split):
+    result = simulate(loop.rig, loop.model, t_end=T_END, dt=GRID / split, kick=KICK)
+    return result.theta_d[::split], result.time.size - 1
+
+
+def scipy_run(loop, method, rtol):
+    states, nfev, _ = solve_modes(loop.rhs, loop.guards, loop.z0, 0, T_END, loop.t_eval, method, rtol, loop.jac)
+    return loop.part.c_x @ states, nfev
+
+
+def compiled_run(loop, method, rtol):
+    arrays = compiled_rk.tableau(method)
+    out = np.full(loop.t_eval.size, np.nan)
+    nfev, _ = compiled_rk.integrate(method, *arrays, loop.mats, loop.offs, loop.model.law, loop.model.params,
+                                    loop.part.c_x, loop.part.c_v, 0, loop.z0, T_END, rtol, loop.t_eval, out)
+    return out, nfev
+
+
+def cvode_run(loop, method, rtol):
+    """CVODE (scikit-sundae) with root finding, restarted in the new mode at every root."""
+    solvers = {mode: cvode_solver(loop, mode, method, rtol) for mode in (-2, 0, 2)}
+    out = np.full(loop.t_eval.size, np.nan)
+    out[0] = loop.part.c_x @ loop.z0
+    t, z, mode, nfev = 0.0, loop.z0, 0, 0
+    while t < T_END:
+        later = loop.t_eval[loop.t_eval > t]
+        first = loop.t_eval.size - later.size
+        # more than two times: output at them (two would mean CVODE's own steps)
+        tspan = np.concatenate(([t], later if later.size > 1 else [0.5 * (t + later[0]), later[0]]))
+        result = solvers[mode].solve(tspan, z)
+        if not result.success:
+            raise RuntimeError(f"CVODE failed at t = {t}: {result.message}")
+        nfev += result.nfev
+        stopped = result.status == 2  # a root (the events of earlier solves stay listed before it)
+        times, states = (result.t[1:-1], result.y[1:-1]) if stopped else (result.t[1:], result.y[1:])
+        reached = np.isin(times, later)
+        out[first:first + reached.sum()] = states[reached] @ loop.part.c_x
+        if not stopped:
+            break
+        which = int(np.flatnonzero(result.i_events[-1])[0])
+        t, z, mode = float(result.t_events[-1]), result.y_events[-1].copy(), loop.surfaces(mode)[which][1]
+    return out, nfev
+
+
+def cvode_solver(loop, mode, method, rtol):
+    """A CVODE solver of one mode, its surfaces as terminal roots (falling through zero)."""
+
+    a_m, f_m = loop.affine[mode]
+    surfaces = loop.surfaces(mode)
+
+    def rhs(t, y, yp):
+        yp[:] = a_m @ y + f_m
+
+    def events(t, y, values):
+        x, v = loop.xv(y)
+        for i, (g, _) in enumerate(surfaces):
+            values[i] = g(x, v)
+
+    def jacobian(t, y, yp, jj):
+        jj[:, :] = a_m
+
+    events.terminal, events.direction = [True] * len(surfaces), [-1] * len(surfaces)
+    options = {"jacfn": jacobian} if method == "BDF" else {}
+    return CVODE(rhs, method=method, rtol=rtol, atol=1e-3 * rtol, eventsfn=events, num_events=len(surfaces),
+                 max_num_steps=1_000_000, **options)
+
+
+def methods(loop):
+    """(method, setting, run) for every point of every curve, curve by curve: run() gives (theta_d, work)."""
+    for split in SPLITS:
+        yield "backlash-df kernel", f"dt = {GRID / split:.0e} s", lambda s=split: kernel_run(loop, s)
+    curves = [(label, lambda m, r: compiled_run(loop, m, r), method) for label, method in COMPILED.items()]
+    curves += [(f"solve_ivp {m} + events", lambda m, r: scipy_run(loop, m, r), m)
+               for m in ("RK45", "DOP853", "LSODA", "Radau")]
+    curves += [(f"CVODE {m} + roots", lambda m, r: cvode_run(loop, m, r), m) for m in ("Adams", "BDF")]
+    for label, run, method in curves:
+        for rtol in RTOLS:
+            yield label, f"rtol {rtol:.0e}", lambda run=run, m=method, r=rtol: run(m, r)
+
+
+# --------------------------------------------------------------------------- the floor and the profile
+
+
+@numba.njit(cache=True)
+def floor_loop(phis, q0, law, p, c_x, c_v, n_steps, states, torque, modes):
+    """The kernel's work per step without its event location: product, record, mode guard."""
+    n, size = c_x.size, q0.size
+    q, new = q0.copy(), np.empty(size)
+    mode = 0
+    for i in range(n_steps + 1):
+        x = 0.0
+        v = 0.0
+        for j in range(n):
+            states[i, j] = q[j]
+            x += c_x[j] * q[j]
+            v += c_v[j] * q[j]
+        torque[i] = mode_torque(law, mode, x, v, p[0], p[1], p[2], p[3])
+        modes[i] = mode
+        if i == n_steps:
+            break
+        phi = phis[mode // 2 + 1]
+        for r in range(size):
+            acc = 0.0
+            for j in range(size):
+                acc += phi[r, j] * q[j]
+            new[r] = acc
+        q, new = new, q
+        mode = held_mode(law, mode, x, v, p[0], p[1], p[2], p[3])
+    return mode
+
+
+def floor_row(loop, repeat):
+    """(floor ns per step, kernel ns per step, matrix size) at the kernel's finest step of the table."""
+    dt = GRID / SPLITS[-1]
+    n_steps = round(T_END / dt)
+    phis = np.stack([expm(m_aug * dt) for m_aug in mode_matrices(loop.part, loop.model, loop.model.law)])
+    q0 = np.zeros(phis.shape[1])
+    q0[:loop.z0.size], q0[loop.z0.size + 1] = loop.z0, 1.0
+    outputs = (np.empty((n_steps + 1, loop.z0.size)), np.empty(n_steps + 1), np.empty(n_steps + 1, dtype=np.int64))
+
+    def run():
+        return floor_loop(phis, q0, loop.model.law, loop.model.params, loop.part.c_x, loop.part.c_v, n_steps,
+                          *outputs)
+
+    run()
+    floor, _ = best_of(run, max(repeat, 5))
+    kernel, _ = best_of(lambda: kernel_run(loop, SPLITS[-1]), max(repeat, 5))
+    return floor / n_steps * 1e9, kernel / n_steps * 1e9, phis.shape[1]
+
+
+PROFILE_WORKER = """
+import sys, time
+sys.path.insert(0, {bench!r})
+import bench_simulation as b
+loop = b.ClosedLoop({rig!r}, {law!r})
+b.kernel_run(loop, {split})
+b.write_perf_map()
+print("ready", flush=True)
+sys.stdin.readline()
+for _ in range({runs}):
+    b.kernel_run(loop, {split})
+"""
+
+
+def write_perf_map():
+    """Name numba's compiled functions for perf: ``/tmp/perf-<pid>.map`` from every loaded library's symbols.
+
+    The functions are those the libraries' LLVM IR defines; a function's extent is taken
+    up to the next one's address (at most 64 KiB).
+    """
+    found = {}
+    for module in list(sys.modules.values()):
+        for value in list(vars(module).values()) if module else ():
+            if isinstance(value, numba.core.registry.CPUDispatcher):
+                for result in value.overloads.values():
+                    library = result.library
+                    for name in DEFINED.findall(library.get_llvm_str()):
+                        address = library.get_pointer_to_function(name)
+                        if address:
+                            found[address] = name
+    addresses = sorted(found)
+    with open(f"/tmp/perf-{os.getpid()}.map", "w") as handle:
+        for address, following in zip(addresses, addresses[1:] + [addresses[-1] + 4096]):
+            handle.write(f"{address:x} {min(following - address, 1 << 16):x} {demangled(found[address])}\n")
+
+
+DEFINED = re.compile(r'^define [^@]*@"?([^"(]+)"?\(', re.MULTILINE)
+
+
+def demangled(symbol):
+    """``backlash_df.simulation._kernels._step_exactly`` from numba's mangled name."""
+    parts, rest = [], symbol.removeprefix("cfunc.").removeprefix("_ZN")
+    while rest and rest[0].isdigit():
+        digits = len(rest) - len(rest.lstrip("0123456789"))
+        size = int(rest[:digits])
+        parts.append(rest[digits:digits + size])
+        rest = rest[digits + size:]
+    return ".".join(parts) or symbol
+
+
+def profile(loop):
+    """The top three functions of the kernel's run by perf samples: [(share, name)], or a reason why not."""
+    if shutil.which("perf") is None:
+        return "perf not found"
+    with tempfile.TemporaryDirectory() as scratch:
+        data = Path(scratch) / "perf.data"
+        code = PROFILE_WORKER.format(bench=str(ROOT / "benchmarks"), rig=loop.rig_name, law=loop.law_name,
+                                     split=SPLITS[-1],
+                                     runs=PROFILE_RUNS)
+        env = {**os.environ, "NUMBA_CACHE_DIR": scratch}  # compiled afresh: the libraries keep their symbols
+        worker = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                  text=True, env=env)
+        try:
+            worker.stdout.readline()
+            record = subprocess.Popen(["perf", "record", "-F", "4000", "-o", str(data), "-p", str(worker.pid)],
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            time.sleep(1.0)
+            worker.stdin.write("go\n")
+            worker.stdin.flush()
+            worker.wait()
+            record.wait()
+            report = subprocess.run(["perf", "report", "-i", str(data), "--stdio", "--sort", "sym"],
+                                    capture_output=True, text=True).stdout
+        finally:
+            Path(f"/tmp/perf-{worker.pid}.map").unlink(missing_ok=True)
+    rows = []
+    for line in report.splitlines():
+        fields = line.split()
+        if len(fields) >= 3 and fields[0].endswith("%") and fields[1] in ("[.]", "[k]"):
+            rows.append((float(fields[0].rstrip("%")), " ".join(fields[2:])))
+    if not rows:
+        return "perf recorded no samples"
+    compiled = sum(share for share, name in rows if name.startswith(("backlash_df.", "NRT_")))
+    top = ", ".join(f"{name} {share:.1f} %" for share, name in sorted(rows, reverse=True)[:3])
+    return f"{top}; all numba code (backlash-df's and numba's runtime NRT_*) {compiled:.1f} %"
+
+
+# --------------------------------------------------------------------------- tables
+
+
+def case_table(loop, repeat):
+    """Every curve point of one case: [(method, setting, error, seconds, work)], printed."""
+    reference, switches = exact_reference(loop)
+    refined, _ = exact_reference(loop, scan=SCAN / 4)
+    double, _ = exact_reference(loop, dtype=np.float64)
+    scale = np.ptp(reference)
+    print(f"\n{loop.name}: {T_END:g} s from a kick of {KICK:g} rad/s, {switches} switches, "
+          f"{loop.t_eval.size} output points every {GRID * 1e3:g} ms; theta_d range {scale:.4g} rad")
+    print(f"  reference (exact flow, long double): refined scan {np.abs(refined - reference).max() / scale:.1e}, "
+          f"in double {np.abs(double - reference).max() / scale:.1e} (relative to the range)")
+    print(f"  {'method':<30}{'setting':>16}{'error':>10}{'CPU s':>11}{'work':>11}")
+    points, given_up = [], set()
+    for method, setting, run in methods(loop):
+        if method in given_up:
+            continue
+        if not any(p[0] == method for p in points):
+            run()  # the first run of a method compiles or imports
+        first, _ = best_of(run, 1)
+        runs = min(MAX_REPEAT, max(repeat, int(MIN_TIMED / first)))  # short runs: more of them, for a steady best
+        seconds, (theta, work) = best_of(run, runs, once_above=ONCE_ABOVE)
+        error = float(np.abs(theta - reference).max() / scale)
+        unit = "steps" if method.startswith("backlash") else "RHS"
+        note = ""
+        if seconds > GIVE_UP:
+            given_up.add(method)
+            note = f"  (over {GIVE_UP:g} s: tighter rtol not run)"
+        print(f"  {method:<30}{setting:>16}{error:10.1e}{seconds:11.4f}{work:>11d} {unit}{note}", flush=True)
+        points.append((method, setting, error, seconds, work))
+    return points
+
+
+def cheapest(points, target):
+    """{method: (seconds, setting, error)} of the cheapest run of each method at an error <= target."""
+    best = {}
+    for method, setting, error, seconds, _ in points:
+        if error <= target and (method not in best or seconds < best[method][0]):
+            best[method] = (seconds, setting, error)
+    return best
+
+
+def summary(name, points):
+    for target in TARGETS:
+        best = cheapest(points, target)
+        print(f"  at error {target:.0e}:")
+        kernel = best.get("backlash-df kernel")
+        others = {m: v for m, v in best.items() if m != "backlash-df kernel"}
+        for method, (seconds, setting, error) in sorted(best.items(), key=lambda item: item[1][0]):
+            print(f"    {method:<30}{setting:>16}{error:10.1e}{seconds * 1e3:10.2f} ms")
+        if kernel is None or not others:
+            print(f"    {name}: no ratio (the kernel or every competitor never reaches {target:.0e})")
+            continue
+        rival = min(others, key=lambda m: others[m][0])
+        print(f"    best competitor at {target:.0e} on {name}: {rival} ({others[rival][1]}): "
+              f"{others[rival][0] / kernel[0]:.2f}x the kernel's CPU time")
+
+
+def plot(cases):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, axes = plt.subplots(1, len(cases), figsize=(6 * len(cases), 5), squeeze=False, layout="constrained")
+    for ax, (loop, points) in zip(axes[0], cases):
+        for method in dict.fromkeys(p[0] for p in points):
+            curve = [(p[3], max(p[2], 1e-17)) for p in points if p[0] == method]
+            style = "k-o" if method.startswith("backlash") else "-.."
+            ax.loglog(*zip(*curve), style, label=method, markersize=4)
+        ax.set_xlabel("CPU time per run (s)")
+        ax.set_ylabel("max |theta_d error| / range")
+        ax.set_title(loop.name, fontsize=9)
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0][0].legend(fontsize=7)
+    (ROOT / "build").mkdir(exist_ok=True)
+    path = ROOT / "build" / "work_precision.png"
+    figure.savefig(path, dpi=110)
+    return path
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=3, help="best of N runs (default 3)")
+    parser.add_argument("--cases", type=int, default=len(CASES), help="how many of the cases to run")
+    parser.add_argument("--no-profile", action="store_true", help="skip the perf profile")
+    args = parser.parse_args()
+    print(f"work-precision of the closed loop; CPU time best of {args.repeat} (runs over {ONCE_ABOVE:g} s once)")
+    cases = []
+    for rig_name, law_name in CASES[:args.cases]:
+        loop = ClosedLoop(rig_name, law_name)
+        points = case_table(loop, args.repeat)
+        kernel_points = [(work, seconds) for method, _, _, seconds, work in points if method == "backlash-df kernel"]
+        per_step, per_call = np.polyfit(*np.array(kernel_points).T, 1)
+        print(f"  kernel's CPU time, least squares over its steps: {per_call * 1e3:.2f} ms per call + "
+              f"{per_step * 1e9:.0f} ns per step")
+        floor, kernel, size = floor_row(loop, args.repeat)
+        print(f"  floor: numba loop, one {size} x {size} product, record, mode guard per step (dt = "
+              f"{GRID / SPLITS[-1]:.0e} s): {floor:.1f} ns/step; kernel {kernel:.1f} ns/step = {kernel / floor:.1f}x the floor")
+        if not args.no_profile:
+            print(f"  profile of the kernel's run (perf, {PROFILE_RUNS} runs, share of the process): {profile(loop)}")
+        cases.append((loop, points))
+    print("\nsummary: the cheapest run of each method reaching the error")
+    for loop, points in cases:
+        print(f" {loop.name}")
+        summary(loop.label, points)
+    print(f"\ncurves saved to {plot(cases).relative_to(ROOT)}")
+
+
+if __name__ == "__main__":
+    main()
