@@ -268,6 +268,9 @@ class Rest:
                                  f"loop's states are: {', '.join(self.state_names)}")
         return dict(zip(self.state_names, state.tolist()))
 
+    def __repr__(self):
+        return f"Rest({self.describe()})"
+
     def to_dict(self):
         """JSON entry: where (rad, N m), the local stability, the reach as disturbances, the state by name."""
         return {

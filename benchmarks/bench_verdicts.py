@@ -1,6 +1,7 @@
 """Verdict corpora: ``predict``'s verdict against long simulations on seeded random rigs.
 
-Run: ``python benchmarks/bench_verdicts.py [CORPUS] [N_RIGS] [SEED]`` (two worker processes).
+Run: ``python benchmarks/bench_verdicts.py [CORPUS] [N_RIGS] [SEED]`` (two worker processes;
+``CORPUS`` defaults to ``loaded``).
 ``CORPUS`` is one of
 
 * ``loaded`` (issue 22; default 200 rigs, seed 2026): PI speed loops, both feedbacks, a
@@ -260,5 +261,6 @@ def main(corpus="loaded", n_rigs=None, seed=None):
 
 
 if __name__ == "__main__":
-    args = sys.argv[1:4]
-    main(args[0] if args else "loaded", *(int(arg) for arg in args[1:3]))
+    args = sys.argv[1:]
+    corpus = args.pop(0) if args and args[0] in CORPORA else "loaded"  # run_all.py passes N_RIGS alone
+    main(corpus, *(int(arg) for arg in args[:2]))

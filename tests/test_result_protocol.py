@@ -56,7 +56,7 @@ def test_every_public_result_class_is_covered(results):
                                          "DescribingFunctionResult", "ValidityMap", "TorqueComparison", "TableOne",
                                          "Measurements", "Diagnosis", "Cause", "CandidateResult", "Calibration",
                                          "FitParameter", "Replay", "FreeRunReplay", "ResidualAnalysis", "LoadLimit",
-                                         "Tuning", "Certificate", "Candidate", "Disturbance"]))
+                                         "Tuning", "Certificate", "Candidate", "Disturbance", "Rest"]))
 def test_to_dict_is_json_and_the_repr_one_line(results, name):
     result = results[name]
     data = result.to_dict()

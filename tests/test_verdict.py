@@ -232,8 +232,8 @@ def test_below_the_separating_orbit_the_rest_holds_above_it_the_loop_hunts():
     assert large.found and large.amplitude == pytest.approx(verdict.cycle.amplitude, rel=1e-3)
 
 
-@pytest.mark.parametrize("name", ["diagnose_rig", "load_feedback", "loaded_feedback", "loaded_suppressed",
-                                  "motor_feedback", "motor_lag_feedback"])
+@pytest.mark.parametrize("name", sorted(path.stem for path in EXAMPLES.glob("*.toml")  # every bundled loop
+                                         if "[controller]" in path.read_text()))
 def test_predict_and_judge_loop_print_the_same_disturbances(tmp_path, name):
     # the terminal and JSON of `predict` (a verified prediction) and judge_loop on a bare one: same probes, same words
     out = tmp_path / "out.json"
