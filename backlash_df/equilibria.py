@@ -376,9 +376,9 @@ def _rest_angles(model, law, t0, t1):
     beta = model.rubber_thickness if law == RUBBER else 0.0
     edge, tol = alpha - 0.5 * beta, 1e-12 * k * alpha
     out = []
-    if abs(t1) * edge <= tol and abs(t0) <= tol:
-        out.append((0, 0.0, True))
-    elif abs(t1) * edge > tol and abs(t0 / t1) <= edge:
+    if abs(t1) * edge <= tol and abs(t0) <= tol:  # no torque anywhere: the gap's continuum, its edges included
+        return [(0, 0.0, True)]
+    if abs(t1) * edge > tol and abs(t0 / t1) <= edge:
         out.append((0, -t0 / t1, False))
     for side in (-1, 1):
         if beta == 0.0 and k != t1:

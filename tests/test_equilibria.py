@@ -118,3 +118,18 @@ def test_rest_to_dict_names_its_units():
     assert data["where"] == "on the left flank" and data["stable"] is True
     assert {d["kind"]: d["unit"] for d in data["reach"]} == {"twist": "rad", "motor speed": "rad/s"}
     assert math.isclose(data["state"]["theta_d"], rest.theta_d)
+
+
+def test_without_a_load_the_only_rest_is_the_gap_with_its_edges():
+    # a corpus rig (bench_verdicts 'loaded' #10) whose round-off of 1e-19 N m once put "stable rests" on both flanks
+    # at theta_d = +-alpha (the ends of the gap's continuum): the verdict read the loop as bistable, its every
+    # disturbance that reaches contact hunts
+    rig = bd.rig_from_dict({
+        "plant": {"motor_inertia": 0.36592355071641774, "load_inertia": 2.6954891158217382,
+                  "stiffness": 3514.9772667458333, "damping": 1.0, "half_gap": 0.07878621604874039},
+        "controller": {"feedback": "load", "kp": 5.35119566230324, "ti": 0.17258957586472257,
+                       "delay": 0.00025348830396057997},
+        "model": {"backlash": LAW}})
+    (rest,), note = loop_rests(rig, rig.make_model(LAW))
+    assert note == "" and rest.continuum and rest.where == "in the gap" and rest.theta_d == 0.0
+    assert rest.reach_of(TWIST).value == pytest.approx(rig.plant.half_gap, rel=1e-12)  # the continuum ends at the flank
