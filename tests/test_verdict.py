@@ -19,12 +19,13 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from backlash_df import load_rig, make_model, simulate
+from backlash_df import load_rig, make_model, rig_from_dict, simulate
 from backlash_df.cli import main
 from backlash_df.disturbances import KINDS, TWIST, Disturbance, standard_disturbances
 from backlash_df.limit_cycles import predict_limit_cycles, verify_limit_cycles
 from backlash_df.loops import drive_loop
 from backlash_df.simulation import MeasuredCycle, SimulationResult, measure_limit_cycle, simulated_limit_cycle
+from backlash_df.simulation.cycles import free_flights
 from backlash_df.verdict import VERDICTS, judge_loop, linear_stability, probe
 from conftest import EXAMPLES
 
@@ -362,3 +363,24 @@ def test_the_ladder_starts_a_run_on_each_stable_cycle_of_the_df():
     # started on the DF's cycle, the run ends on the simulated one
     assert on_cycle and all(p.outcome == "cycle" and p.amplitude == pytest.approx(verdict.cycle.amplitude, rel=1e-3)
                             for p in on_cycle)
+
+
+def test_a_load_brushing_a_flank_between_ever_slower_crossings_dies():
+    # bench_verdicts 'loaded' #34: motor feedback, a free load; after a twist of 1.5 alpha the load crosses the gap
+    # ever slower and between crossings brushes the flank it reached and leaves it again (a flight that does not
+    # cross); those flights once hid the decay and the run was "irregular after 160 s", the verdict undetermined
+    rig = rig_from_dict({
+        "plant": {"motor_inertia": 0.7289562110952206, "load_inertia": 2.164186160470221,
+                  "stiffness": 2611.425605493332, "damping": 3.0, "half_gap": 0.040747565225811605},
+        "controller": {"feedback": "motor", "kp": 25.203580300701265, "ti": 0.1452052028795715},
+        "model": {"backlash": "phase-plane"}})
+    twist = Disturbance(TWIST, 1.5 * rig.plant.half_gap)
+    assert probe(rig, "phase-plane", twist).outcome == "rest"
+    # independently: over a run of 160 s the relative speed's peak never rises from one 40 s window to the next
+    # (at the end the load coasts across the gap at 1e-3 of its first speed) and each crossing is over 3x slower
+    run = simulate(rig, "phase-plane", t_end=160.0, initial={"theta_d": twist.value})
+    peaks = [np.abs(run.dtheta_d[(run.time >= a) & (run.time < a + 40.0)]).max() for a in (0.0, 40.0, 80.0, 120.0)]
+    assert all(later <= earlier for earlier, later in zip(peaks, peaks[1:])) and peaks[-1] < 1e-3 * peaks[0], peaks
+    speeds, crossed = free_flights(run)
+    assert crossed.sum() >= 3 and not crossed.all()
+    assert np.all(speeds[crossed][1:] < 0.3 * speeds[crossed][:-1]), speeds[crossed]

@@ -260,16 +260,18 @@ def free_flights(result):
 def _bounces_die(result, loss=0.8):
     """True if the load bounces from flank to flank ever slower, towards rest.
 
-    The last three free flights cross the gap, each at most ``loss`` times as fast
-    as the one before: bounces that lose a share of their speed at every contact
-    (speeds ``s r^k``, the 1/t decay in time of a free load).  A cycle forming has
+    The last three free flights that cross the gap are each at most ``loss`` times
+    as fast as the one before (flights that return to the flank they left, a load
+    brushing a flank between crossings, are passed over): bounces that lose a share
+    of their speed at every contact (speeds ``s r^k``, the 1/t decay in time of a
+    free load).  A cycle forming has
     flights whose speeds tend to its own, their ratios to 1; one still far from it
     may look the same for a while, which the longer run that must confirm the decay
     tells apart.
     """
     speeds, crossed = free_flights(result)
-    speeds, crossed = speeds[-3:], crossed[-3:]
-    return bool(speeds.size == 3 and crossed.all() and np.all(speeds[1:] <= loss * speeds[:-1]))
+    speeds = speeds[crossed][-3:]
+    return bool(speeds.size == 3 and np.all(speeds[1:] <= loss * speeds[:-1]))
 
 
 def _none(verdict, settled):
