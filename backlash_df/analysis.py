@@ -97,7 +97,7 @@ class LoopAnalysis:
         sections = prediction_sections(self.predictions, rig_text, notes)
         header, rows = verdict_rows(self.verdicts)
         sections.append(("Verdict and linear stability",
-                         VERDICT_NOTE + table_html(header, rows, text_columns=(0, 1, 2, 3, 4))))
+                         VERDICT_NOTE + table_html(header, rows, text_columns=header)))  # words, every column
         header, rows = orbit_rows(self.verdicts)
         if rows:
             sections.append(("Exact periodic orbits",

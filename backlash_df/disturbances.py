@@ -1,11 +1,13 @@
 """What a loop is disturbed by: one definition, one unit each, shared by the verdict and the tuning.
 
-A disturbance is an initial state of the loop, all other states zero:
+A disturbance is a change of one state of the loop at rest, all other states at
+their rest values (:class:`backlash_df.equilibria.Rest`; without a load torque
+the rest is the middle of the gap with every state zero):
 
-* a **released twist**: ``theta_d(0) = value`` (rad), all speeds 0 (the gear
-  wound up against a flank, or held in the gap, and let go);
-* a **motor-speed kick**: ``w_m(0) = value`` (rad/s), the load at rest (a
-  torque impulse on the motor of ``J_m value`` N m s).
+* a **released twist**: ``theta_d(0) = theta_rest + value`` (rad), all speeds at
+  rest (the gear wound up against a flank, or held in the gap, and let go);
+* a **motor-speed kick**: ``w_m(0) = w_rest + value`` (rad/s), the load at rest
+  (a torque impulse on the motor of ``J_m value`` N m s).
 
 Each prints in its own unit (``twist 0.075 rad``, ``motor speed 16.7 rad/s``)
 wherever it appears: the terminal, the JSON (``{"kind", "value", "unit"}``),
@@ -18,13 +20,15 @@ all of them "does not hunt" for :func:`backlash_df.tune` and the verdict alike.
 import dataclasses
 import math
 
-__all__ = ["Disturbance", "TWIST", "MOTOR_SPEED", "TWIST_MULTIPLES", "KICK_MULTIPLES", "standard_disturbances",
-           "shaft_mode"]
+__all__ = ["Disturbance", "TWIST", "MOTOR_SPEED", "KINDS", "TWIST_MULTIPLES", "KICK_MULTIPLES",
+           "standard_disturbances", "shaft_mode", "kind_words"]
 
 #: The kinds of disturbance and their units.
 TWIST, MOTOR_SPEED = "twist", "motor speed"
+KINDS = (TWIST, MOTOR_SPEED)
 _UNITS = {TWIST: "rad", MOTOR_SPEED: "rad/s"}
 _STATES = {TWIST: "theta_d", MOTOR_SPEED: "motor_speed"}
+_PLURALS = {TWIST: "twists", MOTOR_SPEED: "motor-speed kicks"}
 
 #: The standard set: released twists in half gaps alpha, motor-speed kicks in alpha omega_n.
 TWIST_MULTIPLES = (1.5, 3.0, 8.0, -20.0)
@@ -62,9 +66,21 @@ class Disturbance:
         """``"rad"`` or ``"rad/s"``."""
         return _UNITS[self.kind]
 
+    @property
+    def state(self):
+        """The name of the state it changes: ``"theta_d"`` or ``"motor_speed"``."""
+        return _STATES[self.kind]
+
     def initial(self):
-        """The initial state by name, as :func:`backlash_df.simulate` takes it (``initial=``)."""
-        return {_STATES[self.kind]: float(self.value)}
+        """The initial state by name from the rest at zero, as :func:`backlash_df.simulate` takes it (``initial=``).
+
+        From another rest: :meth:`backlash_df.equilibria.Rest.initial`.
+        """
+        return {self.state: float(self.value)}
+
+    def scaled(self, factor):
+        """The same kind, ``factor`` times the value."""
+        return Disturbance(self.kind, factor * self.value)
 
     def size(self, rig):
         """The disturbance in the rig's own scale: twist / alpha, or speed / (alpha omega_n)."""
@@ -91,3 +107,8 @@ def standard_disturbances(rig):
     kick = alpha * shaft_mode(rig)
     return tuple([Disturbance(TWIST, m * alpha) for m in TWIST_MULTIPLES]
                  + [Disturbance(MOTOR_SPEED, s * kick) for s in KICK_MULTIPLES])
+
+
+def kind_words(kind, count=2):
+    """``"twist"`` / ``"twists"``, ``"motor-speed kick"`` / ``"motor-speed kicks"``: the kind in a sentence."""
+    return _PLURALS[kind] if count != 1 else ("twist" if kind == TWIST else "motor-speed kick")

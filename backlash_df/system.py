@@ -259,7 +259,7 @@ def command_channels(part, omega):
     response = np.linalg.solve(mats, sources)  # (points, n, 2): from T and from T_c
     theta = np.einsum("j,pjs->ps", part.c_x, response)
     u = np.einsum("j,pjs->ps", row_z, response) + delayed[:, 0, :] * np.einsum(
-        "j,kj,pks->ps", row_d, part.d, response) if part.n_delayed else np.einsum("j,pjs->ps", row_z, response)
+        "k,kj,pjs->ps", row_d, part.d, response) if part.n_delayed else np.einsum("j,pjs->ps", row_z, response)
     return tuple(values.reshape(omega.shape) for values in (theta[:, 0], theta[:, 1], u[:, 0], u[:, 1]))
 
 

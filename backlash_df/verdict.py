@@ -2,38 +2,50 @@
 
 The describing function answers a local question (is there a harmonic balance,
 Loeb's criterion at it); a control engineer asks a global one.  The verdict
-weighs three kinds of evidence for one rig and one torque law:
+works from the loop's rest points outward (:mod:`backlash_df.equilibria`):
 
-* **linear stability** of the loop with the gear *in contact* (the shaft as
-  the spring-damper ``T = k theta_d + c dtheta_d``, the regime of large motions)
-  and with the gear *open* (``T = 0``, inside the gap), from the closed-loop
-  state matrix with the dead time replaced by its Pade approximation
-  (:func:`control.pade`);
+* the **rests**: where the loop rests (in the gap without a load torque, on a
+  flank under one, with the integrator carrying the load), the local stability
+  of each (the eigenvalues of its mode's matrix, the dead time by its Pade
+  approximant) and its reach (the largest disturbance of each kind that keeps
+  the motion in the rest's mode);
+* **linear stability** of the loop with the gear *in contact* (the shaft as the
+  spring-damper ``T = k theta_d + c dtheta_d``, the regime of large motions) and
+  with the gear *open* (``T = 0``, inside the gap);
 * the **DF cycles** of :func:`~backlash_df.limit_cycles.predict_limit_cycles`
   with Loeb stability;
-* **time simulations** from rest disturbed by kicks of several sizes
-  (``dtheta_d(0) = a w`` with theta_d(0) = 0 in the middle of the gap, so the
-  shaft swings about ``a`` rad), each run until a steady state, an overflow or
-  a blow-up (:func:`~backlash_df.simulation.measure_limit_cycle`).
+* **probes** (:func:`probe`): time simulations from a rest disturbed by one
+  disturbance (:mod:`backlash_df.disturbances`: a released twist in rad, a
+  motor-speed kick in rad/s): half the reach of each kind and 1.25 times it
+  (just out of the rest's mode), the standard set of the rig (twists 1.5, 3,
+  8, -20 alpha; kicks 2, 10, 50 alpha omega_n) and a twist onto each stable DF
+  cycle, each run until a steady state, a confirmed decay, an overflow or a blow-up
+  (:func:`~backlash_df.simulation.measure_limit_cycle`);
+* for a bistable loop, the **separating orbit**: the exact unstable periodic
+  orbit by shooting (:mod:`backlash_df.orbits`) between rest and hunting;
 
 and names one of
 
 ``no oscillation``
-    every kick settles (the largest one is stated);
+    every disturbance tried settles (the largest of each kind is stated);
 ``limit cycle``
-    every kick that brings the shaft into contact ends on a stable cycle;
+    every disturbance that leaves the rest's mode ends on a stable cycle;
 ``bistable``
-    small kicks settle, larger ones start a cycle; the separating (unstable)
-    cycle's amplitude is the disturbance that starts the hunting;
+    a locally stable rest, or disturbances that settle, beside ones that end on
+    a stable cycle; the separating (unstable) cycle's amplitude is where the
+    hunting starts;
 ``unstable``
-    the loop in contact is unstable and no stable cycle caps the growth;
+    the loop in contact is unstable and no stable cycle caps the growth, or the
+    loop has no rest (a torque limit below the load);
 ``undetermined``
-    the DF predicts a stable cycle that no simulation reaches, the motion does
-    not settle, or a loop stable in contact diverges.
+    a motion does not settle, or a loop stable in contact diverges.
 
 Where the simulations reach a cycle the DF misses or misplaces (nearly tangent
-loci, a slow motion far from the DF's sinusoid), the verdict follows the
+loci, a slow motion far from the DF's sinusoid), or settle where the DF
+predicts a stable cycle (started on that cycle too), the verdict follows the
 simulations and says ``DF UNRELIABLE`` in its reason (``df_agrees`` False).
+The ladder depends on the rig alone: :func:`judge_loop` gives the same probes
+for a prediction verified by simulation (``predict``) as for one that is not.
 """
 
 import dataclasses
@@ -42,181 +54,176 @@ import warnings
 
 import numpy as np
 
-from .limit_cycles import default_ranges
+from .disturbances import KINDS, TWIST, Disturbance, kind_words, standard_disturbances
+from .equilibria import PADE_ORDER, LinearStability, contact_shaft, linear_stability, loop_rests
 from .loops import DriveLoop, drive_loop
-from .orbits import exact_orbits
+from .models import BacklashModel
+from .orbits import exact_orbits, periodic_orbit
 from .plotting import ResultPlot, axes_or_new, legend_beside, log_scale
 from .report import roundoff_zero, signed_percent, text_table
 from .simulation import simulated_limit_cycle
-from .system import closed_loop_matrix, lti_linear_part, with_pade
+from .system import lti_linear_part
 
-__all__ = ["VERDICTS", "LinearStability", "Probe", "LoopVerdict", "linear_stability", "judge_loop", "judge",
-           "verdict_rows", "orbit_rows", "VERDICT_NOTE", "ORBIT_NOTE"]
+__all__ = ["VERDICTS", "LinearStability", "Probe", "LoopVerdict", "linear_stability", "probe", "ladder",
+           "judge_loop", "judge", "verdict_rows", "orbit_rows", "VERDICT_NOTE", "ORBIT_NOTE", "PADE_ORDER"]
 
 VERDICTS = ("no oscillation", "limit cycle", "bistable", "unstable", "undetermined")
 
-PADE_ORDER = 8
-DISTURBANCES = (1.1, 1.5, 3.0, 6.0, 12.0, 24.0)  # kick sizes a / alpha from rest
+WITHIN, PAST = 0.5, 1.25  # probes at these multiples of a rest's reach: inside its mode, and just out of it
 AMPLITUDE_MATCH, OMEGA_MATCH = 0.2, 0.1  # DF cycle "is" the simulated one within these relative errors
 _SAME_CYCLE = 0.01  # relative amplitude difference of two runs that reached the same cycle
 
 
-# --------------------------------------------------------------------------- linear loop
-
-
-@dataclasses.dataclass(frozen=True)
-class LinearStability:
-    """Stability of the loop with the backlash replaced by a linear shaft.
-
-    Attributes
-    ----------
-    regime : str
-        ``"contact"`` (``T = k theta_d + c dtheta_d``) or ``"open"`` (``T = 0``).
-    poles : ndarray of complex
-        Closed-loop poles, 1/s, by decreasing real part (with the dead time's
-        Pade poles when the loop has one).
-    pade_order : int
-        Order of the Pade approximation of the dead time (0 without one).
-    """
-
-    regime: str
-    poles: np.ndarray
-    pade_order: int
-
-    @property
-    def max_real(self):
-        """Largest real part of the poles, 1/s."""
-        return float(self.poles[0].real)
-
-    @property
-    def stable(self):
-        """All poles in the open left half plane."""
-        return self.max_real < -self._tolerance
-
-    @property
-    def marginal(self):
-        """No pole on the right, one or more on the imaginary axis (e.g. a free load)."""
-        return abs(self.max_real) <= self._tolerance
-
-    @property
-    def _tolerance(self):
-        return 1e-9 * max(np.abs(self.poles).max(), 1.0)
-
-    @property
-    def status(self):
-        """``"stable"``, ``"marginal"`` or ``"unstable"``."""
-        return "stable" if self.stable else "marginal" if self.marginal else "unstable"
-
-    def describe(self):
-        """One phrase: status and the rightmost pole, e.g. ``unstable (pole 8.6 +- 262j 1/s)``."""
-        pole = self.poles[0]
-        text = f"{pole.real:.4g}" + (f" +- {abs(pole.imag):.4g}j" if abs(pole.imag) > 0 else "")
-        return f"{self.status} (rightmost pole {text} 1/s)"
-
-    def __repr__(self):
-        return (f"LinearStability({self.regime}: {self.describe()}, {self.poles.size} poles, "
-                f"Pade order {self.pade_order})")
-
-    def to_dict(self, count=6):
-        """JSON entry: status, the rightmost ``count`` poles as ``[re, im]`` (1/s), Pade order."""
-        return {
-            "stable": bool(self.stable),
-            "status": self.status,
-            "max_real": self.max_real,
-            "poles": [[float(p.real), float(p.imag)] for p in self.poles[:count]],
-            "pade_order": int(self.pade_order),
-        }
-
-
-def linear_stability(part, stiffness, damping, regime="contact", pade_order=PADE_ORDER):
-    """Poles of a loop whose shaft is the linear spring-damper ``T = k theta_d + c dtheta_d``.
-
-    Parameters
-    ----------
-    part : LinearPart
-        The loop cut at the backlash (:meth:`DriveLoop.linear_part` or
-        :func:`~backlash_df.loops.lti_linear_part`).
-    stiffness, damping : float
-        k (N m/rad) and c (N m s/rad); ``0, 0`` for the open gear.
-    regime : str
-        Label stored in the result (``"contact"`` or ``"open"``).
-    pade_order : int
-        Pade order for the dead time, realised by :func:`backlash_df.system.with_pade`
-        (the realisation the exact orbits use).
-
-    Returns
-    -------
-    LinearStability
-
-    Examples
-    --------
-    >>> from backlash_df import Plant, Controller, DriveLoop
-    >>> loop = DriveLoop(Plant(0.4, 5.6, 5895.0, 0.05, damping=3.0), Controller(kp=30.0, ti=0.5))
-    >>> linear_stability(loop.linear_part(), 5895.0, 3.0).status
-    'stable'
-    """
-    order = int(pade_order) if part.delay > 0.0 else 0
-    matrix = closed_loop_matrix(with_pade(part, order) if order else part, stiffness, damping)
-    poles = np.linalg.eigvals(matrix)
-    return LinearStability(regime, poles[np.argsort(-poles.real, kind="stable")], order)
-
-
-# --------------------------------------------------------------------------- simulations
+# --------------------------------------------------------------------------- probes
 
 
 @dataclasses.dataclass(frozen=True)
 class Probe:
-    """One simulation from rest with a kick.
+    """One simulation from a rest disturbed by one disturbance, and what it ended in.
 
     Attributes
     ----------
-    disturbance : float
-        a, rad: the swing of theta_d the kick starts (``kick = a w``).
-    kick : float
-        Initial dtheta_d, rad/s (theta_d(0) = 0).
+    disturbance : Disturbance
+        A released twist (rad) or a motor-speed kick (rad/s) from the rest.
     measured : MeasuredCycle
-        What the run settled to.
+        What the run settled to (the evidence; ``measured.verdict`` its word).
+    role : str
+        ``"within reach"`` (half a rest's reach: the motion stays in the rest's
+        mode), ``"past reach"`` (1.25 times it: just out) or ``"ladder"`` (the rig's
+        standard set, or a disturbance given).
+    scale : float
+        The disturbance in the rig's scale: twist / alpha, kick / (alpha omega_n).
+    duration : float
+        Simulated time of the run that decided, s.
+    rest : Rest
+        The rest it started from.
     """
 
-    disturbance: float
-    kick: float
+    disturbance: object
     measured: object
+    role: str = "ladder"
+    scale: float = math.nan
+    duration: float = math.nan
+    rest: object = dataclasses.field(default=None, repr=False, compare=False)
 
     @property
     def outcome(self):
         """``"cycle"``, ``"rest"``, ``"diverged"`` or ``"unsettled"``.
 
-        No contact in the last quarter of the run (``drifting in the gap``) and
-        a slow ``decaying`` count as rest.
+        Rest: ``measured.verdict`` is ``"no limit cycle"`` (decayed, or a decay
+        that a longer run confirmed); unsettled: no steady state by the longest run.
         """
-        verdict = self.measured.verdict
         if self.measured.found:
             return "cycle"
-        if verdict in ("no limit cycle", "drifting in the gap", "decaying"):
-            return "rest"
-        return "diverged" if verdict == "diverged" else "unsettled"
+        verdict = self.measured.verdict
+        return "rest" if verdict == "no limit cycle" else "diverged" if verdict == "diverged" else "unsettled"
+
+    @property
+    def amplitude(self):
+        """The amplitude A (rad) of the cycle it ended on; NaN otherwise."""
+        return self.measured.amplitude if self.measured.found else math.nan
 
     def __repr__(self):
-        return f"Probe(disturbance={self.disturbance:.4g} rad, kick={self.kick:.4g} rad/s: {self.outcome})"
+        where = "" if self.rest is None else f" from the rest {self.rest.where}"
+        end = f": cycle A = {self.amplitude:.4g} rad" if self.measured.found else f": {self.outcome}"
+        return f"Probe({self.disturbance}{where}{end})"
 
     def to_dict(self):
-        """JSON entry: disturbance (rad), kick (rad/s), outcome, simulated cycle or null, measured verdict."""
-        return {"disturbance": self.disturbance, "kick": self.kick, "outcome": self.outcome,
-                "simulated": self.measured.cycle_dict(), "measured": self.measured.verdict}
+        """JSON entry: the disturbance ``{"kind", "value", "unit"}``, role, outcome, simulated cycle or null, measured word, s."""
+        return {"disturbance": self.disturbance.to_dict(), "role": self.role, "outcome": self.outcome,
+                "simulated": self.measured.cycle_dict(), "measured": self.measured.verdict,
+                "duration": float(self.duration)}
 
 
-def _probes(rig, model, prediction, linear, t_end, max_t_end, disturbances):
-    """Simulations from kicks: the ladder ``disturbances * alpha`` at the shaft mode, and the stable DF cycles."""
-    _, (_, w_hi) = default_ranges(rig)
-    w_n = w_hi / 3.0
-    probes = [Probe(float(c.amplitude), float(c.amplitude * c.omega), c.simulated)
-              for c in prediction.cycles if c.simulated is not None]
-    for factor in disturbances:
-        size = factor * model.half_gap
-        measured, _ = simulated_limit_cycle(rig, model, t_end=t_end, max_t_end=max_t_end, kick=size * w_n,
-                                            linear=linear)
-        probes.append(Probe(size, size * w_n, measured))
-    return tuple(sorted(probes, key=lambda p: p.disturbance))
+def probe(rig, model, disturbance, rest=None, linear=None, t_end=10.0, max_t_end=160.0, role="ladder"):
+    """Simulate the loop from a rest disturbed by one disturbance, until it has decided.
+
+    The run starts at ``t_end`` and doubles (from the start) up to ``max_t_end``
+    until :func:`~backlash_df.simulation.measure_limit_cycle` finds a steady cycle,
+    rest, or divergence; a motion that dies out (its envelope falling, its
+    switches thinning out) is rest once the next, longer run confirms it.
+
+    Parameters
+    ----------
+    rig : Rig
+    model : str or BacklashModel
+        Torque law.
+    disturbance : Disturbance
+    rest : Rest, optional
+        Where it starts (default: the loop's first rest, :func:`~backlash_df.equilibria.loop_rests`).
+    linear : control.LTI, optional
+        A user's linear part in place of the rig's loop.
+    t_end, max_t_end : float
+        First and largest simulated time, s.
+    role : str
+        Stored in the probe (:class:`Probe`).
+
+    Returns
+    -------
+    Probe
+
+    Raises
+    ------
+    ValueError
+        The loop has no rest (the reason in one line), or the disturbance's state is not in it.
+
+    Examples
+    --------
+    >>> import backlash_df as bd
+    >>> from backlash_df.disturbances import Disturbance
+    >>> rig = bd.load_rig("examples/loaded_feedback.toml")  # doctest: +SKIP
+    >>> probe(rig, "phase-plane", Disturbance("twist", 0.01)).outcome  # doctest: +SKIP
+    'rest'
+    """
+    if not isinstance(model, BacklashModel):
+        model = rig.make_model(model)
+    if rest is None:
+        rests, note = loop_rests(rig, model, linear)
+        if not rests:
+            raise ValueError(f"probe: the loop has no rest: {note}")
+        rest = rests[0]
+    measured, result = simulated_limit_cycle(rig, model, t_end=t_end, max_t_end=max_t_end,
+                                             initial=rest.initial(disturbance), linear=linear, theta_b0=rest.theta_b)
+    return Probe(disturbance, measured, role, _scale(rig, disturbance, linear), float(result.time[-1]), rest)
+
+
+def _scale(rig, disturbance, linear):
+    """The disturbance in the rig's scale (a user's linear part: twists in alpha)."""
+    return abs(disturbance.value) / rig.plant.half_gap if linear is not None else disturbance.size(rig)
+
+
+def ladder(rig, rests, disturbances=None, linear=None, prediction=None):
+    """What the verdict probes: ``(disturbance, rest, role)`` for each rest's reach, then the ladder.
+
+    For every rest and every kind with a reach ``d > 0``: ``0.5 d`` (inside the
+    rest's mode; left out where such a disturbance is a rest itself) and ``1.25 d``
+    (just out of it); then ``disturbances`` (default the rig's standard set,
+    :func:`~backlash_df.disturbances.standard_disturbances`) from the first locally
+    stable rest, or the first rest; then, for each stable cycle of ``prediction``, the
+    twist from that rest onto the cycle's extremum (``theta_d = bias + A``: the run
+    starts on the DF's own cycle; role ``"DF cycle"``).  A user's linear part has no
+    motor speed: twists only.
+
+    Returns
+    -------
+    list of (Disturbance, Rest, str)
+    """
+    kinds = (TWIST,) if linear is not None else KINDS
+    out = []
+    for rest in rests:
+        for reach in rest.reach:
+            if reach.value == 0.0 or reach.kind not in kinds:
+                continue
+            if reach.kind not in rest.still:
+                out.append((reach.scaled(WITHIN), rest, "within reach"))
+            out.append((reach.scaled(PAST), rest, "past reach"))
+    start = next((rest for rest in rests if rest.stable), rests[0])
+    for disturbance in standard_disturbances(rig) if disturbances is None else disturbances:
+        if disturbance.kind in kinds:
+            out.append((disturbance, start, "ladder"))
+    for cycle in () if prediction is None else prediction.stable_cycles:
+        out.append((Disturbance(TWIST, cycle.bias + cycle.amplitude - start.theta_d), start, "DF cycle"))
+    return out
 
 
 # --------------------------------------------------------------------------- verdict
@@ -233,21 +240,24 @@ class LoopVerdict:
     verdict : str
         One of :data:`VERDICTS`.
     reason : str
-        One sentence: why.
+        One sentence: why, every disturbance in its own unit.
     contact_loop, open_loop : LinearStability
-        The loop with the gear in contact (shaft ``k + c s``) and open (``T = 0``).
+        The loop with the gear in contact (shaft ``k + c s``; ``k`` alone for the
+        dead zone (24)) and open (``T = 0``).
     probes : tuple of Probe
-        Simulations from rest with kicks, by increasing size.
+        Simulations from the rests, each with one disturbance: the rests' reach
+        probes, then the ladder, in the order :func:`ladder` gives.
     disturbance_to_start : float or None
-        ``bistable`` (and ``unstable`` with a stable rest): the amplitude of
-        theta_d (rad) beyond which the loop hunts or runs away.
+        ``bistable`` (and ``unstable`` with settling probes): the amplitude of theta_d
+        (rad) of the separating cycle, beyond which the loop hunts or runs away.
     disturbance_source : str
-        Where ``disturbance_to_start`` comes from: ``"DF unstable cycle"``,
-        ``"exact orbit"`` or ``"simulations"`` (midway between the largest
-        settling and the smallest cycling kick); ``""`` if none.
-    settles_up_to : float or None
-        ``no oscillation`` and ``bistable``: the largest tested disturbance
-        (rad) from which the loop settled.
+        Where ``disturbance_to_start`` comes from: ``"exact orbit"`` (the
+        unstable periodic orbit by shooting, :attr:`separatrix`), ``"DF unstable
+        cycle"`` or ``"simulations"`` (the geometric mean of the largest settling and
+        the smallest cycling twist); ``""`` if none.
+    settles_up_to : tuple of Disturbance
+        Per kind, the largest disturbance tried up to which every one of that kind
+        settled; empty where none did.
     cycle : MeasuredCycle or None
         The stable cycle the simulations reached (the smallest, if several).
     df_agrees : bool or None
@@ -265,8 +275,15 @@ class LoopVerdict:
     saturated : bool
         The stable cycle the simulations reached has its torque command on the
         limit: with a contact loop that is unstable, the limit is what caps the growth.
+    rests : tuple of Rest
+        The loop's rest points (:func:`~backlash_df.equilibria.loop_rests`).
+    rest_note : str
+        Why the loop has no rest (a torque limit below the load); ``""`` otherwise.
+    separatrix : PeriodicOrbit or None
+        ``bistable``: the exact unstable orbit between rest and hunting, by shooting
+        from the DF's unstable cycles (whether or not ``exact`` was asked for).
     prediction : LimitCyclePrediction or None
-        The (verified) DF prediction the verdict weighed.
+        The DF prediction the verdict weighed.
     """
 
     model: str
@@ -277,12 +294,15 @@ class LoopVerdict:
     probes: tuple
     disturbance_to_start: float = None
     disturbance_source: str = ""
-    settles_up_to: float = None
+    settles_up_to: tuple = ()
     cycle: object = None
     df_agrees: bool = None
     orbits: tuple = ()
     orbit_note: str = ""
     saturated: bool = False
+    rests: tuple = ()
+    rest_note: str = ""
+    separatrix: object = None
     prediction: object = dataclasses.field(default=None, repr=False, compare=False)
 
     def __repr__(self):
@@ -295,9 +315,12 @@ class LoopVerdict:
             "reason": self.reason,
             "contact_loop": self.contact_loop.to_dict(),
             "open_loop": self.open_loop.to_dict(),
+            "rests": [rest.to_dict() for rest in self.rests],
+            "rest_note": self.rest_note or None,
             "disturbance_to_start": self.disturbance_to_start,
             "disturbance_source": self.disturbance_source or None,
-            "settles_up_to": self.settles_up_to,
+            "separatrix": None if self.separatrix is None else self.separatrix.to_dict(),
+            "settles_up_to": [d.to_dict() for d in self.settles_up_to],
             "simulated_cycle": None if self.cycle is None else self.cycle.cycle_dict(),
             "df_agrees": self.df_agrees,
             "saturated": bool(self.saturated),
@@ -305,11 +328,12 @@ class LoopVerdict:
             "exact_orbits": [orbit.to_dict() for orbit in self.orbits],
         }
 
+
     def plot(self, ax=None):
         """What each disturbance ended in: the probes' cycle amplitudes against their size.
 
-        Each probe (a kick from rest, :attr:`probes`) is a marker at its
-        disturbance (rad, log scale) and the amplitude A it ended on (rad; rest
+        Each probe (a disturbance from a rest, :attr:`probes`) is a marker at its
+        size in the rig's scale (:attr:`Probe.scale`, log) and the amplitude A it ended on (rad; rest
         drawn at the bottom edge, divergence at the top); the DF cycles and the
         exact orbits are horizontal lines (solid: stable, dashed: unstable), so
         a bistable loop shows its separating cycle between the settling and the
@@ -322,11 +346,11 @@ class LoopVerdict:
         """
         figure, axes = axes_or_new(ax, figsize=(9, 4), layout="constrained")
         ax = axes[0]
-        sizes = [p.disturbance for p in self.probes]
+        sizes = [p.scale for p in self.probes]
         levels = [p.measured.amplitude for p in self.probes if p.outcome == "cycle"]
         levels += [c.amplitude for c in (self.prediction.cycles if self.prediction is not None else ())]
         levels += [o.amplitude for o in self.orbits]
-        low, high = (min(levels + sizes) / 3.0, max(levels + sizes) * 3.0) if sizes else (1e-3, 1.0)
+        low, high = (min(levels) / 3.0, max(levels) * 3.0) if levels else (1e-3, 1.0)
         marks = {"cycle": ("o", "C3", "ends on a cycle"), "rest": ("v", "C2", "settles"),
                  "diverged": ("^", "k", "diverges"), "unsettled": ("s", "0.5", "does not settle")}
         for outcome, (marker, colour, label) in marks.items():
@@ -334,7 +358,7 @@ class LoopVerdict:
             if chosen:
                 y = [p.measured.amplitude if outcome == "cycle" else low if outcome == "rest" else high
                      for p in chosen]
-                ax.plot([p.disturbance for p in chosen], y, marker, color=colour, ls="none", label=label)
+                ax.plot([p.scale for p in chosen], y, marker, color=colour, ls="none", label=label)
         for cycle in () if self.prediction is None else self.prediction.cycles:
             ax.axhline(cycle.amplitude, color="C0", lw=1.0, ls="-" if cycle.stable else "--")
         for orbit in self.orbits:
@@ -345,7 +369,7 @@ class LoopVerdict:
         log_scale(ax.xaxis, min(sizes, default=low), max(sizes, default=high))
         log_scale(ax.yaxis, low, high)
         ax.set_ylim(low, high)
-        ax.set_xlabel("disturbance: swing of theta_d the kick starts (rad)")
+        ax.set_xlabel("disturbance: twist / alpha, motor-speed kick / (alpha w_n)")
         ax.set_ylabel("amplitude A the run ends on (rad)")
         ax.set_title(f"{self.model}: {self.verdict}", fontsize="medium")
         legend = legend_beside(ax, fontsize=7)
@@ -361,24 +385,53 @@ def _matching_df_cycle(prediction, measured):
     return None
 
 
-def _settling(rests, starts):
-    """Largest kick (rad) from rest below which every kick settled (``starts``: the kicks that did not)."""
-    first = min((p.disturbance for p in starts), default=math.inf)
-    below = [p.disturbance for p in rests if p.disturbance < first]
-    return max(below) if below else None
+def _settling(probes):
+    """Per kind, the largest disturbance up to which every probe of that kind settled (by size)."""
+    out = []
+    for kind in KINDS:
+        settled = None
+        for p in sorted((p for p in probes if p.disturbance.kind == kind), key=lambda p: abs(p.disturbance.value)):
+            if p.outcome != "rest":
+                break
+            settled = p.disturbance
+        if settled is not None:
+            out.append(settled)
+    return tuple(out)
 
 
-def _separating(prediction, orbits, rests, cycles):
-    """Amplitude (rad) of the cycle between rest and hunting, and its source."""
-    smallest_cycle = min(p.disturbance for p in cycles) if cycles else math.inf
-    largest_rest = _settling(rests, cycles)
-    target = min(p.measured.amplitude for p in cycles) if cycles else math.inf
+def _smallest(probes):
+    """Per kind, the smallest disturbance among ``probes`` (by size)."""
+    out = []
+    for kind in KINDS:
+        chosen = [p.disturbance for p in probes if p.disturbance.kind == kind]
+        if chosen:
+            out.append(min(chosen, key=lambda d: abs(d.value)))
+    return tuple(out)
+
+
+def _list(disturbances, prefix):
+    """``twists up to 0.4 rad and motor-speed kicks up to 12.6 rad/s`` (``prefix`` "up to", "from", "of")."""
+    parts = [f"{kind_words(d.kind)} {prefix} {abs(d.value):.4g} {d.unit}" for d in disturbances]
+    return " and ".join(parts)
+
+
+def _one(disturbance):
+    """``a twist of 0.075 rad``, ``a motor-speed kick of -12.6 rad/s``."""
+    return f"a {kind_words(disturbance.kind, 1)} of {disturbance.value:.4g} {disturbance.unit}"
+
+
+def _separating(prediction, orbits, rests, starts):
+    """Amplitude (rad) of the cycle between rest and hunting (or runaway), and its source."""
+    target = min((p.measured.amplitude for p in starts if p.measured.found), default=math.inf)
     for source, found in (("exact orbit", orbits), ("DF unstable cycle", prediction.cycles)):
         unstable = [c.amplitude for c in found if not c.stable and c.amplitude < target]
         if unstable:
             return float(max(unstable)), source
-    if math.isfinite(smallest_cycle) and largest_rest is not None:
-        return float(math.sqrt(largest_rest * smallest_cycle)), "simulations"
+    twists = [abs(p.disturbance.value) for p in starts if p.disturbance.kind == TWIST]
+    calm = [abs(p.disturbance.value) for p in rests if p.disturbance.kind == TWIST]
+    below = [size for size in calm if size < min(twists, default=math.inf)]
+    if twists and below:
+        return float(math.sqrt(max(below) * min(twists))), "simulations"
     return None, ""
 
 
@@ -403,42 +456,57 @@ def _exact_match(orbits, measured):
     return None
 
 
-def _decide(prediction, contact, probes, orbits=()):
-    """(verdict, reason, fields) from the evidence."""
+def _holding(rests, probes):
+    """The locally stable rests whose probes within reach all settled."""
+    return [rest for rest in rests if rest.stable
+            and all(p.outcome == "rest" for p in probes if p.rest is rest and p.role == "within reach")]
+
+
+def _decide(prediction, contact, rests, probes, orbits=()):
+    """(verdict, reason, fields) from the evidence (module docs)."""
     by = {kind: [p for p in probes if p.outcome == kind] for kind in ("rest", "cycle", "diverged", "unsettled")}
-    rests, cycles, diverged = by["rest"], by["cycle"], by["diverged"]
-    largest = max(p.disturbance for p in probes)
+    cycles, diverged = by["cycle"], by["diverged"]
+    # a probe that stays inside a marginal rest's mode (the gap of a free load) settles by construction
+    calm = [p for p in by["rest"] if p.role != "within reach" or p.rest.stable]
     if by["unsettled"]:
         p = by["unsettled"][0]
-        return "undetermined", (f"the motion from a kick of {p.disturbance:.3g} rad did not settle "
-                                f"({p.measured.verdict})"), {}
+        return "undetermined", (f"the motion from {_one(p.disturbance)} did not settle "
+                                f"({p.measured.verdict} after {p.duration:.3g} s)"), {}
     runaway_in_contact = contact.status == "unstable"  # a marginal pole (a free integrator) is no runaway
     if runaway_in_contact and not cycles:
         fields = {}
-        if rests:
-            amplitude, source = _separating(prediction, orbits, rests, diverged)
+        if calm:
+            amplitude, source = _separating(prediction, orbits, calm, diverged)
             fields = {"disturbance_to_start": amplitude, "disturbance_source": source,
-                      "settles_up_to": _settling(rests, diverged)}
+                      "settles_up_to": _settling(probes)}
         return "unstable", (f"the loop in contact is {contact.describe()} and no stable cycle caps the growth"
-                            + (f": kicks from {min(p.disturbance for p in diverged):.3g} rad diverged"
-                               if diverged else "")), fields
+                            + (f": {_list(_smallest(diverged), 'from')} diverged" if diverged else "")), fields
     if diverged and not runaway_in_contact:
         return "undetermined", (f"the loop in contact is {contact.status}, yet the run from "
-                                f"{diverged[0].disturbance:.3g} rad diverged"), {}
+                                f"{_one(diverged[0].disturbance)} diverged"), {}
+    settles = _settling(probes)
     if not cycles:
-        if prediction.stable_cycles:
-            return "undetermined", (f"{_df_words(prediction)}, but every simulated kick up to {largest:.3g} rad "
-                                    "settles"), {"settles_up_to": largest, "df_agrees": False}
-        return "no oscillation", f"settles from every kick up to {largest:.3g} rad; {_df_words(prediction)}", \
-            {"settles_up_to": largest, "df_agrees": True}
+        fields = {"settles_up_to": settles, "df_agrees": not prediction.stable_cycles}
+        if prediction.stable_cycles:  # started on the DF's cycle (a probe of the ladder), the loop settled too
+            return "no oscillation", (f"settles from every disturbance tried ({_list(settles, 'up to')}), a twist "
+                                      f"onto the DF's cycle too; DF UNRELIABLE here: {_df_words(prediction)}"), fields
+        return "no oscillation", f"settles from every disturbance tried ({_list(settles, 'up to')}); " \
+            f"{_df_words(prediction)}", fields
+    return _cycling(prediction, contact, rests, probes, orbits, calm)
+
+
+def _cycling(prediction, contact, rests, probes, orbits, calm):
+    """The verdict where some probe ends on a stable cycle: ``limit cycle`` or ``bistable``."""
+    cycles = [p for p in probes if p.outcome == "cycle"]
+    diverged = [p for p in probes if p.outcome == "diverged"]
     cycle = min((p.measured for p in cycles), key=lambda m: m.amplitude)
     agrees = _matching_df_cycle(prediction, cycle) is not None
     fields = {"cycle": cycle, "df_agrees": agrees, "saturated": cycle.saturated}
     confirmed = "; the exact orbit confirms it" if _exact_match(orbits, cycle) is not None else ""
-    agrees = "DF agrees" if agrees else f"DF UNRELIABLE here: {_df_words(prediction)}"
-    agrees += confirmed
-    runaway = (f"; kicks from {min(p.disturbance for p in diverged):.3g} rad diverge (contact loop "
-               f"{contact.describe()})" if diverged else "")
+    agrees = ("DF agrees" if agrees else f"DF UNRELIABLE here: {_df_words(prediction)}") + confirmed
+    runaway_in_contact = contact.status == "unstable"
+    runaway = (f"; {_list(_smallest(diverged), 'from')} diverge (contact loop {contact.describe()})"
+               if diverged else "")
     if cycle.saturated:
         runaway += (f"; the torque command is on its limit {100 * cycle.saturation:.0f} % of the cycle"
                     + (f" and caps the growth of the loop in contact, {contact.describe()}"
@@ -446,16 +514,29 @@ def _decide(prediction, contact, probes, orbits=()):
     distinct = [p.measured for p in cycles if abs(p.measured.amplitude / cycle.amplitude - 1.0) > _SAME_CYCLE]
     others = f"; another cycle at A = {distinct[0].amplitude:.4g} rad" if distinct else ""
     what = f"a stable cycle A = {cycle.amplitude:.4g} rad, w = {cycle.omega:.4g} rad/s (simulated; {agrees})"
-    if not rests:
-        return "limit cycle", f"every kick from {min(p.disturbance for p in probes):.3g} rad ends on {what}" \
-            + others + runaway, fields
-    amplitude, source = _separating(prediction, orbits, rests, cycles)
-    settles = _settling(rests, cycles)
+    holding = _holding(rests, probes)
+    if not holding and not calm:
+        inside = any(p.role == "within reach" and p.outcome == "rest" for p in probes)
+        smallest = " and ".join(_one(d) for d in _smallest(cycles))
+        return "limit cycle", (f"every disturbance tried ends on {what}, the smallest {smallest}"
+                               + (" (smaller ones stay in the gap)" if inside else "") + others + runaway), fields
+    amplitude, source = _separating(prediction, orbits, calm, cycles)
+    settles = _settling(probes)
     fields.update(disturbance_to_start=amplitude, disturbance_source=source, settles_up_to=settles)
-    calm = f"kicks up to {settles:.3g} rad settle" if settles is not None else "some kicks settle"
-    start = f"; hunting starts beyond A = {amplitude:.4g} rad ({source})" if amplitude is not None else ""
-    return "bistable", (f"{calm}, a kick of {min(p.disturbance for p in cycles):.3g} rad ends on {what}"
-                        + start + others + runaway), fields
+    if holding:
+        rest = holding[0]
+        reach = [d for d in rest.reach if d.value != 0.0]
+        keeps = "keeps contact" if rest.side else "stays in the gap"
+        calm_words = f"the rest {rest.where} (theta_d = {rest.theta_d:.4g} rad) is stable" + (
+            f" and {keeps} against {_list(reach, 'below')}" if reach else "")
+        if settles:
+            calm_words += f"; {_list(settles, 'up to')} settle"
+    else:
+        calm_words = f"{_list(settles, 'up to')} settle" if settles else "some disturbances settle"
+    start = (f"; hunting starts beyond the separating cycle A = {amplitude:.4g} rad ({source})"
+             if amplitude is not None else "")
+    first = min(cycles, key=lambda p: p.scale).disturbance
+    return "bistable", (f"{calm_words}; {_one(first)} ends on {what}" + start + others + runaway), fields
 
 
 def _exact(rig, prediction, probes, t_end, max_t_end):
@@ -463,8 +544,9 @@ def _exact(rig, prediction, probes, t_end, max_t_end):
     seed = None
     cycling = [p for p in probes if p.measured.found]
     if cycling:  # the run again, for a state on the cycle
+        first = cycling[0]
         _, seed = simulated_limit_cycle(rig, prediction.model, t_end=t_end, max_t_end=max_t_end,
-                                        kick=cycling[0].kick)
+                                        initial=first.rest.initial(first.disturbance), theta_b0=first.rest.theta_b)
     try:
         orbits = exact_orbits(rig, prediction, simulated=seed)
     except ValueError as error:  # a law shooting does not handle
@@ -472,26 +554,40 @@ def _exact(rig, prediction, probes, t_end, max_t_end):
     return tuple(orbits), "" if orbits else "shooting found no periodic orbit from the DF and simulated cycles"
 
 
-def judge_loop(rig, prediction, linear=None, t_end=20.0, max_t_end=160.0, disturbances=DISTURBANCES, exact=False):
+def _separatrix(rig, prediction, orbits, cycle):
+    """The exact unstable orbit below the simulated cycle: from the orbits found, else by shooting from the DF."""
+    below = [o for o in orbits if not o.stable and o.amplitude < cycle.amplitude]
+    for seed in () if below else [c for c in prediction.cycles if not c.stable]:
+        try:
+            orbit = periodic_orbit(rig, prediction.model, seed)
+        except ValueError:  # shooting failed, or a law it does not handle
+            continue
+        if not orbit.stable and orbit.amplitude < cycle.amplitude:
+            below.append(orbit)
+    return max(below, key=lambda o: o.amplitude, default=None)
+
+
+def judge_loop(rig, prediction, linear=None, t_end=10.0, max_t_end=160.0, disturbances=None, exact=False):
     """The verdict on a rig's loop with one torque law (module docs).
 
     Parameters
     ----------
     rig : Rig
     prediction : LimitCyclePrediction
-        Preferably verified (:func:`~backlash_df.limit_cycles.verify_limit_cycles`):
-        its simulated stable cycles are reused as probes.
+        Verified (:func:`~backlash_df.limit_cycles.verify_limit_cycles`) or not:
+        the probes are the same.
     linear : control.LTI, optional
-        The user's linear part, if the prediction used one.
+        The user's linear part, if the prediction used one (twists only: it has no motor speed).
     t_end, max_t_end : float
         First and largest simulated time of each probe, s.
-    disturbances : sequence of float
-        Kick sizes from rest, in units of the half gap alpha.
+    disturbances : sequence of Disturbance, optional
+        The ladder from the rest (default the rig's standard set,
+        :func:`~backlash_df.disturbances.standard_disturbances`); the rests' reach
+        probes come first either way (:func:`ladder`).
     exact : bool
         Also find the exact periodic orbits (:mod:`backlash_df.orbits`; the
-        rig's own loop only): an unstable one gives the disturbance that
-        starts a bistable loop hunting, a stable one on the simulated cycle
-        confirms it.
+        rig's own loop only): a stable one on the simulated cycle confirms it.
+        A bistable loop's separating orbit is sought either way.
 
     Returns
     -------
@@ -500,13 +596,23 @@ def judge_loop(rig, prediction, linear=None, t_end=20.0, max_t_end=160.0, distur
     model = rig.make_model(prediction.model)
     user_linear = linear if linear is not None and not isinstance(linear, DriveLoop) else None
     part = drive_loop(rig).linear_part() if user_linear is None else lti_linear_part(user_linear)
-    contact = linear_stability(part, model.stiffness, model.damping, "contact")
+    contact = linear_stability(part, *contact_shaft(model), "contact")
     opened = linear_stability(part, 0.0, 0.0, "open")
-    probes = _probes(rig, model, prediction, user_linear, t_end, max_t_end, disturbances)
+    rests, rest_note = loop_rests(rig, model, user_linear)
+    if not rests:
+        return LoopVerdict(prediction.model, "unstable", f"the loop has no rest: {rest_note}", contact, opened, (),
+                           rest_note=rest_note, prediction=prediction)
+    probes = tuple(probe(rig, model, disturbance, rest, user_linear, t_end, max_t_end, role)
+                   for disturbance, rest, role in ladder(rig, rests, disturbances, user_linear, prediction))
     orbits, note = _exact(rig, prediction, probes, t_end, max_t_end) if exact and user_linear is None else ((), "")
-    verdict, reason, fields = _decide(prediction, contact, probes, orbits)
+    verdict, reason, fields = _decide(prediction, contact, rests, probes, orbits)
+    separatrix = None
+    if verdict == "bistable" and user_linear is None:
+        separatrix = _separatrix(rig, prediction, orbits, fields["cycle"])
+        if separatrix is not None and separatrix not in orbits:
+            verdict, reason, fields = _decide(prediction, contact, rests, probes, orbits + (separatrix,))
     return LoopVerdict(prediction.model, verdict, reason, contact, opened, probes, orbits=orbits, orbit_note=note,
-                       prediction=prediction, **fields)
+                       rests=rests, rest_note=rest_note, separatrix=separatrix, prediction=prediction, **fields)
 
 
 def judge(rig, prediction, **kwargs):
@@ -525,24 +631,27 @@ def judge(rig, prediction, **kwargs):
 
 
 def verdict_rows(verdicts):
-    """One row per verdict: the verdict, linear stability in contact and open, disturbance that starts hunting.
+    """One row per verdict: the verdict, the rest off the gap, linear stability in contact and open, where hunting starts.
 
-    The column ``hunts beyond (rad)`` is left out where no verdict has such a
-    disturbance.
+    The columns ``rest`` (a rest on a flank, under a load torque) and ``hunts
+    beyond (rad)`` are left out where no verdict has one.
 
     Returns
     -------
     header : list of str
     rows : list of list of str
     """
-    header = ["model", "verdict", "contact loop (k + c s)", "open loop (T = 0)", "hunts beyond (rad)",
+    header = ["model", "verdict", "rest", "contact loop (k + c s)", "open loop (T = 0)", "hunts beyond (rad)",
               "torque command"]
     rows = []
     for verdict in verdicts:
         start = "" if verdict.disturbance_to_start is None else (
             f"{verdict.disturbance_to_start:.4g} ({verdict.disturbance_source})")
         limit = f"saturated {100 * verdict.cycle.saturation:.0f} % of the cycle" if verdict.saturated else ""
-        rows.append({"model": verdict.model, "verdict": verdict.verdict,
+        rest = "none" if verdict.rest_note else "; ".join(
+            f"{r.where.removeprefix('on the ')} {r.theta_d:.4g} rad, {r.stability.status}"
+            for r in verdict.rests if r.side != 0)
+        rows.append({"model": verdict.model, "verdict": verdict.verdict, "rest": rest,
                      "contact loop (k + c s)": verdict.contact_loop.describe(),
                      "open loop (T = 0)": verdict.open_loop.describe(), "hunts beyond (rad)": start,
                      "torque command": limit})
@@ -585,9 +694,11 @@ def orbit_rows(verdicts):
 
 #: What the verdict table of a report holds (HTML).
 VERDICT_NOTE = (
-    "<p>Contact loop: the PI loop with the shaft as the spring-damper k + c s (large motions); open loop: "
+    "<p>Rest: where the loop rests off the gap (on a flank under a load torque) and its local stability. "
+    "Contact loop: the loop with the shaft as the spring-damper k + c s (large motions); open loop: "
     "shaft torque 0 (inside the gap); poles from the state matrix, dead time by its Pade approximant. "
-    "The verdict also weighs simulations from rest with kicks of several sizes (JSON: <code>probes</code>).</p>"
+    "The verdict also weighs simulations from the rest, each disturbed by a released twist (rad) or a motor-speed "
+    "kick (rad/s): within and just past the rest's reach, and the standard set (JSON: <code>probes</code>).</p>"
 )
 #: What the orbit table of a report holds (HTML).
 ORBIT_NOTE = (

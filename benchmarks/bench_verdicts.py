@@ -1,28 +1,45 @@
-"""Verdict corpus: ``predict``'s verdict against long simulations on seeded random rigs.
+"""Verdict corpora: ``predict``'s verdict against long simulations on seeded random rigs.
 
-Run: ``python benchmarks/bench_verdicts.py [N_RIGS] [SEED]`` (default 200 rigs, seed 2026;
-two worker processes).  Each rig draws both feedbacks, a speed filter, a torque lag and a
-dead time (each present or not), and one of four shaft dampings; the law is the phase
-plane (23).
+Run: ``python benchmarks/bench_verdicts.py [CORPUS] [N_RIGS] [SEED]`` (two worker processes;
+``CORPUS`` defaults to ``loaded``).
+``CORPUS`` is one of
 
-* **Verdict** (:func:`backlash_df.verdict.judge_loop`): the DF cycles, the linear loop
-  in contact and open, five kicked simulations from rest.
-* **Truth**: long simulations (40 s first, doubled up to 320 s until steady; twice the
-  verdict's) from six initial conditions: kicks ``dtheta_d(0) = a w_n`` with ``a = 1.1,
-  3, 10, 40 alpha`` (1.1 and 3 are among the verdict's too), a released twist
-  ``theta_d(0) = 2 alpha`` and a motor-speed step ``w_m(0) = 4 alpha w_n``.  A run that
-  has not settled by then but whose twist rate over the last quarter stays below 1 % of
-  its largest value (the load creeping through the gap with ever rarer contacts) counts
-  as rest.  Classes: every run at rest -> ``no
-  oscillation``; cycles only -> ``limit cycle``; rest and cycles -> ``bistable``; runs
-  that diverge and none that cycles -> ``unstable``; cycles and diverging runs ->
-  ``limit cycle`` (the cycle caps small motions); any run that does not settle ->
-  ``undetermined``.
-* **Named alternative**: the DF alone (:func:`backlash_df.sweeps.prediction_verdict`:
-  stable cycle -> limit cycle / bistable, contact poles for delay-free loops).
+* ``loaded`` (issue 22; default 200 rigs, seed 2026): PI speed loops, both feedbacks, a
+  speed filter, a torque lag and a dead time (each present or not), one of four shaft
+  dampings; every third rig carries a constant load torque ``T_l`` (``|T_l| / (k alpha)``
+  log-uniform in 0.05 .. 1.5, either sign), so it rests on a flank;
+* ``drives`` (issue 19; default 200 rigs, seed 2027): every second rig a cascade (a P
+  position loop ``kv`` around the PI, the position measured on the motor or the load,
+  alternately), every other pair torque-limited (limits 0.3 .. 3 times ``k alpha``, and
+  gains up to 10 times higher, so that capped loops unstable in contact are common).
 
-Printed: both confusion matrices (rows: truth, columns: verdict), the agreement rates,
-the rigs where the verdict and the truth differ, and the time per rig of verdict and truth.
+The law is the phase plane (23) throughout.
+
+* **Verdict** (:func:`backlash_df.verdict.judge_loop`): the rests, the DF cycles, the linear
+  loop in contact and open, the probes from the rests.
+* **Truth**: long simulations (80 s, doubled up to 320 s until clear) from the rest, set up
+  here from the block diagram (speeds 0, the shaft on the flank carrying ``-T_l``, the
+  integrator holding it), disturbed in ways the verdict does not use: kicks of the relative
+  speed ``dtheta_d(0) = a w_n`` (motor and load speeds at ``+-a w_n / 2``, ``a = 1.1, 3, 10,
+  40 alpha``), a released twist of ``2 alpha``, a motor-speed step ``4 alpha w_n``, and on a
+  loaded rig the load switched on from the unloaded rest and a twist of a third of the
+  flank's distance to release.  Each run is classified by its own rule, not by
+  :func:`~backlash_df.simulation.measure_limit_cycle`: ``diverged`` (overflow or
+  ``|theta_d| > 1e3 alpha``); ``cycle`` if the envelope of ``|dtheta_d|`` over the last
+  tenth of the run is at least 0.97 of that over 0.45 .. 0.55 of it and it switches
+  (contact, release, the command's limit) there at least 4 times, as often as in the
+  middle (within a quarter, +-2); ``rest`` if that ratio is below 0.8 or the motion
+  has died to 1e-9 of its largest speed; otherwise the run is doubled, and at 320 s it is
+  rest if nothing switched over its last fifth (the load coasting in the gap), else
+  unsettled.  Classes: every run at rest -> ``no oscillation``; cycles only -> ``limit
+  cycle``; rest and cycles -> ``bistable``; runs that diverge and none that cycles ->
+  ``unstable``; cycles and diverging runs -> ``limit cycle`` (the cycle caps small
+  motions); any unsettled run -> ``undetermined``.
+* **Named alternative**: the DF alone (:func:`backlash_df.sweeps.prediction_verdict`).
+
+Printed: both confusion matrices (rows: truth, columns: verdict), the agreement rates, the
+capped loops unstable in contact, the rigs where the verdict and the truth differ, and the
+CPU time per rig of verdict and truth.
 """
 
 import math
@@ -33,54 +50,112 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from backlash_df import rig_from_dict
-from backlash_df.limit_cycles import default_ranges, predict_limit_cycles, verify_limit_cycles
-from backlash_df.simulation import simulated_limit_cycle
+from backlash_df import rig_from_dict, simulate
+from backlash_df.limit_cycles import predict_limit_cycles, verify_limit_cycles
 from backlash_df.sweeps import prediction_verdict
-from backlash_df.verdict import VERDICTS, Probe, judge_loop
+from backlash_df.verdict import VERDICTS, judge_loop
 
 DAMPINGS = (1.0, 3.0, 10.0, 30.0)  # N m s/rad
 TRUTH_KICKS = (1.1, 3.0, 10.0, 40.0)  # a / alpha
+CORPORA = {"loaded": (200, 2026), "drives": (200, 2027)}
 
 
-def random_rig(rng):
+def random_rig(rng, corpus, index):
     """A PI loop around a two-mass drive: values drawn around the paper's laboratory drive."""
     feedback = str(rng.choice(["motor", "load"]))
+    plant = {
+        "motor_inertia": float(rng.uniform(0.2, 1.0)),
+        "load_inertia": float(rng.uniform(2.0, 10.0)),
+        "stiffness": float(np.exp(rng.uniform(math.log(2000.0), math.log(12000.0)))),
+        "damping": float(rng.choice(DAMPINGS)),
+        "half_gap": float(rng.uniform(0.02, 0.08)),
+    }
+    limited = corpus == "drives" and (index // 2) % 2 == 0
     kp_range = (20.0, 600.0) if feedback == "motor" else (3.0, 300.0)
-    return rig_from_dict({
-        "plant": {
-            "motor_inertia": float(rng.uniform(0.2, 1.0)),
-            "load_inertia": float(rng.uniform(2.0, 10.0)),
-            "stiffness": float(np.exp(rng.uniform(math.log(2000.0), math.log(12000.0)))),
-            "damping": float(rng.choice(DAMPINGS)),
-            "half_gap": float(rng.uniform(0.02, 0.08)),
-        },
-        "controller": {
-            "feedback": feedback,
-            "kp": float(np.exp(rng.uniform(*np.log(kp_range)))),
-            "ti": float(np.exp(rng.uniform(math.log(0.1), math.log(1.5)))),
-            "speed_filter": float(rng.choice([0.0, rng.uniform(0.0005, 0.008)])),
-            "torque_lag": float(rng.choice([0.0, rng.uniform(0.0003, 0.003)])),
-            "delay": float(rng.choice([0.0, rng.uniform(0.0001, 0.0008)])),
-        },
-        "model": {"backlash": "phase-plane"},
-    })
+    if limited:
+        kp_range = (kp_range[0], 10.0 * kp_range[1])
+    controller = {
+        "feedback": feedback,
+        "kp": float(np.exp(rng.uniform(*np.log(kp_range)))),
+        "ti": float(np.exp(rng.uniform(math.log(0.1), math.log(1.5)))),
+        "speed_filter": float(rng.choice([0.0, rng.uniform(0.0005, 0.008)])),
+        "torque_lag": float(rng.choice([0.0, rng.uniform(0.0003, 0.003)])),
+        "delay": float(rng.choice([0.0, rng.uniform(0.0001, 0.0008)])),
+    }
+    scale = plant["stiffness"] * plant["half_gap"]
+    if corpus == "drives" and index % 2 == 0:
+        controller.update(structure="cascade", kv=float(np.exp(rng.uniform(math.log(2.0), math.log(60.0)))),
+                          position_feedback="motor" if (index // 4) % 2 else "load")
+    if limited:
+        controller["torque_limit"] = float(scale * np.exp(rng.uniform(math.log(0.3), math.log(3.0))))
+    load = {}
+    if corpus == "loaded" and index % 3 == 0:
+        load["torque"] = float(rng.choice([-1.0, 1.0]) * scale * np.exp(rng.uniform(math.log(0.05), math.log(1.5))))
+    return rig_from_dict({"plant": plant, "controller": controller, "load": load,
+                          "model": {"backlash": "phase-plane"}})
+
+
+def block_diagram_rest(rig):
+    """The rest (states by name) from the loop's equations: speeds 0, ``T = -T_l`` on a flank, the integrator holding it."""
+    plant, ctl, load = rig.plant, rig.controller, rig.load.torque
+    theta = 0.0 if load == 0.0 else -math.copysign(plant.half_gap, load) - load / plant.stiffness
+    rest = {"theta_d": theta, "motor_speed": 0.0, "load_speed": 0.0, "integrator": -load / ctl.ki}
+    if ctl.cascade:  # the measured position at its reference 0
+        rest["load_angle"] = -theta if ctl.position_feedback == "motor" else 0.0
+    if ctl.torque_lag > 0.0:
+        rest["motor_torque"] = -load
+    return rest
+
+
+def truth_starts(rig):
+    """Initial states (by name) of the truth's runs (module docs)."""
+    alpha = rig.plant.half_gap
+    w_n = math.sqrt(rig.plant.stiffness * (1.0 / rig.plant.motor_inertia + 1.0 / rig.plant.load_inertia))
+    rest = block_diagram_rest(rig)
+
+    def shifted(**change):
+        return {name: rest[name] + change.get(name, 0.0) for name in rest}
+
+    starts = [shifted(motor_speed=0.5 * a * alpha * w_n, load_speed=-0.5 * a * alpha * w_n) for a in TRUTH_KICKS]
+    starts += [shifted(theta_d=2.0 * alpha), shifted(motor_speed=4.0 * alpha * w_n)]
+    if rig.load.torque != 0.0:
+        starts.append({"theta_d": 0.0})  # the load switched on at the unloaded rest
+        starts.append(shifted(theta_d=math.copysign(abs(rig.load.torque) / rig.plant.stiffness / 3.0,
+                                                    rig.load.torque)))
+    return starts
+
+
+def classify_run(run, alpha, final=False):
+    """``diverged``, ``cycle``, ``rest`` or ``None`` (not clear yet) for one long run (module docs)."""
+    with np.errstate(invalid="ignore"):
+        if not np.all(np.isfinite(run.states)) or np.abs(run.theta_d).max() > 1e3 * alpha:
+            return "diverged"
+    t, speed = run.time, np.abs(run.dtheta_d)
+    in_middle, in_end = (t >= 0.45 * t[-1]) & (t <= 0.55 * t[-1]), t >= 0.9 * t[-1]
+    middle, end = speed[in_middle].max(), speed[in_end].max()
+    switching = np.diff(run.mode) != 0
+    if run.command_mode is not None:
+        switching |= np.diff(run.command_mode) != 0
+    switches_middle, switches_end = switching[in_middle[1:]].sum(), switching[in_end[1:]].sum()
+    if end <= 1e-9 * speed.max() or end < 0.8 * middle:
+        return "rest"
+    if end >= 0.97 * middle and switches_end >= 4 and abs(switches_end - switches_middle) <= 0.25 * switches_middle + 2:
+        return "cycle"
+    if final and not switching[t[1:] >= 0.8 * t[-1]].any():
+        return "rest"  # the load coasts in the gap: no contact over the last fifth of the longest run
+    return None
 
 
 def truth(rig):
-    """Class of what long simulations from six initial conditions show (module docs)."""
-    alpha = rig.plant.half_gap
-    w_n = default_ranges(rig)[1][1] / 3.0
-    starts = [{"kick": a * alpha * w_n} for a in TRUTH_KICKS]
-    starts += [{"initial": {"theta_d": 2.0 * alpha}}, {"initial": {"motor_speed": 4.0 * alpha * w_n}}]
+    """Class of what long simulations from the truth's starts show (module docs)."""
     outcomes = Counter()
-    for start in starts:
-        measured, run = simulated_limit_cycle(rig, "phase-plane", t_end=40.0, max_t_end=320.0, **start)
-        outcome = Probe(0.0, 0.0, measured).outcome
-        rate = np.abs(run.dtheta_d)
-        if outcome == "unsettled" and rate[run.time >= 0.75 * run.time[-1]].max() < 1e-2 * rate.max():
-            outcome = "rest"
-        outcomes[outcome] += 1
+    for start in truth_starts(rig):
+        t_end, outcome = 80.0, None
+        while outcome is None and t_end <= 320.0:
+            run = simulate(rig, "phase-plane", t_end=t_end, initial=start)
+            outcome = classify_run(run, rig.plant.half_gap, final=t_end == 320.0)
+            t_end *= 2.0
+        outcomes[outcome or "unsettled"] += 1
     if outcomes["unsettled"]:
         return "undetermined", outcomes
     if outcomes["cycle"]:
@@ -88,18 +163,18 @@ def truth(rig):
     return ("unstable" if outcomes["diverged"] else "no oscillation"), outcomes
 
 
-def one(seed_and_index):
-    """Verdict, DF-only verdict and truth of rig ``index`` of the corpus, with timings."""
-    seed, index = seed_and_index
-    rig = random_rig(np.random.default_rng([seed, index]))
-    start = time.perf_counter()
+def one(job):
+    """Verdict, DF-only verdict and truth of rig ``index`` of a corpus, with CPU times."""
+    corpus, seed, index = job
+    rig = random_rig(np.random.default_rng([seed, index]), corpus, index)
+    start = time.process_time()
     prediction = verify_limit_cycles(rig, predict_limit_cycles(rig, "phase-plane"))
     verdict = judge_loop(rig, prediction)
-    t_verdict = time.perf_counter() - start
+    t_verdict = time.process_time() - start
     df_only = prediction_verdict(rig, prediction)
-    start = time.perf_counter()
+    start = time.process_time()
     true, outcomes = truth(rig)
-    t_truth = time.perf_counter() - start
+    t_truth = time.process_time() - start
     return index, rig, verdict, df_only, true, dict(outcomes), t_verdict, t_truth
 
 
@@ -117,25 +192,40 @@ def confusion(pairs):
 
 def describe(rig):
     c, p = rig.controller, rig.plant
-    return (f"{c.feedback} kp={c.kp:.4g} ti={c.ti:.3g} filter={c.speed_filter * 1e3:.2g}ms "
+    loop = (f"cascade kv={c.kv:.3g} on {c.position_feedback} " if c.cascade else "") + \
+        (f"limit={c.torque_limit:.4g}N m " if c.torque_limit else "") + \
+        (f"load={rig.load.torque:.4g}N m " if rig.load.torque else "")
+    return (f"{loop}{c.feedback} kp={c.kp:.4g} ti={c.ti:.3g} filter={c.speed_filter * 1e3:.2g}ms "
             f"lag={c.torque_lag * 1e3:.2g}ms delay={c.delay * 1e3:.2g}ms c={p.damping:g} k={p.stiffness:.0f} "
             f"Jm={p.motor_inertia:.2f} Jl={p.load_inertia:.2f} alpha={p.half_gap:.3f}")
 
 
-def main(n_rigs=200, seed=2026):
+def _kind(rig):
+    c = rig.controller
+    return ", ".join(word for word, present in (("loaded", rig.load.torque != 0.0), ("cascade", c.cascade),
+                                                ("limited", c.torque_limit > 0.0)) if present) or "speed loop"
+
+
+def main(corpus="loaded", n_rigs=None, seed=None):
+    default_rigs, default_seed = CORPORA[corpus]
+    n_rigs, seed = n_rigs or default_rigs, default_seed if seed is None else seed
     start = time.perf_counter()
     results = []
     with ProcessPoolExecutor(2) as pool:
-        for result in pool.map(one, [(seed, i) for i in range(n_rigs)]):
-            index, _, verdict, df, true, outcomes, t_verdict, t_truth = result
-            print(f"#{index:3d} truth {true:14s} verdict {verdict.verdict:14s} DF alone {df:14s} "
+        for result in pool.map(one, [(corpus, seed, i) for i in range(n_rigs)]):
+            index, rig, verdict, df, true, outcomes, t_verdict, t_truth = result
+            print(f"#{index:3d} {_kind(rig):24s} truth {true:14s} verdict {verdict.verdict:14s} DF alone {df:14s} "
                   f"{t_verdict:5.1f} s / {t_truth:5.1f} s {outcomes}", flush=True)
             results.append(result)
     wall = time.perf_counter() - start
     said = [(true, verdict.verdict) for _, _, verdict, _, true, _, _, _ in results]
     alone = [(true, df) for _, _, _, df, true, _, _, _ in results]
-    print(f"\n{n_rigs} random rigs (seed {seed}), phase plane law; truth from 6 long simulations per rig\n")
-    print("verdict (DF + linear loop + kicked simulations):")
+    kinds = Counter(_kind(r[1]) for r in results)
+    print(f"\ncorpus {corpus!r}: {n_rigs} random rigs (seed {seed}), phase plane law; "
+          f"truth from {min(len(truth_starts(r[1])) for r in results)}-"
+          f"{max(len(truth_starts(r[1])) for r in results)} long simulations per rig")
+    print("rigs: " + ", ".join(f"{n} {kind}" for kind, n in sorted(kinds.items())) + "\n")
+    print("verdict (rests + DF + linear loop + probes):")
     print(confusion(said))
     print("\nDF alone (backlash_df.sweeps.prediction_verdict):")
     print(confusion(alone))
@@ -146,13 +236,22 @@ def main(n_rigs=200, seed=2026):
           f"{agree_df / n_rigs:.1%}")
     print(f"verdict where it commits (not undetermined): {sum(t == v for t, v in determined)}/{len(determined)} = "
           f"{sum(t == v for t, v in determined) / max(len(determined), 1):.1%}")
-    unstable = [(t, v) for _, _, verdict, _, t, _, _, _ in results
-                for v in [verdict.verdict] if not verdict.contact_loop.stable]
+    for kind in sorted(kinds):
+        pairs = [(t, v.verdict) for _, r, v, _, t, _, _, _ in results if _kind(r) == kind]
+        print(f"  {kind}: {sum(t == v for t, v in pairs)}/{len(pairs)} agree")
+    unstable = [(t, verdict.verdict) for _, _, verdict, _, t, _, _, _ in results if not verdict.contact_loop.stable]
     print(f"contact loop unstable: {len(unstable)} rigs, called unstable: {sum(v == 'unstable' for _, v in unstable)}, "
           f"truth unstable: {sum(t == 'unstable' for t, _ in unstable)}")
+    capped = [(t, verdict) for _, rig, verdict, _, t, _, _, _ in results
+              if rig.controller.torque_limit > 0.0 and verdict.contact_loop.status == "unstable"
+              and verdict.verdict != "unstable"]
+    if any(rig.controller.torque_limit > 0.0 for _, rig, *_ in results):
+        print(f"capped (torque limit, contact loop unstable, not called unstable): {len(capped)} rigs, called limit "
+              f"cycle: {sum(v.verdict == 'limit cycle' for _, v in capped)} (saturated: "
+              f"{sum(v.saturated for _, v in capped)}), truth limit cycle: {sum(t == 'limit cycle' for t, _ in capped)}")
     t_verdict = np.array([r[6] for r in results])
     t_truth = np.array([r[7] for r in results])
-    print(f"time per rig (one worker): verdict median {np.median(t_verdict):.2f} s (max {t_verdict.max():.1f}), "
+    print(f"CPU time per rig: verdict median {np.median(t_verdict):.2f} s (max {t_verdict.max():.1f}), "
           f"truth median {np.median(t_truth):.2f} s (max {t_truth.max():.1f}); wall {wall:.0f} s on 2 workers")
     print("\nrigs where the verdict differs from the truth:")
     for index, rig, verdict, df, true, outcomes, _, _ in results:
@@ -162,4 +261,6 @@ def main(n_rigs=200, seed=2026):
 
 
 if __name__ == "__main__":
-    main(*(int(arg) for arg in sys.argv[1:3]))
+    args = sys.argv[1:]
+    corpus = args.pop(0) if args and args[0] in CORPORA else "loaded"  # run_all.py passes N_RIGS alone
+    main(corpus, *(int(arg) for arg in args[:2]))

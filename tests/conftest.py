@@ -121,6 +121,7 @@ def results():
         "Certificate": tuning.best,
         "Candidate": tuning.screen[0],
         "Disturbance": standard_disturbances(rig)[0],
+        "Rest": verdict.rests[0],
     }
 
 

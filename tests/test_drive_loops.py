@@ -22,6 +22,7 @@ from click.testing import CliRunner
 import backlash_df as bd
 from backlash_df.cli import main
 from backlash_df.simulation import simulate_rig, simulated_limit_cycle
+from backlash_df.system import command_channels
 from conftest import PLANT_TOML, example_rig
 
 LAW = "revised-dead-zone"
@@ -243,3 +244,17 @@ def test_a_user_lti_that_is_not_proper_or_not_siso_is_refused():
         rig.with_controller(speed=ct.tf([1.0], [1.0, 0.5], dt=0.01))
     with pytest.raises(ValueError, match='structure = "cascade"'):
         rig.with_controller(position=ct.tf([20.0], [1.0]))
+
+
+def test_the_command_channels_of_a_delayed_loop_rebuild_its_frequency_response():
+    # below the limit (N = 1) the loop with its command cut and closed again is the loop: G = -(a (1 - d) + b c) / (1 - d)
+    # (a cascade: two delayed signals, the speed and the position measured)
+    rig = example_rig("load_feedback")
+    rig = dataclasses.replace(rig, controller=dataclasses.replace(rig.controller, delay=0.0005, torque_limit=300.0,
+                                                                  structure="cascade", kv=20.0))
+    part = bd.drive_loop(rig).linear_part()
+    assert part.n_delayed == 2
+    omega = np.array([5.0, 40.0, 300.0])
+    a, b, c, d = command_channels(part, omega)
+    assert np.allclose(-(a * (1.0 - d) + b * c) / (1.0 - d), bd.drive_loop(rig).frequency_response(omega),
+                       rtol=1e-9, atol=0.0)

@@ -55,8 +55,9 @@ def test_every_public_result_class_is_covered(results):
                                          "SpecialPoint", "DesignMap", "SimulationResult", "MeasuredCycle",
                                          "DescribingFunctionResult", "ValidityMap", "TorqueComparison", "TableOne",
                                          "Measurements", "Diagnosis", "Cause", "Stage", "ShaftResolution",
-                                         "CandidateResult", "Calibration", "FitParameter", "Replay", "FreeRunReplay", "ResidualAnalysis", "LoadLimit",
-                                         "Tuning", "Certificate", "Candidate", "Disturbance"]))
+                                         "CandidateResult", "Calibration", "FitParameter", "Replay", "FreeRunReplay",
+                                         "ResidualAnalysis", "LoadLimit", "Tuning", "Certificate", "Candidate",
+                                         "Disturbance", "Rest"]))
 def test_to_dict_is_json_and_the_repr_one_line(results, name):
     result = results[name]
     data = result.to_dict()

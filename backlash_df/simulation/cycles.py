@@ -7,7 +7,8 @@ import numpy as np
 
 from .._json import json_ready
 
-__all__ = ["MeasuredCycle", "measure_limit_cycle", "upward_crossings"]
+__all__ = ["MeasuredCycle", "measure_limit_cycle", "motion_trend", "free_flights", "upward_crossings", "DYING",
+           "TREND_WINDOWS"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -27,12 +28,13 @@ class MeasuredCycle:
     bias : float
         Mean of theta_d over the measured periods (rad); NaN if none.
     settled : bool
-        True if a steady state was reached (a periodic cycle, or rest in the gap),
-        or the run diverged (longer runs cannot change that).
+        True if a steady state was reached (a periodic cycle, or rest), or the run
+        diverged (longer runs cannot change that).
     verdict : str
-        ``"limit cycle"``, ``"no limit cycle"`` (rest: no shaft contact at the end),
-        ``"decaying"``, ``"growing"``, ``"drifting in the gap"`` or ``"irregular"`` (not settled),
-        or ``"diverged"`` (overflow, NaN, or theta_d beyond the bound of :func:`measure_limit_cycle`).
+        ``"limit cycle"``, ``"no limit cycle"`` (rest), ``"decaying"`` or ``"drifting in the
+        gap"`` (dying out, to be confirmed by a longer run), ``"converging"``, ``"growing"``
+        or ``"irregular"`` (not settled), or ``"diverged"`` (overflow, NaN, or theta_d
+        beyond the bound of :func:`measure_limit_cycle`).
     periods : int
         Number of periods averaged.
     saturation : float
@@ -111,20 +113,75 @@ def _window_integral(time, values, t0, t1):
     return np.trapezoid(y, t)
 
 
-def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None):
-    """Measure the limit cycle at the end of a closed-loop simulation.
+#: Windows the second half of a record is split into for the trend of the motion.
+TREND_WINDOWS = 8
+#: Words of a motion that dies out without a steady state yet: a second, longer run confirms them as rest.
+DYING = ("decaying", "drifting in the gap")
+_ROUNDOFF = 1e-9  # a relative speed this far below the record's largest is round-off: rest
+
+
+def _windows(time, count):
+    """Index bounds of ``count`` equal windows tiling the second half of ``time``."""
+    edges = np.searchsorted(time, np.linspace(0.5 * time[-1], time[-1], count + 1))
+    edges[-1] = time.size
+    return list(zip(edges[:-1], edges[1:]))
+
+
+def motion_trend(result, count=TREND_WINDOWS):
+    """The relative speed's envelope and the switches of the motion over successive windows.
+
+    The second half of the record is split into ``count`` equal windows; in each,
+    the largest ``|dtheta_d|`` (rad/s) and the number of switches (mode changes of
+    the backlash, and of the torque command where it has a limit).
+
+    Returns
+    -------
+    envelope : ndarray, shape (count,)
+    switches : ndarray of int, shape (count,)
+    """
+    windows = _windows(result.time, count)
+    speed = np.abs(result.dtheta_d)
+    changes = np.diff(result.mode) != 0
+    if result.command_mode is not None:
+        changes |= np.diff(result.command_mode) != 0
+    envelope = np.array([speed[a:b].max() for a, b in windows])
+    switches = np.array([int(changes[max(a - 1, 0):b - 1].sum()) for a, b in windows])
+    return envelope, switches
+
+
+def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, previous=None):
+    """Measure the limit cycle at the end of a closed-loop simulation, or name why there is none.
 
     The last ``periods`` full periods of theta_d (between upward crossings of its
     mean, located by linear interpolation) give the frequency; the first harmonic
     ``|2/T int theta_d e^{-jwt} dt|`` over them gives the amplitude (the DF
     convention of the contract page).  Steady state: the period lengths and per-period
-    peak amplitudes agree to ``rtol``.  A relative speed dtheta_d below ``rtol``
-    times its largest value over the last ``window`` of the record means the
-    motion decayed: no limit cycle, whether it came to rest in the gap (with a
-    free load the last contacts come ever more rarely) or at a side of it, where
-    round-off can leave a periodic-looking wobble of 1e-15 rad.  The test is
-    relative: after a kick 1000 times faster than a small cycle, the cycle is
-    taken for rest (``benchmarks/bench_verdicts.py`` meets three such runs).
+    peak amplitudes agree to ``rtol``.  With no contact at the end of the record and
+    theta_d drifting (a load coasting across the gap while the motor's loop, on its
+    torque limit, hums), the periods are those of the relative speed ``dtheta_d``
+    and the amplitude that of theta_d less its drift.
+
+    Without a steady state the motion is judged from its trend over successive
+    windows of the record's second half (:func:`motion_trend`), never from one
+    window's amplitude:
+
+    * **rest** (``"no limit cycle"``): the relative speed is round-off (1e-9 of
+      its largest value), or its envelope falls over a second half without a
+      switch (contact, release, command limit) and in contact: one linear mode,
+      decaying to its rest; never with the torque command on its limit in the
+      second half (the drive may accelerate with the shaft still);
+    * **dying out** (``"decaying"``): the coasting speeds of the last three free
+      flights across the gap fall by 20 % a flight at least (:func:`free_flights`),
+      as when a free load bounces between the flanks ever more slowly (its speed
+      decays like 1/t in time: theta_d sweeps the gap for as long as one
+      simulates); or, in contact, the envelope falls and the switches thin out
+      (15 % fewer in the last quarter than in the one before); **drifting in the
+      gap** (``"drifting in the gap"``): no contact in the last ``window`` of the
+      record.  Neither is settled: ``previous``, the measurement of a shorter run
+      from the same start that said either, confirms it as rest;
+    * ``"converging"``, ``"growing"`` or ``"irregular"``: the envelope falls
+      with switches that do not thin out (a slowly settling cycle), rises, or
+      neither; not settled.
 
     Parameters
     ----------
@@ -139,6 +196,9 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None):
         Largest ``|theta_d|`` (rad) of a run that has not diverged (default ``1e3
         alpha``, five times the largest amplitude the DF search considers).  A run
         that exceeds it, overflows or turns NaN is ``"diverged"``: never a cycle or rest.
+    previous : MeasuredCycle, optional
+        The measurement of a shorter run from the same start (the runs of
+        :func:`~backlash_df.simulation.simulated_limit_cycle`).
 
     Returns
     -------
@@ -147,33 +207,106 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None):
     time, x = result.time, result.theta_d
     bound = 1e3 * result.model.half_gap if bound is None else bound
     if not (np.all(np.isfinite(result.states)) and np.abs(x).max() <= bound):
-        return MeasuredCycle(False, math.nan, math.nan, math.nan, math.nan, True, "diverged")
-    tail = time >= time[-1] * (1.0 - window)
-    # decayed: the relative speed has fallen below rtol of its largest value
-    resting = np.abs(result.dtheta_d[tail]).max() < rtol * np.abs(result.dtheta_d).max()
-    if resting:
-        return MeasuredCycle(False, math.nan, math.nan, math.nan, math.nan, True, "no limit cycle")
-    if np.all(result.mode[tail] == 0):
-        return MeasuredCycle(False, math.nan, math.nan, math.nan, math.nan, False, "drifting in the gap")
+        return _none("diverged", True)
+    envelope, switches = motion_trend(result)
+    # the command on its limit in the second half: the drive may accelerate while theta_d stands still
+    limited = result.command_mode is not None and bool(np.any(result.command_mode[time >= 0.5 * time[-1]]))
+    if envelope[-1] <= _ROUNDOFF * np.abs(result.dtheta_d).max() and not limited:
+        return _none("no limit cycle", True)
+    free_tail = np.all(result.mode[time >= time[-1] * (1.0 - window)] == 0)
+    measured = _steady_cycle(result, periods, rtol)
+    if measured is None and free_tail:  # a periodic motion carried by a load coasting across the gap
+        measured = _steady_cycle(result, periods, rtol, drifting=True)
+    if measured is not None:
+        return measured
+    half = TREND_WINDOWS // 2
+    falling = envelope[-1] < envelope[half] < envelope[0]
+    if _bounces_die(result):
+        word = "decaying"
+    elif free_tail and not limited:
+        word = "drifting in the gap"
+    elif falling and not switches.any() and not limited:
+        return _none("no limit cycle", True)  # one linear mode over the second half, decaying to its rest
+    elif falling and switches[half:].sum() <= 0.85 * switches[:half].sum():
+        word = "decaying"
+    else:
+        word = "converging" if falling else "growing" if envelope[-1] > envelope[0] else "irregular"
+    if word in DYING and previous is not None and previous.verdict in DYING:
+        return _none("no limit cycle", True)
+    return _none(word, False)
+
+
+def free_flights(result):
+    """The motion's free flights: coasting speed (median ``|dtheta_d|``, rad/s) and whether each crossed the gap.
+
+    A free flight is a stretch of samples in the free mode (mode 0) between two
+    contacts; it crossed the gap when the contacts are on opposite flanks.  A flight
+    still under way at the end of the record is left out.
+
+    Returns
+    -------
+    speeds : ndarray
+    crossed : ndarray of bool
+    """
+    free = np.concatenate(([False], result.mode == 0, [False]))
+    edges = np.flatnonzero(np.diff(free.astype(np.int8)))
+    speed = np.abs(result.dtheta_d)
+    flights = [(a, b) for a, b in zip(edges[::2], edges[1::2]) if a > 0 and b < result.mode.size and b - a >= 3]
+    speeds = np.array([np.median(speed[a:b]) for a, b in flights])
+    crossed = np.array([result.mode[a - 1] * result.mode[b] < 0 for a, b in flights], dtype=bool)
+    return speeds, crossed
+
+
+def _bounces_die(result, loss=0.8):
+    """True if the load bounces from flank to flank ever slower, towards rest.
+
+    The last three free flights that cross the gap are each at most ``loss`` times
+    as fast as the one before (flights that return to the flank they left, a load
+    brushing a flank between crossings, are passed over): bounces that lose a share
+    of their speed at every contact (speeds ``s r^k``, the 1/t decay in time of a
+    free load).  A cycle forming has
+    flights whose speeds tend to its own, their ratios to 1; one still far from it
+    may look the same for a while, which the longer run that must confirm the decay
+    tells apart.
+    """
+    speeds, crossed = free_flights(result)
+    speeds = speeds[crossed][-3:]
+    return bool(speeds.size == 3 and np.all(speeds[1:] <= loss * speeds[:-1]))
+
+
+def _none(verdict, settled):
+    return MeasuredCycle(False, math.nan, math.nan, math.nan, math.nan, settled, verdict)
+
+
+def _steady_cycle(result, periods, rtol, drifting=False):
+    """The periodic steady state at the end of the record (module docs), or None.
+
+    ``drifting``: the periods are those of the relative speed, and theta_d is taken
+    less its mean drift over them (a motion inside the gap while the load coasts).
+    """
+    time, x = result.time, result.theta_d
+    signal = result.dtheta_d if drifting else x
     half = time >= 0.5 * time[-1]
-    center = 0.5 * (x[half].max() + x[half].min())
-    crossings = upward_crossings(time[half], x[half] - center)
+    center = 0.5 * (signal[half].max() + signal[half].min())
+    crossings = upward_crossings(time[half], signal[half] - center)
     if crossings.size < periods + 1:
-        return MeasuredCycle(False, math.nan, math.nan, math.nan, math.nan, False, "irregular")
+        return None
     edges = crossings[-(periods + 1):]
     lengths = np.diff(edges)
-    peaks = np.array([np.ptp(x[(time >= a) & (time <= b)]) for a, b in zip(edges[:-1], edges[1:])]) / 2.0
+    windows = [(time >= a) & (time <= b) for a, b in zip(edges[:-1], edges[1:])]
+    peaks = np.array([np.ptp(signal[inside]) for inside in windows]) / 2.0
     period = (edges[-1] - edges[0]) / periods
+    if not (np.ptp(lengths) <= rtol * period and np.ptp(peaks) <= rtol * peaks.mean()):
+        return None
+    span = edges[-1] - edges[0]
     omega = 2.0 * math.pi / period
-    bias = _window_integral(time, x, edges[0], edges[-1]) / (edges[-1] - edges[0])
-    c1 = 2.0 * _window_integral(time, x * np.exp(-1j * omega * time), edges[0], edges[-1]) / (edges[-1] - edges[0])
-    settled = np.ptp(lengths) <= rtol * period and np.ptp(peaks) <= rtol * peaks.mean()
-    if not settled:
-        verdict = "decaying" if peaks[-1] < peaks[0] else "growing" if peaks[-1] > peaks[0] else "irregular"
-        return MeasuredCycle(False, math.nan, math.nan, math.nan, math.nan, False, verdict)
+    bias = _window_integral(time, x, edges[0], edges[-1]) / span
+    if drifting:
+        x = x - (np.interp(edges[-1], time, x) - np.interp(edges[0], time, x)) / span * time
+    peak = float(np.mean([np.ptp(x[inside]) for inside in windows])) / 2.0
+    c1 = 2.0 * _window_integral(time, x * np.exp(-1j * omega * time), edges[0], edges[-1]) / span
     saturation = math.nan
     if result.command_mode is not None:
         saturation = float(np.mean(result.command_mode[(time >= edges[0]) & (time <= edges[-1])] != 0))
-    return MeasuredCycle(True, float(abs(c1)), float(peaks.mean()), float(omega), float(bias), True, "limit cycle",
-                         periods, saturation)
-
+    return MeasuredCycle(True, float(abs(c1)), peak, float(omega), float(bias), True, "limit cycle", periods,
+                         saturation)

@@ -37,7 +37,7 @@ def initial_state(system, initial=None, kick=0.0):
 
 
 def simulate_rig(rig, model=None, t_end=20.0, dt=None, speed_reference=0.0, load_torque=None,
-                 initial=None, kick=0.0, linear=None):
+                 initial=None, kick=0.0, linear=None, theta_b0=0.0):
     """Closed-loop time simulation of a rig's PI speed loop with a backlash torque law.
 
     Public as :func:`backlash_df.simulate`.  The loop is that of
@@ -66,6 +66,8 @@ def simulate_rig(rig, model=None, t_end=20.0, dt=None, speed_reference=0.0, load
     linear : control.LTI, optional
         A user's linear part G (shaft torque -> -theta_d) replacing the rig's loop;
         then the loop has no external inputs and ``initial`` names ``x0, x1, ...``.
+    theta_b0 : float
+        Initial backlash angle of the exact model, rad (``+-alpha`` on a flank).
 
     Returns
     -------
@@ -96,7 +98,7 @@ def simulate_rig(rig, model=None, t_end=20.0, dt=None, speed_reference=0.0, load
                 columns.append(np.broadcast_to(np.asarray(column, dtype=float), time.shape))
             return np.stack(columns, axis=1)
 
-    return simulate_linear(system, model, t_end, dt, inputs=inputs, z0=z0)
+    return simulate_linear(system, model, t_end, dt, inputs=inputs, z0=z0, theta_b0=theta_b0)
 
 
 def simulated_limit_cycle(rig, model=None, t_end=20.0, max_t_end=160.0, dt=None, periods=6, rtol=1e-3, **kwargs):
@@ -104,12 +106,14 @@ def simulated_limit_cycle(rig, model=None, t_end=20.0, max_t_end=160.0, dt=None,
 
     Runs :func:`simulate_rig` for ``t_end`` and doubles it (re-running from the
     start, so a dead time's history stays exact) until :func:`measure_limit_cycle`
-    finds a steady state or ``max_t_end`` is passed.
+    finds a steady state or ``max_t_end`` is passed.  A motion that dies out in two
+    successive runs (the second confirming the first) is rest.
 
     Parameters
     ----------
     rig, model, dt, **kwargs
-        As :func:`simulate_rig` (``speed_reference``, ``load_torque``, ``initial``, ``kick``, ``linear``).
+        As :func:`simulate_rig` (``speed_reference``, ``load_torque``, ``initial``, ``kick``, ``linear``,
+        ``theta_b0``).
     t_end, max_t_end : float
         First and largest simulated time, s.
     periods, rtol
@@ -121,9 +125,10 @@ def simulated_limit_cycle(rig, model=None, t_end=20.0, max_t_end=160.0, dt=None,
     result : SimulationResult
         The last simulation run.
     """
+    measured = None
     while True:
         result = simulate_rig(rig, model, t_end=t_end, dt=dt, **kwargs)
-        measured = measure_limit_cycle(result, periods=periods, rtol=rtol)
+        measured = measure_limit_cycle(result, periods=periods, rtol=rtol, previous=measured)
         if measured.settled or 2.0 * t_end > max_t_end:
             return measured, result
         t_end *= 2.0
