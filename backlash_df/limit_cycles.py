@@ -27,10 +27,12 @@ left half plane.  It is a local, first-harmonic statement; the time simulation
 (:func:`verify_limit_cycles`) is the check.
 """
 
+import copy
 import dataclasses
 import functools
 import html
 import math
+import threading
 import warnings
 
 import numpy as np
@@ -492,9 +494,7 @@ def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range,
             roots.append(root)
     cycles = sorted((_cycle(problem, p, q) for p, q in roots), key=lambda c: (c.amplitude, c.omega))
     near = []
-    for p0, q0 in minima:
-        p, q, distance = problem.closest(p0, q0, box)
-        p = _flat_top(problem, p, q, distance, box[0][1])
+    for p, q, distance in _run_threads(problem, [functools.partial(_closest_on_flat, p0, q0, box) for p0, q0 in minima]):
         at_edge = min(p - box[0][0], box[0][1] - p, q - box[1][0], box[1][1] - q) < 1e-6
         at_root = any(abs(p - pr) < 1e-3 and abs(q - qr) < 1e-3 for pr, qr in roots)
         if distance < 1e-6 or distance > near_miss_cutoff or at_edge or at_root:
@@ -503,6 +503,93 @@ def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range,
         if all(abs(math.log(omega / m.omega)) > 1e-4 or abs(amplitude / m.amplitude - 1) > 1e-4 for m in near):
             near.append(NearMiss(float(amplitude), float(omega), float(distance)))
     return cycles, sorted(near, key=lambda m: m.distance)
+
+
+def _closest_on_flat(p, q, box, problem):
+    """:meth:`_Problem.closest` from (p, q), moved to the top of a flat (:func:`_flat_top`): (p, q, |F|)."""
+    p, q, distance = problem.closest(p, q, box)
+    return _flat_top(problem, p, q, distance, box[0][1]), q, distance
+
+
+def _run_threads(problem, tasks):
+    """``[task(problem) for task in tasks]``, where N is pointwise side by side in threads whose requests are
+    evaluated together (:class:`_Rounds`): one call per round instead of one per request."""
+    if not problem.pointwise or len(tasks) < 2:
+        return [task(problem) for task in tasks]
+    rounds = _Rounds(problem, len(tasks))
+    results, errors = [None] * len(tasks), []
+
+    def work(k):
+        own = copy.copy(problem)
+        own.values = functools.partial(rounds.ask, k)
+        try:
+            results[k] = tasks[k](own)
+        except BaseException as error:  # re-raised in the calling thread
+            errors.append(error)
+        finally:
+            rounds.finish()
+
+    threads = [threading.Thread(target=work, args=(k,), daemon=True) for k in range(len(tasks))]
+    for thread in threads:
+        thread.start()
+    try:
+        rounds.serve()
+    finally:
+        for thread in threads:
+            thread.join()
+    if errors:
+        raise errors[0]
+    return results
+
+
+class _Rounds:
+    """Requests of several threads evaluated together: each round waits until every live thread has asked."""
+
+    def __init__(self, problem, live):
+        self.problem, self.live = problem, live
+        self.requests, self.answers = {}, {}
+        self.failed = None
+        self.changed = threading.Condition()
+
+    def ask(self, key, groups):
+        """The values of ``groups`` (:meth:`_Problem.values`), evaluated with the other threads' requests."""
+        with self.changed:
+            self.requests[key] = groups
+            self.changed.notify_all()
+            while key not in self.answers and self.failed is None:
+                self.changed.wait()
+            if self.failed is not None:
+                raise RuntimeError("the evaluation of a round failed") from self.failed
+            return self.answers.pop(key)
+
+    def finish(self):
+        with self.changed:
+            self.live -= 1
+            self.changed.notify_all()
+
+    def serve(self):
+        """Answer rounds until every thread has finished; on an error (or an interrupt) the threads are
+        released with it and it is raised here."""
+        with self.changed:
+            try:
+                while True:
+                    while self.live and len(self.requests) < self.live:
+                        self.changed.wait()
+                    if not self.live:
+                        return
+                    keys = list(self.requests)
+                    values = self.problem.values([group for key in keys for group in self.requests[key]])
+                    start = 0
+                    for key in keys:
+                        count = len(self.requests[key])
+                        self.answers[key] = values[start:start + count]
+                        start += count
+                    self.requests.clear()
+                    self.changed.notify_all()
+            except BaseException as error:
+                self.failed = error
+                self.changed.notify_all()
+                raise
 
 
 def _flat_top(problem, p, q, distance, top):
