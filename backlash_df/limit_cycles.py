@@ -17,6 +17,12 @@ the loci can be nearly tangent to G(jw), so a single local solve is not enough:
    with their distance ``|1 + G N|``, which is the relative change of G (gain
    and phase together) that would make the loci meet.
 
+Where N is pointwise (every describing function but the DC-balanced one) the
+evaluations are batched without changing a digit: G is built once per loop, every
+point asked for brings its Jacobian's four neighbours along, the Newton solves
+from all seeds advance side by side and the near-miss solves run in threads whose
+requests are evaluated together, one call of ``G`` and ``N`` per round.
+
 Stability is Loeb's criterion (Gelb and Vander Velde, 1968, Ch. 2): with
 ``U + jV = 1 + G(jw) N(A, w)``, a cycle is stable if
 
