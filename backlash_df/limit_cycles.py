@@ -549,38 +549,45 @@ def _run_threads(problem, tasks):
 
 
 class _Rounds:
-    """Requests of several threads evaluated together: each round waits until every live thread has asked."""
+    """Requests of several threads evaluated together: each round waits until every live thread has asked.
+
+    The calling thread waits on one condition (every live thread has asked), each
+    thread on its own event (its answer is there): one wake-up per thread and round.
+    """
 
     def __init__(self, problem, live):
         self.problem, self.live = problem, live
-        self.requests, self.answers = {}, {}
-        self.failed = None
-        self.changed = threading.Condition()
+        self.requests, self.answers, self.failed = {}, {}, None
+        self.answered = [threading.Event() for _ in range(live)]
+        self.all_asked = threading.Condition()
 
     def ask(self, key, groups):
         """The values of ``groups`` (:meth:`_Problem.values`), evaluated with the other threads' requests."""
-        with self.changed:
+        answered = self.answered[key]
+        answered.clear()
+        with self.all_asked:
             self.requests[key] = groups
-            self.changed.notify_all()
-            while key not in self.answers and self.failed is None:
-                self.changed.wait()
-            if self.failed is not None:
-                raise RuntimeError("the evaluation of a round failed") from self.failed
-            return self.answers.pop(key)
+            if len(self.requests) >= self.live:
+                self.all_asked.notify()
+        answered.wait()
+        if self.failed is not None:
+            raise RuntimeError("the evaluation of a round failed") from self.failed
+        return self.answers.pop(key)
 
     def finish(self):
-        with self.changed:
+        with self.all_asked:
             self.live -= 1
-            self.changed.notify_all()
+            if len(self.requests) >= self.live:
+                self.all_asked.notify()
 
     def serve(self):
         """Answer rounds until every thread has finished; on an error (or an interrupt) the threads are
         released with it and it is raised here."""
-        with self.changed:
+        with self.all_asked:
             try:
                 while True:
                     while self.live and len(self.requests) < self.live:
-                        self.changed.wait()
+                        self.all_asked.wait()
                     if not self.live:
                         return
                     keys = list(self.requests)
@@ -591,10 +598,12 @@ class _Rounds:
                         self.answers[key] = values[start:start + count]
                         start += count
                     self.requests.clear()
-                    self.changed.notify_all()
+                    for key in keys:
+                        self.answered[key].set()
             except BaseException as error:
                 self.failed = error
-                self.changed.notify_all()
+                for answered in self.answered:
+                    answered.set()
                 raise
 
 
