@@ -108,6 +108,8 @@ def results():
         "Measurements": data,
         "Diagnosis": diagnosis,
         "Cause": diagnosis.causes[0],
+        "Stage": diagnosis.rigid_body,
+        "ShaftResolution": diagnosis.shaft,
         "CandidateResult": diagnosis.extended,
         "Calibration": diagnosis.extended.calibration,
         "FitParameter": next(iter(diagnosis.extended.calibration.parameters.values())),

@@ -1,14 +1,18 @@
 """Prediction, generator and calibration checked against independent simulations and closed forms."""
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from backlash_df import rig_from_dict
-from backlash_df.identify import calibrate, fit_percent, get_effect, predict, replay, synthesize
-from backlash_df.identify.calibrate import (_Model, _parallel_jacobian, _robust_stderr, _Shooting, nominal_values,
-                                            segment_bounds)
+from backlash_df import load_rig, rig_from_dict
+from backlash_df.identify import (calibrate, fit_percent, get_effect, load_measurements, measurements_from_arrays,
+                                  predict, replay, synthesize)
+from backlash_df.identify.calibrate import (Shooting, TwoMassModel, cluster_robust_stderr, parallel_jacobian,
+                                            integrated_displacement, nominal_values, segment_bounds,
+                                            shaft_resolution)
+from backlash_df.identify.effects import smoothing_speeds
 from backlash_df.identify.synthetic import Experiment
 
 PLANT = {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0, "damping": 3.0, "half_gap": 0.02}
@@ -76,10 +80,10 @@ def test_shooting_jacobian_equals_column_by_column_differences():
     its own segment only); the prior's rows are the identity times their weight."""
     rig = _rig()
     record = synthesize(rig, {"torque_offset": 3.0}, seed=4, duration=0.6, encoder_counts=2**20)
-    model = _Model(record.measurements, rig)
+    model = TwoMassModel(record.measurements, rig)
     starts, stops = segment_bounds(30, 530, 100)
     measured = record.measurements.speeds[30:530]
-    shooting = _Shooting(record.measurements, starts, stops, residual_rms=0.3)
+    shooting = Shooting(record.measurements, starts, stops, residual_rms=0.3)
     values = nominal_values(rig) | _true_values(record)
 
     def residual(x):  # x: the offset (N m), then the corrections
@@ -88,7 +92,7 @@ def test_shooting_jacobian_equals_column_by_column_differences():
         return np.concatenate([data, shooting.penalty(x[1:])])
 
     x = np.concatenate([[2.5], np.random.default_rng(1).normal(size=shooting.size)])
-    jacobian = _parallel_jacobian(residual, 1, shooting, np.full(x.size, np.inf), workers=2)(x).toarray()
+    jacobian = parallel_jacobian(residual, 1, shooting, np.full(x.size, np.inf), workers=2)(x).toarray()
     f0 = residual(x)
     for i in range(x.size):
         step = 1e-6 * max(1.0, abs(x[i]))
@@ -116,7 +120,112 @@ def test_multiple_shooting_does_not_bias_an_offset_on_noisy_speeds(seed):
     assert offset.value == pytest.approx(5.0, rel=0.03)
     assert fit.shooting_segments == fit.n_clusters and "multiple shooting" in fit.fit_report()
     speeds_only = dataclasses.replace(record.measurements, motor_angle=None, load_angle=None)
-    assert calibrate(speeds_only, rig, (), window=(0, 300), polish=False).shooting_segments == 0
+    no_angles = calibrate(speeds_only, rig, (), window=(0, 300), polish=False)
+    assert no_angles.shooting_segments == no_angles.n_clusters and "twist_drift" in no_angles.values
+    assert "twist_drift" not in fit.values  # a measured twist does not drift
+
+
+@pytest.mark.parametrize("seed", [2000, 2001])
+def test_integrated_twist_drift_is_fitted(seed):
+    """Without angle columns the twist is the integral of the noisy relative speed: a random walk
+    (seed 2001: 1.07 mrad RMS off the encoders' twist over the estimation part, after the offset).
+    The fitted drift brings it to the encoders' twist of the same record (2^20 counts) to within one
+    step of the random walk over a segment (0.28 mrad)."""
+    rig = _rig()
+    record = synthesize(rig, "viscous_friction@load", seed=seed, duration=4.0, encoder_counts=2**20)
+    speeds_only = dataclasses.replace(record.measurements, motor_angle=None, load_angle=None)
+    n = speeds_only.n_samples
+    window = slice(int(0.05 * n), int(0.6 * n))
+    fit = calibrate(speeds_only, rig, (), window=(window.start, window.stop), polish=False)
+    integrated = integrated_displacement(speeds_only) + fit.values["theta_d0"]
+    corrected = integrated + np.interp(np.arange(n), *fit.values["twist_drift"])
+
+    def error(twist):
+        gap = (twist - record.measurements.twist)[window]
+        return float(np.sqrt(np.mean((gap - gap.mean()) ** 2)))
+
+    assert error(corrected) < 2.8e-4
+    assert error(corrected) < error(integrated)
+
+
+def test_rigid_body_prediction_against_closed_form_and_solve_ivp():
+    """The rigid-body model J dw/dt = T_m + T_0 - F(w): under a torque ramp a t with viscous friction
+    alone, w(t) = (a/d)(t - J/d) + (w_0 + a J/d^2) exp(-d t/J); with the catalogue's Coulomb and
+    breakaway friction, a sine torque and an offset, solve_ivp (DOP853, rtol 1e-11) of the same law."""
+    from scipy.integrate import solve_ivp
+
+    rig = _rig()
+    inertia, damping, slope, w0 = 6.0, 1.5, 4.0, 0.3
+    t = np.arange(2001) * 1e-3
+    exact = slope / damping * (t - inertia / damping) + (w0 + slope * inertia / damping**2) * np.exp(
+        -damping * t / inertia)
+    ramp = measurements_from_arrays(time=t, motor_torque=slope * t, motor_speed=exact, load_speed=exact)
+    values = nominal_values(rig) | {"inertia": inertia, "viscous_friction_load": damping}
+    free = predict(ramp, rig, values, horizon=None, structure="rigid_body")
+    np.testing.assert_allclose(free.simulated[:, 0], exact, atol=1e-7)
+
+    torque = 20.0 * np.sin(2 * np.pi * 0.7 * t) + 3.0 * np.sin(2 * np.pi * 5.3 * t)
+    rough = measurements_from_arrays(time=t, motor_torque=torque, motor_speed=np.sin(2 * np.pi * 0.7 * t),
+                                     load_speed=np.sin(2 * np.pi * 0.7 * t))
+    eps, w_s = smoothing_speeds(rough)
+    coulomb, breakaway, offset = 1.2, 2.0, 0.4
+    values = nominal_values(rig) | {"inertia": inertia, "coulomb_friction_motor": coulomb, "viscous_friction_load": 0.3,
+                                    "breakaway_friction_load": breakaway, "torque_offset": offset}
+
+    def rate(time, w):
+        friction = 0.3 * w + (coulomb + breakaway * np.exp(-(w / w_s) ** 2)) * np.tanh(w / eps)
+        return (np.interp(time, t, torque) + offset - friction) / inertia
+
+    model = predict(rough, rig, values, horizon=None, structure="rigid_body")
+    start = model.simulated[0, 0]
+    reference = solve_ivp(rate, (0.0, t[-1]), [start], t_eval=t, method="DOP853", rtol=1e-11, atol=1e-13,
+                          max_step=1e-3)
+    np.testing.assert_allclose(model.simulated[:, 0], reference.y[0], atol=2e-6)
+    np.testing.assert_array_equal(model.simulated[:, 0], model.simulated[:, 1])  # one body, one speed
+
+
+KUKA = Path(__file__).resolve().parent.parent / "examples" / "kuka"
+
+
+def _kuka_speeds_only():
+    rig = load_rig(KUKA / "kuka_rig.toml")
+    record = load_measurements(KUKA / "kuka_axis1.csv", gear_ratio=rig.plant.gear_ratio)
+    return rig, dataclasses.replace(record, motor_angle=None, load_angle=None)
+
+
+def test_shaft_resolution_of_a_stiff_gear_and_a_lab_rig():
+    """The KUKA gear's mode (sqrt(k (1/J_m + 1/J_l)), 112 rad/s = 17.8 Hz) lies above the band in which
+    its motor speed stands above the noise (the speeds move below about 2 Hz); a shaft 100 times softer
+    (1.78 Hz) lies inside it.  The synthetic rig's multisine reaches 29.3 Hz on the motor, so its band
+    holds that line, and its 20 Hz mode."""
+    rig, record = _kuka_speeds_only()
+    kuka = shaft_resolution(record, rig)
+    assert kuka.mode_frequency == pytest.approx(np.sqrt(4.58e6 * (1 / 609 + 1 / 921)) / (2 * np.pi))
+    assert 2.0 < kuka.resolved_frequency < kuka.mode_frequency and not kuka.resolved
+    soft = dataclasses.replace(rig, plant=dataclasses.replace(rig.plant, stiffness=rig.plant.stiffness / 100))
+    assert shaft_resolution(record, soft).resolved
+    lab = shaft_resolution(synthesize(_rig(), "none", seed=3, duration=2.0).measurements, _rig())
+    assert lab.resolved and lab.resolved_frequency >= 29.0
+
+
+def test_quasi_static_starts_tend_to_the_rigid_body_as_the_shaft_stiffens():
+    """Without angle columns on a shaft the record does not resolve, every segment starts on the rigid
+    body's state; the two-mass k-step prediction then differs from the rigid body's only by the shaft's
+    own motion, which shrinks as the shaft stiffens (0.3 k to 10 k, the damping c scaled along so that the
+    shaft's c / k stays; the contained rigid body is the limit)."""
+    rig, record = _kuka_speeds_only()
+    values = nominal_values(rig) | {"coulomb_friction_load": 450.0, "viscous_friction_load": 1700.0}
+    rigid = predict(record, rig, values, structure="rigid_body").simulated
+    gaps = []
+    for factor in (0.3, 1.0, 3.0, 10.0):
+        plant = dataclasses.replace(rig.plant, stiffness=factor * rig.plant.stiffness,
+                                    damping=factor * rig.plant.damping)
+        assert TwoMassModel(record, dataclasses.replace(rig, plant=plant)).quasi_static
+        two_mass = predict(record, dataclasses.replace(rig, plant=plant),
+                           values | {"stiffness": plant.stiffness, "damping": plant.damping}).simulated
+        gaps.append(float(np.sqrt(np.mean((two_mass - rigid) ** 2))))
+    assert gaps[1] < 0.2 * float(np.sqrt(np.mean((record.speeds - rigid) ** 2)))  # the rig file's shaft
+    assert gaps[3] < gaps[2] < gaps[1] < gaps[0]
 
 
 def test_cluster_robust_standard_error_of_a_mean():
@@ -126,7 +235,7 @@ def test_cluster_robust_standard_error_of_a_mean():
     groups, size = 40, 25
     residual = np.repeat(rng.normal(size=groups), size)
     clusters = np.repeat(np.arange(groups), size)
-    stderr, quantile = _robust_stderr(np.ones((residual.size, 1)), residual, clusters, np.ones(1))
+    stderr, quantile = cluster_robust_stderr(np.ones((residual.size, 1)), residual, clusters, np.ones(1))
     sums = residual.reshape(groups, size).sum(axis=1)
     assert stderr[0] == pytest.approx(np.sqrt(groups / (groups - 1) * np.sum(sums**2)) / residual.size)
     assert quantile == pytest.approx(2.0227, abs=1e-3)  # Student t, 39 dof
@@ -154,5 +263,7 @@ def test_generator_is_reproducible_and_hides_the_given_sizes():
     assert np.std(difference) == pytest.approx(0.02, rel=0.25)
     with pytest.raises(ValueError, match="one side at a time"):
         synthesize(rig, ["coulomb_friction@load", "breakaway_friction@motor"], seed=1, duration=0.5)
+    with pytest.raises(ValueError, match="encoder_counts = 0: give the encoder's counts per revolution"):
+        synthesize(rig, "none", seed=1, duration=0.5, encoder_counts=0)  # was a ZeroDivisionError
     stiction = synthesize(rig, {"coulomb_friction@load": 3.0, "breakaway_friction@load": 6.0}, seed=1, duration=0.5)
     assert stiction.effects == {"coulomb_friction@load": 3.0, "breakaway_friction@load": 6.0}

@@ -54,8 +54,8 @@ def test_every_public_result_class_is_covered(results):
                                          "LinearStability", "LoopAnalysis", "PeriodicOrbit", "Branch", "BranchPoint",
                                          "SpecialPoint", "DesignMap", "SimulationResult", "MeasuredCycle",
                                          "DescribingFunctionResult", "ValidityMap", "TorqueComparison", "TableOne",
-                                         "Measurements", "Diagnosis", "Cause", "CandidateResult", "Calibration",
-                                         "FitParameter", "Replay", "FreeRunReplay", "ResidualAnalysis", "LoadLimit",
+                                         "Measurements", "Diagnosis", "Cause", "Stage", "ShaftResolution",
+                                         "CandidateResult", "Calibration", "FitParameter", "Replay", "FreeRunReplay", "ResidualAnalysis", "LoadLimit",
                                          "Tuning", "Certificate", "Candidate", "Disturbance"]))
 def test_to_dict_is_json_and_the_repr_one_line(results, name):
     result = results[name]

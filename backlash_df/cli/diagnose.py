@@ -54,16 +54,24 @@ def diagnose_command(data, rig_file, json_out, report_out, strict):
     with tqdm(desc="diagnose: fits", unit="fit", file=sys.stderr, leave=False) as bar:
         result = run_diagnosis(measurements, rig, workers=min(2, os.cpu_count() or 1),
                                progress=lambda label: (bar.set_postfix_str(label[:40]), bar.update()))
-    click.echo(f"cause: {result.cause}")
+    shaft = result.shaft
+    click.echo(f"cause: {result.cause} (from the {result.structure.replace('_', '-')} model; shaft mode "
+               f"{shaft.mode_frequency:.3g} Hz, resolved band {shaft.resolved_frequency:.3g} Hz)")
     for cause in result.causes:
-        side = f" ({cause.side} side)" if cause.side else ""
+        side = f" ({cause.side} side)" if cause.side and cause.structure == "two_mass" else ""
         for name, parameter in cause.parameters.items():
             low, high = parameter.ci95
-            click.echo(f"  {cause.effect}{side}: {name} = {parameter.value:.4g} {parameter.unit} "
+            value = f"{parameter.value:.4g}" if cause.determined else "not determined"
+            click.echo(f"  {cause.effect}{side}: {name} = {value} {parameter.unit} "
                        f"(95 % CI {low:.4g} .. {high:.4g}), gain {100 * cause.gain:.1f} %")
+    for label, causes in (("two-mass", result.two_mass_causes), ("rigid-body", result.rigid_body.causes)):
+        click.echo(f"  {label} model names: {'; '.join(cause.summary() for cause in causes) or 'none'}")
     click.echo(result.sentence)
-    for model in (result.baseline, result.extended):
-        label = " + ".join(model.effects) or "none (baseline)"
+    if result.encoder_skew is not None:
+        click.echo(f"  {result.skew_sentence()}")
+    for label, model in (("", result.baseline), ("", result.extended), ("rigid body: ", result.rigid_body.baseline),
+                         ("rigid body: ", result.rigid_body.extended)):
+        label += " + ".join(model.effects) or "none (baseline)"
         fits = ", ".join(f"{name} {model.fit_percent[name]:.1f} % k-step / {model.ahead_fit_percent[name]:.1f} % ahead "
                          f"/ {model.free_run_fit_percent[name]:.1f} % free run" for name in model.fit_percent)
         click.echo(f"  validation fit of {label}: {fits}")

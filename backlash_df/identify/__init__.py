@@ -13,7 +13,7 @@ fitted model.
 
 from .calibrate import Calibration, FitParameter, Replay, calibrate, fit_percent, predict, refine, replay
 from .diagnose import (BASELINE_MIN_FIT, MIN_GAIN, MIN_T, VALIDATION_HORIZON, CandidateResult, Cause, Diagnosis,
-                       check_excitation, check_speed_units, diagnose)
+                       Stage, check_excitation, check_speed_units, diagnose, stage_disagreements)
 from .effects import EFFECT_NAMES, EFFECTS, Effect, get_effect
 from .measurements import Measurements, load_measurements, measurements_from_arrays, write_measurements
 from .residuals import ResidualAnalysis, correlation, residual_analysis
@@ -24,7 +24,8 @@ __all__ = [
     "Effect", "EFFECTS", "EFFECT_NAMES", "get_effect",
     "Calibration", "FitParameter", "Replay", "calibrate", "refine", "predict", "replay", "fit_percent",
     "ResidualAnalysis", "residual_analysis", "correlation",
-    "CandidateResult", "Cause", "Diagnosis", "diagnose", "check_speed_units", "check_excitation", "MIN_GAIN", "MIN_T",
+    "CandidateResult", "Cause", "Stage", "Diagnosis", "diagnose", "stage_disagreements", "check_speed_units",
+    "check_excitation", "MIN_GAIN", "MIN_T",
     "BASELINE_MIN_FIT", "VALIDATION_HORIZON",
     "Experiment", "SyntheticRecord", "synthesize",
 ]

@@ -13,12 +13,34 @@ is positive; the exact model (14) is predicted with its static form, the phase
 plane law (23)), the measured commanded torque ``T_m`` and the known load
 torque ``T_l``.  All effect parameters are zero in the nominal structure.
 
+The **rigid-body model** (``structure="rigid_body"``) is the limit of a shaft
+infinitely stiff without play: one inertia ``J = J_m + J_l`` (fitted as
+``inertia``) turning at one speed ``w``, predicted for both measured speeds::
+
+    J dw/dt = T_m(t - tau) + T_0 + T_l(t) - F_m(w) - F_l(w)
+
+started at each segment from the momentum-weighted data speed
+``(J_m w_m + J_l w_l) / (J_m + J_l)`` (the rig file's inertias).
+
+**Encoder skew.**  Where the twist is measured (both angle columns), the load
+encoder may be read later than the motor encoder by ``encoder_skew`` (s; the
+link encoder of the KUKA record, ``examples/kuka``, about 3 ms): the measured
+twist then holds ``encoder_skew w_l`` besides the elastic twist, so the
+segments start from ``theta_d0 + twist - encoder_skew w_l``, with the skew
+fitted along (within two samples either way).
+
 **Prediction modes** (as MATLAB's ``compare``).  A *k-step prediction* cuts the
 record into segments of ``horizon`` samples; each segment is simulated from the
 state the data give at its first sample (:func:`data_states`: the smoothed
 measured speeds, and theta_d = the measured twist, or the integral of
 ``w_m - w_l`` without angle columns, plus one fitted offset ``theta_d0``), so no
-prediction runs longer than the horizon: an observer-based k-step predictor.  On
+prediction runs longer than the horizon: an observer-based k-step predictor.
+Without angle columns on a shaft whose mode the record does not resolve
+(:func:`shaft_resolution`: a stiff gear), the integrated twist drifts by more
+than the shaft ever twists; each segment then starts *quasi-statically*: both
+speeds at the momentum-weighted data speed and the twist whose shaft torque
+gives both inertias the same acceleration (the state of the rigid body the
+model contains, its fast mode not excited), with no offset fitted.  On
 closed-loop data of a position-controlled axis any unmodelled torque piles up as
 speed in a long simulation; the k-step prediction cannot drift.  A *free run*
 is one segment over the whole window.
@@ -27,10 +49,12 @@ is one segment over the whole window.
 per cent off), the offset ``theta_d0`` and the effect parameters by bounded
 nonlinear least squares (:func:`scipy.optimize.least_squares`, trust region
 reflective) of the k-step prediction error on an estimation window.  It is a
-multiple-shooting fit (:class:`_Shooting`) where the twist is measured: each
+multiple-shooting fit (:class:`Shooting`) of the two-mass model: each
 segment's initial speeds are corrected too, with the data's state as a
 measurement of them, so that the noise of that state does not bias the values
-(errors in the variables).  Intervals
+(errors in the variables), and, where the twist is integrated from the speeds,
+the twist's drift as the random walk it is (quasi-static starts take no
+corrections).  Intervals
 come from a cluster-robust ("sandwich") covariance over the segments,
 ``(J^T J)^-1 (sum_g J_g^T r_g r_g^T J_g) (J^T J)^-1 G / (G - 1)`` with a
 Student t quantile of ``G - 1`` degrees of freedom: residuals correlated within
@@ -58,6 +82,8 @@ __all__ = [
     "Replay",
     "PLANT_PARAMETERS",
     "MODEL_PARAMETERS",
+    "RIGID_PARAMETERS",
+    "STRUCTURES",
     "nominal_values",
     "data_states",
     "predict",
@@ -68,7 +94,15 @@ __all__ = [
     "information_criterion",
     "smoothed_speeds",
     "speed_noise",
+    "ShaftResolution",
+    "shaft_resolution",
+    "RESOLVED_SNR",
     "integrated_displacement",
+    "TwoMassModel",
+    "RigidBodyModel",
+    "Shooting",
+    "parallel_jacobian",
+    "cluster_robust_stderr",
 ]
 
 #: Plant values of the rig file that calibration adjusts.
@@ -78,8 +112,16 @@ MODEL_PARAMETERS = PLANT_PARAMETERS + (
     "rubber_thickness", "coulomb_friction_motor", "coulomb_friction_load", "viscous_friction_motor",
     "viscous_friction_load", "breakaway_friction_motor", "breakaway_friction_load", "torque_offset",
 )
+#: Plant value the rigid-body model (``structure="rigid_body"``) fits: the whole drive's inertia.
+RIGID_PARAMETERS = ("inertia",)
+#: Model structures: the two-mass drive with its shaft, and the rigid body it contains.
+STRUCTURES = ("two_mass", "rigid_body")
 _UNITS = {"motor_inertia": "kg m^2", "load_inertia": "kg m^2", "stiffness": "N m/rad", "damping": "N m s/rad",
-          "half_gap": "rad", "theta_d0": "rad"}
+          "half_gap": "rad", "theta_d0": "rad", "inertia": "kg m^2", "encoder_skew": "s"}
+_MAX_SKEW_SAMPLES = 2.0  # encoder skew fitted within +-2 samples
+#: Smallest norm of a fit's scaled start vector: a fit whose free values all start at their null (an effect alone
+#: on the rigid body, plant values held) starts this far inside, else trf's first step has zero length.
+_MIN_START_NORM = 0.01
 _RELATIVE_RANGE = 0.3  # data-sheet values are trusted to +-30 %
 _SUBSTEPS = 2  # RK4 steps per sample
 _THETA_GRID_POINTS = 33  # starting theta_d0 searched on a grid over its range
@@ -89,6 +131,9 @@ SMOOTHED_NOISE_SHARE = math.sqrt(89.0 / 429.0)
 DEFAULT_HORIZON = 0.1  # s, length of the k-step segments
 #: Smallest free-run fit (%) of the k-step solution on every speed for the free-run refinement.
 FREE_RUN_MIN = 50.0
+#: Power ratio of the motor speed's spectrum over its noise floor below which a frequency is not resolved
+#: by the record (:func:`shaft_resolution`; 10 dB).
+RESOLVED_SNR = 10.0
 _jit = numba.njit(cache=True, nogil=True)
 
 
@@ -174,6 +219,36 @@ def _segments(law, p, eps, w_s, tm, tl, starts, stops, z0, substeps, states, tor
             if i < last:
                 for q in range(substeps):
                     mode = _step(z, i, q / substeps, (q + 1.0) / substeps, tm, tl, law, mode, p, eps, w_s, work)
+
+
+@_jit
+def _rigid_rate(w, tm, tl, p, eps, w_s):
+    """``dw/dt`` of the rigid body; ``p`` = (inertia, Coulomb, viscous, breakaway, offset), N m and N m s/rad."""
+    return (tm + tl + p[4] - _friction(w, p[2], p[1], p[3], eps, w_s)) / p[0]
+
+
+@_jit
+def _rigid_segments(p, eps, w_s, dt, tm, tl, starts, stops, w0, substeps, speed):
+    """Simulate the rigid body over each segment ``starts[i]:stops[i]`` from ``w0[i]`` (RK4, inputs interpolated)."""
+    last = tm.shape[0] - 1
+    for s in range(starts.shape[0]):
+        w = w0[s]
+        for i in range(starts[s], stops[s]):
+            speed[i] = w
+            if i == last:
+                continue
+            for q in range(substeps):
+                f0, f1 = q / substeps, (q + 1.0) / substeps
+                fm = 0.5 * (f0 + f1)
+                h = (f1 - f0) * dt
+                tm0, tl0 = tm[i] + f0 * (tm[i + 1] - tm[i]), tl[i] + f0 * (tl[i + 1] - tl[i])
+                tmm, tlm = tm[i] + fm * (tm[i + 1] - tm[i]), tl[i] + fm * (tl[i + 1] - tl[i])
+                tm1, tl1 = tm[i] + f1 * (tm[i + 1] - tm[i]), tl[i] + f1 * (tl[i + 1] - tl[i])
+                k1 = _rigid_rate(w, tm0, tl0, p, eps, w_s)
+                k2 = _rigid_rate(w + 0.5 * h * k1, tmm, tlm, p, eps, w_s)
+                k3 = _rigid_rate(w + 0.5 * h * k2, tmm, tlm, p, eps, w_s)
+                k4 = _rigid_rate(w + h * k3, tm1, tl1, p, eps, w_s)
+                w += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
 
 
 # --------------------------------------------------------------------------- data, replay, prediction
@@ -311,9 +386,11 @@ class Replay:
 
 
 def nominal_values(rig):
-    """The rig file's plant values as a dictionary of the model's parameters (effects at zero)."""
+    """The rig file's plant values as a dictionary of the model's parameters (effects, skew and offset at zero;
+    ``inertia``, the rigid body's, ``J_m + J_l``)."""
     plant = rig.plant
-    values = dict.fromkeys(MODEL_PARAMETERS, 0.0) | {"actuator_delay": 0.0, "theta_d0": 0.0}
+    values = dict.fromkeys(MODEL_PARAMETERS, 0.0) | {"actuator_delay": 0.0, "theta_d0": 0.0, "encoder_skew": 0.0,
+                                                     "inertia": float(plant.motor_inertia + plant.load_inertia)}
     return values | {name: float(getattr(plant, name)) for name in PLANT_PARAMETERS + ("rubber_thickness",)}
 
 
@@ -346,6 +423,56 @@ def measured_twist(measurements):
     return integrated_displacement(measurements) if twist is None else np.asarray(twist, dtype=float)
 
 
+@dataclasses.dataclass(frozen=True)
+class ShaftResolution:
+    """Whether a record resolves the shaft's mode (:func:`shaft_resolution`).
+
+    Attributes
+    ----------
+    mode_frequency : float
+        The shaft's natural frequency in contact, ``sqrt(k (1/J_m + 1/J_l)) / (2 pi)``, Hz, from the rig file.
+    resolved_frequency : float
+        The lowest frequency (Hz) at which the motor speed's spectrum falls below
+        :data:`RESOLVED_SNR` times its noise floor: the record resolves motion below it.
+    """
+
+    mode_frequency: float
+    resolved_frequency: float
+
+    @property
+    def resolved(self):
+        """True when the mode lies inside the resolved band (the two-mass model's shaft shows in the record)."""
+        return bool(self.mode_frequency <= self.resolved_frequency)
+
+    def to_dict(self):
+        """JSON-ready ``{"mode_frequency", "resolved_frequency", "resolved"}`` (Hz)."""
+        return {"mode_frequency": self.mode_frequency, "resolved_frequency": self.resolved_frequency,
+                "resolved": self.resolved}
+
+
+def shaft_resolution(measurements, rig):
+    """Does the record resolve the shaft's mode?  A :class:`ShaftResolution`.
+
+    The motor speed's Welch spectrum (1 s Hann segments, 1 Hz bins) is compared
+    with the floor of its white noise, ``2 sigma^2 / f_s`` with ``sigma`` the
+    raw noise (:func:`speed_noise` over its share ``sqrt(1 - h_0)`` that the
+    smoothing leaves in the difference).  Where the shaft's mode lies above the
+    first frequency whose power falls below :data:`RESOLVED_SNR` times the floor,
+    the speeds hold no motion at the mode: the shaft behaves as rigid in this
+    record (KUKA axis 1: mode 17.8 Hz, resolved up to 9 Hz; the synthetic rig of
+    the benchmarks: mode 20 Hz, resolved up to 35 Hz or more).
+    """
+    from scipy.signal import welch  # lazy: scipy.signal takes a second to import
+
+    plant = rig.plant
+    mode = math.sqrt(plant.stiffness * (1.0 / plant.motor_inertia + 1.0 / plant.load_inertia)) / (2.0 * math.pi)
+    rate = 1.0 / measurements.dt
+    noise = float(speed_noise(measurements)[0]) / math.sqrt(1.0 - SMOOTHED_NOISE_SHARE**2)
+    frequency, power = welch(measurements.motor_speed, fs=rate, nperseg=min(measurements.n_samples, round(rate)))
+    below = np.flatnonzero(power[1:] < RESOLVED_SNR * 2.0 * noise**2 / rate)
+    return ShaftResolution(mode, float(frequency[1 + below[0]] if below.size else frequency[-1]))
+
+
 def data_states(measurements, theta_d0, samples):
     """States ``(theta_d, w_m, w_l)`` the data give at ``samples``, shape (len(samples), 3).
 
@@ -376,8 +503,29 @@ def segment_bounds(start, stop, horizon):
     return starts, np.append(starts[1:], stop)
 
 
-class _Model:
-    """The model of a record, ready to predict any window with any values (the kernel's inputs cached)."""
+class TwoMassModel:
+    """The two-mass model of a record, ready to predict any window with any values (the kernel's inputs cached).
+
+    :func:`predict` and :func:`calibrate` build one per record; it is public so that
+    a test can run the very model a fit runs (:meth:`run`).
+
+    Parameters
+    ----------
+    measurements : Measurements
+        The record.
+    rig : Rig
+        Plant and torque law.
+
+    Attributes
+    ----------
+    quasi_static : bool
+        Segments start on the rigid body's state (module docs): no angle columns and the
+        shaft's mode not resolved (:func:`shaft_resolution`).
+    drifting : bool
+        The twist is integrated from both speeds, its drift fitted (:class:`Shooting`).
+    """
+
+    structure = "two_mass"
 
     def __init__(self, measurements, rig):
         self.measurements = measurements
@@ -387,6 +535,11 @@ class _Model:
         self.twist = measured_twist(measurements)
         self.load_torque = np.ascontiguousarray(measurements.load_torque_or_zero, dtype=float)
         self.t_rel = measurements.time - measurements.time[0]
+        self.twist_measured = getattr(measurements, "twist", None) is not None
+        #: segments start on the rigid body's state (module docs): no angles, the shaft's mode not resolved
+        self.quasi_static = not self.twist_measured and not shaft_resolution(measurements, rig).resolved
+        #: the twist integrated from both speeds, whose drift the k-step fits correct (:class:`Shooting`)
+        self.drifting = not self.twist_measured and not self.quasi_static and measurements.load_speed is not None
 
     def motor_torque(self, delay):
         """Commanded motor torque delayed by the actuator dead time (N m), on the record's grid."""
@@ -395,11 +548,17 @@ class _Model:
 
     def run(self, values, starts, stops, corrections=None):
         """Simulate segments from the data's states (plus ``corrections``, shape (segments, 3), the
-        multiple-shooting corrections of :class:`_Shooting`); (states, torque) on the whole record's
+        multiple-shooting corrections of :class:`Shooting`); (states, torque) on the whole record's
         grid (rows outside the segments are zero)."""
         p = np.array([float(values[name]) for name in MODEL_PARAMETERS] + [self.measurements.dt])
         p[5] = min(p[5], 2.0 * p[4])
-        z0 = np.column_stack([values["theta_d0"] + self.twist[starts], self.speeds[starts, 0], self.speeds[starts, -1]])
+        if self.quasi_static:
+            z0 = self._quasi_static_states(values, p, starts)
+        else:
+            twist = values["theta_d0"] + self.twist[starts] - values.get("encoder_skew", 0.0) * self.speeds[starts, -1]
+            if self.drifting and "twist_drift" in values:  # the fitted drift, its last value beyond its knots
+                twist = twist + np.interp(starts, *values["twist_drift"])
+            z0 = np.column_stack([twist, self.speeds[starts, 0], self.speeds[starts, -1]])
         if corrections is not None:
             z0 += corrections
         for column, name in ((1, "motor_speed0"), (2, "load_speed0")):
@@ -418,12 +577,70 @@ class _Model:
         """Columns of ``states`` matching the measured speeds."""
         return states[:, 1:1 + self.measurements.speeds.shape[1]]
 
+    def _quasi_static_states(self, values, p, starts):
+        """Segment starts on the rigid body's state: both speeds at the momentum-weighted data speed ``w``, and
+        the twist whose shaft torque ``T_s = (J_l (T_m + T_0 - F_m(w)) - J_m (T_l - F_l(w))) / (J_m + J_l)``
+        accelerates both inertias alike, through the dead zone's inverse ``T_s / k + alpha tanh(T_s / (k alpha))``
+        (the jump across the gap smoothed over the torque ``k alpha``)."""
+        jm, jl, k, alpha = p[0], p[1], p[2], p[4]
+        w = (jm * self.speeds[starts, 0] + jl * self.speeds[starts, -1]) / (jm + jl)
+        motor = self.motor_torque(values.get("actuator_delay", 0.0))[starts] + p[12] - _friction_of(w, p[8], p[6],
+                                                                                                   p[10], self)
+        load = self.load_torque[starts] - _friction_of(w, p[9], p[7], p[11], self)
+        shaft = (jl * motor - jm * load) / (jm + jl)
+        twist = shaft / k + alpha * np.tanh(shaft / max(k * alpha, 1e-12))
+        return np.column_stack([twist, w, w])
+
+
+class RigidBodyModel(TwoMassModel):
+    """The rigid-body model of a record (module docs): the same interface and parameters as
+    :class:`TwoMassModel`, whose states it returns as ``(0, w, w)`` (no twist, one speed for both
+    measured speeds, the momentum-weighted speed ``(J_m w_m + J_l w_l) / (J_m + J_l)`` of the data at a
+    segment's start)."""
+
+    structure = "rigid_body"
+
+    def __init__(self, measurements, rig):
+        super().__init__(measurements, rig)
+        plant = rig.plant
+        self.speed = np.ascontiguousarray((plant.motor_inertia * self.speeds[:, 0] + plant.load_inertia
+                                           * self.speeds[:, -1]) / (plant.motor_inertia + plant.load_inertia))
+
+    def run(self, values, starts, stops, corrections=None):
+        """Simulate segments from the data's momentum-weighted speed; (states, torque) as :meth:`TwoMassModel.run`
+        (the shaft torque is zero: the rigid body has no shaft)."""
+        p = np.array([float(values["inertia"])] + [
+            float(values[f"{name}_motor"] + values[f"{name}_load"])
+            for name in ("coulomb_friction", "viscous_friction", "breakaway_friction")] + [float(values["torque_offset"])])
+        w0 = self.speed[starts].copy()
+        if "motor_speed0" in values:  # fitted initial speed of a free run
+            w0[0] = values["motor_speed0"]
+        n = self.measurements.n_samples
+        speed = np.zeros(n)
+        _rigid_segments(p, self.eps, self.w_s, self.measurements.dt, self.motor_torque(values.get("actuator_delay", 0.0)),
+                        self.load_torque, starts.astype(np.int64), stops.astype(np.int64), w0, _SUBSTEPS, speed)
+        states = np.zeros((n, 3))
+        states[:, 1] = states[:, 2] = speed
+        return states, np.zeros(n)
+
+
+def _friction_of(w, viscous, coulomb, breakaway, model):
+    """The friction law of the kernel (:func:`_friction`) on an array of speeds, N m."""
+    return viscous * w + (coulomb + breakaway * np.exp(-(w / model.w_s) ** 2)) * np.tanh(w / model.eps)
+
+
+def _model_of(measurements, rig, structure):
+    """The :class:`TwoMassModel` (``two_mass``) or :class:`RigidBodyModel` (``rigid_body``) of a record."""
+    if structure not in STRUCTURES:
+        raise ValueError(f"unknown model structure {structure!r}; one of {', '.join(STRUCTURES)}")
+    return RigidBodyModel(measurements, rig) if structure == "rigid_body" else TwoMassModel(measurements, rig)
+
 
 def _horizon_samples(measurements, horizon):
     return None if horizon is None else max(int(round(horizon / measurements.dt)), 5)
 
 
-def predict(measurements, rig, values=None, window=None, horizon=DEFAULT_HORIZON, block=None):
+def predict(measurements, rig, values=None, window=None, horizon=DEFAULT_HORIZON, block=None, structure="two_mass"):
     """Speeds predicted by the model from the data: k-step or free run.
 
     Parameters
@@ -445,6 +662,8 @@ def predict(measurements, rig, values=None, window=None, horizon=DEFAULT_HORIZON
         ``horizon`` before the block's end (earlier than the window if need be):
         every sample is predicted between ``horizon - block`` and ``horizon``
         ahead, as MATLAB's ``predict`` with k steps.
+    structure : str
+        ``two_mass`` (the drive with its shaft) or ``rigid_body`` (module docs).
 
     Returns
     -------
@@ -453,7 +672,7 @@ def predict(measurements, rig, values=None, window=None, horizon=DEFAULT_HORIZON
     values = nominal_values(rig) | dict(values or {})
     start, stop = window if window is not None else (0, measurements.n_samples)
     k = _horizon_samples(measurements, horizon)
-    model = _Model(measurements, rig)
+    model = _model_of(measurements, rig, structure)
     kb = k if block is None or k is None else min(_horizon_samples(measurements, block), k)
     block_starts, block_stops = segment_bounds(start, stop, kb)
     lead = 0 if k is None else k - kb
@@ -517,7 +736,9 @@ class Calibration:
     success : bool
     message : str
     shooting_segments : int
-        Segments whose initial speeds were fitted too (multiple shooting, :class:`_Shooting`; 0: none).
+        Segments whose initial speeds were fitted too (multiple shooting, :class:`Shooting`; 0: none).
+    structure : str
+        ``two_mass`` or ``rigid_body`` (module docs).
     """
 
     effects: tuple
@@ -534,6 +755,7 @@ class Calibration:
     success: bool
     message: str
     shooting_segments: int = 0
+    structure: str = "two_mass"
 
     @property
     def n_free(self):
@@ -547,7 +769,8 @@ class Calibration:
     def fit_report(self):
         """A printable report of parameters, standard errors and statistics, lmfit style."""
         lines = [
-            f"[[Calibration: {' + '.join(self.effects) or 'none'}]]",
+            f"[[Calibration: {' + '.join(self.effects) or 'none'}]]"
+            + (" (rigid-body model)" if self.structure == "rigid_body" else ""),
             f"    samples {self.window[0]}:{self.window[1]}, "
             + (f"k-step segments of {self.horizon} samples" if self.horizon else "free run")
             + f" ({self.n_clusters} blocks), residuals {self.n_residuals}, parameters {self.n_free}, "
@@ -580,13 +803,46 @@ class Calibration:
         })
 
 
-def _free_parameters(measurements, rig, effects, values0, window, free_run):
-    """(name, start, lower, upper, scale, nominal, unit) of the fitted parameters.
+def _free_parameters(model, effects, values0, window, free_run):
+    """(name, start, lower, upper, scale, nominal, unit) of the fitted parameters of ``model`` (:class:`TwoMassModel`
+    or :class:`RigidBodyModel`).
 
     ``nominal`` is the rig file's value (plant), the null value (effects) or the
     data's value (initial speeds of a free run, fitted only then).
     """
+    measurements, rig = model.measurements, model.rig
     nominal = nominal_values(rig)
+    if model.structure == "rigid_body":
+        rows = _rigid_rows(model, nominal, window, free_run)
+    else:
+        rows = _two_mass_rows(model, nominal, window, free_run)
+    for key in effects:
+        effect = get_effect(key)
+        low, high = effect.bounds(rig, measurements)
+        rows.append((effect.value_key, low, high, effect.scale(rig, measurements), effect.null, effect.unit))
+    return [(name, float(np.clip(values0.get(name, nominal_), low, high)), low, high, scale, nominal_, unit)
+            for name, low, high, scale, nominal_, unit in rows]
+
+
+def _rigid_rows(model, nominal, window, free_run):
+    """Rows of :func:`_free_parameters` for the rigid body: its inertia (+-30 %), a free run's initial speed."""
+    measurements = model.measurements
+    inertia = nominal["inertia"]
+    rows = [("inertia", (1 - _RELATIVE_RANGE) * inertia, (1 + _RELATIVE_RANGE) * inertia, inertia, inertia,
+             _UNITS["inertia"])]
+    if free_run:
+        speed_range = float(np.ptp(measurements.speeds)) + 1e-9
+        measured = model.speed[window[0]]
+        rows.append(("motor_speed0", measured - 0.2 * speed_range, measured + 0.2 * speed_range, 0.01 * speed_range,
+                     float(measured), "rad/s"))
+    return rows
+
+
+def _two_mass_rows(model, nominal, window, free_run):
+    """Rows of :func:`_free_parameters` for the two-mass drive: plant values, the twist offset (not for
+    quasi-static starts), the encoder skew where the twist is measured (k-step fits: a free run's one initial
+    twist cannot tell it from the offset), a free run's initial speeds."""
+    measurements, rig = model.measurements, model.rig
     rows = []
     for name in PLANT_PARAMETERS:
         value = nominal[name]
@@ -596,20 +852,19 @@ def _free_parameters(measurements, rig, effects, values0, window, free_run):
         else:
             rows.append((name, (1 - _RELATIVE_RANGE) * value, (1 + _RELATIVE_RANGE) * value, value, value,
                          _UNITS[name]))
-    centre, reach = theta_d0_range(measurements, rig)
-    rows.append(("theta_d0", centre - reach, centre + reach, 0.25 * reach, centre, "rad"))
+    if not model.quasi_static:
+        centre, reach = theta_d0_range(measurements, rig)
+        rows.append(("theta_d0", centre - reach, centre + reach, 0.25 * reach, centre, "rad"))
+    if model.twist_measured and not free_run:  # a free run starts once: held
+        skew = _MAX_SKEW_SAMPLES * measurements.dt
+        rows.append(("encoder_skew", -skew, skew, 0.25 * measurements.dt, 0.0, _UNITS["encoder_skew"]))
     if free_run:
         speed_range = float(np.ptp(measurements.speeds)) + 1e-9
         data = data_states(measurements, 0.0, [window[0]])[0]
         for name, measured in zip(("motor_speed0", "load_speed0"), data[1:]):
             rows.append((name, measured - 0.2 * speed_range, measured + 0.2 * speed_range, 0.01 * speed_range,
                          float(measured), "rad/s"))
-    for key in effects:
-        effect = get_effect(key)
-        low, high = effect.bounds(rig, measurements)
-        rows.append((effect.value_key, low, high, effect.scale(rig, measurements), effect.null, effect.unit))
-    return [(name, float(np.clip(values0.get(name, nominal_), low, high)), low, high, scale, nominal_, unit)
-            for name, low, high, scale, nominal_, unit in rows]
+    return rows
 
 
 def theta_d0_range(measurements, rig):
@@ -625,8 +880,28 @@ def theta_d0_range(measurements, rig):
     return (0.0 if twist is None else -float(np.mean(twist))), reach
 
 
-def _robust_stderr(jacobian, residual, clusters, scales):
-    """Cluster-robust standard errors (sandwich over segments) and the t quantile of G - 1 dof."""
+def cluster_robust_stderr(jacobian, residual, clusters, scales):
+    """Cluster-robust standard errors (sandwich over segments) and the t quantile of G - 1 dof.
+
+    Parameters
+    ----------
+    jacobian : ndarray, shape (n, p)
+        Jacobian of the (scaled) residual in the scaled parameters.
+    residual : ndarray, shape (n,)
+        The residual at the solution.
+    clusters : ndarray of int, shape (n,)
+        Cluster (segment) of each row, ``0 .. G - 1``.
+    scales : ndarray, shape (p,)
+        Parameter scales: the errors are returned in the parameters' units.
+
+    Returns
+    -------
+    stderr : ndarray, shape (p,)
+        ``sqrt(diag(B M B))`` times ``scales``, ``B = (J^T J)^+`` and ``M = G/(G-1) sum_g s_g s_g^T``
+        with ``s_g`` the sum of ``J_i r_i`` over the cluster's rows.
+    quantile : float
+        The 97.5 % quantile of Student's t with ``G - 1`` degrees of freedom.
+    """
     from scipy.stats import t as student
 
     bread = np.linalg.pinv(jacobian.T @ jacobian)
@@ -657,7 +932,7 @@ def _theta_d0_by_grid(model, values, starts, stops, measured, weights):
 
 
 def calibrate(measurements, rig, effects=(), window=None, start_values=None, horizon=DEFAULT_HORIZON, workers=1,
-              max_nfev=None, polish=True, fixed=()):
+              max_nfev=None, polish=True, fixed=(), structure="two_mass"):
     """Fit plant values, the twist offset and the effects' parameters to a record.
 
     Parameters
@@ -691,6 +966,10 @@ def calibrate(measurements, rig, effects=(), window=None, start_values=None, hor
     fixed : sequence of str
         Names of values kept at their start (for example
         :data:`PLANT_PARAMETERS`, to screen a candidate effect quickly).
+    structure : str
+        ``two_mass`` (plant values of the rig file, twist offset, and the
+        encoder skew where the twist is measured) or ``rigid_body`` (its
+        ``inertia``, module docs).
 
     Returns
     -------
@@ -702,7 +981,8 @@ def calibrate(measurements, rig, effects=(), window=None, start_values=None, hor
     stacked, so that each speed weighs as in its fit percentage.
     """
     with single_threaded_blas():
-        return _calibrate(measurements, rig, effects, window, start_values, horizon, workers, max_nfev, polish, fixed)
+        return _calibrate(measurements, rig, effects, window, start_values, horizon, workers, max_nfev, polish, fixed,
+                          structure)
 
 
 def single_threaded_blas():
@@ -713,13 +993,14 @@ def single_threaded_blas():
     return threadpool_limits(limits=1, user_api="blas")
 
 
-def _calibrate(measurements, rig, effects, window, start_values, horizon, workers, max_nfev, polish, fixed):
+def _calibrate(measurements, rig, effects, window, start_values, horizon, workers, max_nfev, polish, fixed,
+               structure):
     effects = (effects,) if isinstance(effects, str) else tuple(effects)
     start, stop = window if window is not None else (0, measurements.n_samples)
-    model = _Model(measurements, rig)
+    model = _model_of(measurements, rig, structure)
     values0 = nominal_values(rig) | {get_effect(key).value_key: get_effect(key).start(rig) for key in effects} \
         | dict(start_values or {})
-    if "theta_d0" not in (start_values or {}):
+    if structure == "two_mass" and not model.quasi_static and "theta_d0" not in (start_values or {}):
         k = _horizon_samples(measurements, horizon)
         starts, stops = segment_bounds(start, stop, k)
         measured = measurements.speeds[start:stop]
@@ -743,10 +1024,11 @@ def refine(measurements, rig, calibration, workers=1, max_nfev=None, fixed=()):
     residual statistics of either do not see.
     """
     start, stop = calibration.window
-    free = predict(measurements, rig, calibration.values, window=(start, stop), horizon=None).fit_percent()
+    free = predict(measurements, rig, calibration.values, window=(start, stop), horizon=None,
+                   structure=calibration.structure).fit_percent()
     if not min(free.values()) >= FREE_RUN_MIN:
         return calibration
-    model = _Model(measurements, rig)
+    model = _model_of(measurements, rig, calibration.structure)
     result, values = calibration, calibration.values
     for fraction in (0.5, 1.0):
         last = start + max(int(round(fraction * (stop - start))), 10)
@@ -754,14 +1036,18 @@ def refine(measurements, rig, calibration, workers=1, max_nfev=None, fixed=()):
         values = result.values
     parameters = dict(result.parameters)
     for name, parameter in calibration.parameters.items():  # intervals: the union of both modes'
+        if name not in parameters:  # held in the free run (the encoder skew): the k-step fit's
+            parameters[name] = parameter
+            continue
         low, high = parameters[name].ci95
         parameters[name] = dataclasses.replace(parameters[name], interval=(min(low, parameter.ci95[0]),
                                                                            max(high, parameter.ci95[1])))
     return dataclasses.replace(result, parameters=parameters)
 
 
-class _Shooting:
-    """Multiple shooting: corrections of the k-step segments' initial speeds, fitted with the model.
+class Shooting:
+    """Multiple shooting: corrections of the k-step segments' initial speeds (and of the integrated twist's
+    drift), fitted with the model.
 
     The data's state at a segment's start (:func:`data_states`) is noisy, and a
     fit that starts every segment from it is biased (errors in the variables: a
@@ -775,19 +1061,41 @@ class _Shooting:
     only, so the Jacobian columns of one speed across all segments cost one
     evaluation.
 
-    Used with angle columns only: with the twist integrated from the speeds,
-    whose drift is the larger error, the corrected speeds bent the fit further
-    (benchmarks/README.md, "Diagnosis").
+    With ``drift`` (the twist integrated from the speeds, :attr:`TwoMassModel.drifting`)
+    the twist at each segment's start is corrected too, as a random walk: the
+    integral of the speeds' white noise, whose step over a segment of ``k``
+    samples has the standard deviation ``sigma_rw = dt sqrt(k (sigma_m^2 +
+    sigma_l^2))`` (raw noise of each speed).  Its prior rows penalise each
+    segment's drift against the previous one's (the first against zero: the
+    offset ``theta_d0`` is fitted), scaled by ``residual_rms`` as the speeds'.
+    The fitted drift is kept in the values (``twist_drift``: the segments' first
+    samples and the drift there), so that a prediction beyond the window (the
+    validation part) starts from its last value.
+
+    Parameters
+    ----------
+    measurements : Measurements
+        The record (its speeds' noise sets the prior's weights).
+    starts, stops : ndarray of int
+        The segments' first and one-past-last samples (:func:`segment_bounds`).
+    residual_rms : float
+        RMS of the data's scaled residual without corrections (the prior rows' scale).
+    drift : bool
+        Correct the integrated twist's drift too (random walk).
     """
 
-    def __init__(self, measurements, starts, stops, residual_rms):
+    def __init__(self, measurements, starts, stops, residual_rms, drift=False):
         noise = np.maximum(speed_noise(measurements), 1e-9 * (float(np.ptp(measurements.speeds)) + 1.0))
         self.n_segments = starts.size
-        self.states = [1 + j for j in range(measurements.speeds.shape[1])]  # measured speeds: w_m (, w_l)
-        self.scales = list(SMOOTHED_NOISE_SHARE * noise)
+        self.states = ([0] if drift else []) + [1 + j for j in range(measurements.speeds.shape[1])]  # w_m (, w_l)
+        raw = noise / math.sqrt(1.0 - SMOOTHED_NOISE_SHARE**2)  # the speeds' noise before smoothing
+        step = measurements.dt * math.sqrt(float(np.median(stops - starts)) * float(np.sum(raw**2)))
+        self.scales = ([step] if drift else []) + list(SMOOTHED_NOISE_SHARE * noise)
+        self.drift = drift
         self.size = len(self.states) * self.n_segments
         self.weight = residual_rms
-        self.segment_of_row = np.tile(np.repeat(np.arange(starts.size), stops - starts), len(self.states))  # per speed
+        # the segment of each data row (the measured speeds stacked), and of each correction
+        self.segment_of_row = np.tile(np.repeat(np.arange(starts.size), stops - starts), measurements.speeds.shape[1])
         self.segment_of_correction = np.tile(np.arange(starts.size), len(self.states))
 
     @property
@@ -803,8 +1111,26 @@ class _Shooting:
         return z
 
     def penalty(self, x):
-        """The prior's rows: each correction against the smoothed speed's noise."""
-        return self.weight * x
+        """The prior's rows: each speed correction against the smoothed speed's noise, each drift step
+        against the random walk's."""
+        return self.weight * (self.prior_matrix() @ x)
+
+    def prior_matrix(self):
+        """The prior's rows as a sparse matrix on the corrections' vector (identity; first differences for
+        the drift)."""
+        from scipy import sparse
+
+        g = self.n_segments
+        walk = sparse.identity(g) - sparse.eye(g, k=-1)
+        blocks = [walk if state == 0 else sparse.identity(g) for state in self.states]
+        return sparse.block_diag(blocks, format="csr")
+
+    def drift_values(self, x, starts, base=None):
+        """``twist_drift`` (knots, drift in rad) of the scaled vector ``x``, on top of a ``base`` drift."""
+        drift = x[:self.n_segments] * self.scales[0]
+        if base is not None:
+            drift = drift + np.interp(starts, *base)
+        return np.asarray(starts, dtype=float), drift
 
     def blocks(self):
         """Index ranges (in the corrections' vector) of each speed's corrections."""
@@ -814,10 +1140,12 @@ class _Shooting:
 def _fit(model, effects, window, values0, horizon, workers, max_nfev, fixed=()):
     """One bounded least-squares fit of the prediction error over ``window``; a :class:`Calibration`.
 
-    A k-step fit with angle columns corrects every segment's initial speeds
-    (:class:`_Shooting`), from the solution without corrections; the corrections
-    are nuisance parameters, not reported, but their uncertainty is in every
-    reported interval (the sandwich is over all fitted values).
+    A k-step fit of the two-mass model corrects every segment's initial speeds
+    (:class:`Shooting`), and without angle columns the integrated twist's drift,
+    from the solution without corrections; the corrections are nuisance
+    parameters, not reported, but their uncertainty is in every reported interval
+    (the sandwich is over all fitted values).  Quasi-static starts (a shaft the
+    record does not resolve) take no corrections.
     """
     from scipy.optimize import least_squares  # lazy: keeps `import backlash_df` quick
 
@@ -827,8 +1155,7 @@ def _fit(model, effects, window, values0, horizon, workers, max_nfev, fixed=()):
     starts, stops = segment_bounds(start, stop, k)
     measured = measurements.speeds[start:stop]
     weights = 1.0 / np.maximum(measured.std(axis=0), 1e-12)
-    rows = [row for row in _free_parameters(measurements, model.rig, effects, values0, window, horizon is None)
-            if row[0] not in fixed]
+    rows = [row for row in _free_parameters(model, effects, values0, window, horizon is None) if row[0] not in fixed]
     names = [row[0] for row in rows]
     g = len(names)
     scales = np.array([row[4] for row in rows])
@@ -846,26 +1173,29 @@ def _fit(model, effects, window, values0, horizon, workers, max_nfev, fixed=()):
         data = ((measured - model.speeds_of(states[start:stop])) * weights).ravel(order="F")
         return np.concatenate([data, shooting.penalty(x[g:])]) if shooting else data
 
+    x0 = np.array([row[1] for row in rows]) / scales
+    if not np.linalg.norm(x0) > _MIN_START_NORM:  # trf's first trust radius is ||x0||: every value at its null
+        x0 = np.clip(x0 + _MIN_START_NORM, lower, upper)
     # from the data's states first; from that solution the corrections converge in a few steps
-    solution = least_squares(residual, np.array([row[1] for row in rows]) / scales, bounds=(lower, upper),
-                             jac=_parallel_jacobian(residual, g, None, upper, workers), method="trf", max_nfev=max_nfev)
+    solution = least_squares(residual, x0, bounds=(lower, upper),
+                             jac=parallel_jacobian(residual, g, None, upper, workers), method="trf", max_nfev=max_nfev)
     nfev = int(solution.nfev) + int(solution.njev or 0) * g
     jacobian = solution.jac
     blocks = segment_bounds(start, stop, k or _horizon_samples(measurements, DEFAULT_HORIZON))
     clusters = np.tile(np.repeat(np.arange(blocks[0].size), blocks[1] - blocks[0]), measured.shape[1])
-    if k is not None and getattr(measurements, "twist", None) is not None:
-        shooting = _Shooting(measurements, starts, stops, math.sqrt(float(np.mean(solution.fun**2))))
+    if k is not None and model.structure == "two_mass" and not model.quasi_static:
+        shooting = Shooting(measurements, starts, stops, math.sqrt(float(np.mean(solution.fun**2))), model.drifting)
         free = np.full(shooting.size, np.inf)
         scales = np.concatenate([scales, shooting.scale])
         upper = np.concatenate([upper, free])
         solution = least_squares(residual, np.concatenate([solution.x, np.zeros(shooting.size)]),
-                                 jac=_parallel_jacobian(residual, g, shooting, upper, workers),
+                                 jac=parallel_jacobian(residual, g, shooting, upper, workers),
                                  bounds=(np.concatenate([lower, -free]), upper), method="trf", x_scale="jac",
                                  max_nfev=max_nfev, tr_solver="lsmr")
         nfev += int(solution.nfev) + int(solution.njev or 0) * (g + len(shooting.states))
         jacobian = solution.jac.toarray()
         clusters = np.concatenate([clusters, shooting.segment_of_correction])  # a prior row per correction
-    stderr, quantile = _robust_stderr(jacobian, solution.fun, clusters, scales)
+    stderr, quantile = cluster_robust_stderr(jacobian, solution.fun, clusters, scales)
     parameters = {
         name: FitParameter(name, float(value), float(err), float(row[5]), float(row[2]), float(row[3]), row[6],
                            quantile)
@@ -874,12 +1204,14 @@ def _fit(model, effects, window, values0, horizon, workers, max_nfev, fixed=()):
     n = measured.size
     rss = float(solution.fun[:n] @ solution.fun[:n])
     values = {key: value for key, value in values_of(solution.x).items() if key not in ("motor_speed0", "load_speed0")}
+    if shooting is not None and shooting.drift:
+        values["twist_drift"] = shooting.drift_values(solution.x[g:], starts, base.get("twist_drift"))
     return Calibration(
         effects=tuple(effects), parameters=parameters, values=values, window=(start, stop), horizon=k,
         n_residuals=n, n_clusters=int(blocks[0].size), rss=rss,
         aic=information_criterion(rss, n, len(names), "aic"), bic=information_criterion(rss, n, len(names), "bic"),
         nfev=nfev, success=bool(solution.success), message=str(solution.message),
-        shooting_segments=shooting.n_segments if shooting else 0,
+        shooting_segments=shooting.n_segments if shooting else 0, structure=model.structure,
     )
 
 
@@ -889,13 +1221,34 @@ def information_criterion(rss, n, n_free, kind="aic"):
     return float(n * math.log(max(rss, 1e-300) / n) + penalty)
 
 
-def _parallel_jacobian(residual, n_global, shooting, upper, workers, rel_step=1e-6):
+def parallel_jacobian(residual, n_global, shooting, upper, workers, rel_step=1e-6):
     """Forward-difference Jacobian whose columns run in ``workers`` threads.
 
     The first ``n_global`` columns one evaluation each; with ``shooting``
-    (:class:`_Shooting`), each speed's corrections of all segments in one
+    (:class:`Shooting`), each speed's corrections of all segments in one
     evaluation (a correction moves its own segment's rows only), returned as a
-    sparse matrix with the prior's rows exact (the weight times the identity).
+    sparse matrix with the prior's rows exact (the weight times
+    :meth:`Shooting.prior_matrix`).
+
+    Parameters
+    ----------
+    residual : callable
+        ``residual(x)``: the data rows, then (with ``shooting``) the prior's rows.
+    n_global : int
+        Number of leading entries of ``x`` that are model values (the rest: the corrections).
+    shooting : Shooting or None
+        The corrections' layout.
+    upper : ndarray
+        Upper bounds of ``x``: a step that would cross one is taken backwards.
+    workers : int
+        Threads.
+    rel_step : float
+        Relative forward-difference step.
+
+    Returns
+    -------
+    callable
+        ``x -> J``, an ndarray, or a sparse matrix with ``shooting``.
     """
 
     groups = [np.array([i]) for i in range(n_global)]
@@ -904,7 +1257,7 @@ def _parallel_jacobian(residual, n_global, shooting, upper, workers, rel_step=1e
 
         groups += [n_global + block for block in shooting.blocks()]
         rows = np.arange(shooting.segment_of_row.size)
-        prior = shooting.weight * sparse.identity(shooting.size)
+        prior = shooting.weight * shooting.prior_matrix()
 
     def jacobian(x, f0=None):
         f0 = residual(x) if f0 is None else f0

@@ -59,8 +59,8 @@ class Effect:
     description : str
         What the extension adds to the model.
     action : str
-        Sentence (``{value}``, ``{low}``, ``{high}`` in the parameter's unit, and
-        ``{side}``) telling a person what to do about it.
+        Sentence (``{value}``, ``{low}``, ``{high}`` in the parameter's unit,
+        ``{side}`` and ``{where}``, the side as a subject) telling a person what to do about it.
     signed : bool
         Whether negative values are physical (a torque offset); friction, delay
         and rubber are never negative.
@@ -117,14 +117,16 @@ class Effect:
         low, high = self.bounds(rig, measurements)
         return 0.05 * (high - low)
 
-    def describe(self, value, low, high):
-        """The action sentence for a fitted value and its 95 % interval."""
+    def describe(self, value, low, high, rigid=False):
+        """The action sentence for a fitted value and its 95 % interval; ``rigid``: fitted by the rigid-body
+        model, whose one body carries friction of either side (the side is then not named)."""
         if self.name == "actuator_delay":
             value, low, high = 1e3 * value, 1e3 * low, 1e3 * high
-        return self.action.format(value=value, low=low, high=high, side=self.side)
+        where = "The drive (motor and load as one rigid body)" if rigid else f"The {self.side} side"
+        return self.action.format(value=value, low=low, high=high, side=self.side, where=where)
 
 
-_FRICTION_ACTION = ("The {{side}} side has {what} of {{value:.4g}} {unit} (95 % CI {{low:.4g}} to {{high:.4g}}): "
+_FRICTION_ACTION = ("{{where}} has {what} of {{value:.4g}} {unit} (95 % CI {{low:.4g}} to {{high:.4g}}): "
                     "add it to the model, or compensate it (friction feed-forward) in the controller.")
 
 

@@ -219,21 +219,24 @@ def _hidden_effects(cause, size, rig, rng, experiment):
     return effects
 
 
-def _encoder_angles(states, dt, counts, rng):
-    """``motor_angle`` and ``load_angle`` (rad) read by encoders of ``counts`` per revolution (none: {})."""
+def _encoder_angles(states, dt, counts, rng, skew=0.0):
+    """``motor_angle`` and ``load_angle`` (rad) read by encoders of ``counts`` per revolution (none: {}), the
+    load encoder ``skew`` seconds late (its angle interpolated linearly between samples)."""
     if counts is None:
         return {}
     from scipy.integrate import cumulative_trapezoid  # lazy: keeps `import backlash_df` quick
 
     load = cumulative_trapezoid(states[:, 2], dx=dt, initial=0.0)
+    time = np.arange(load.size) * dt
+    late = np.interp(time - skew, time, load)
     step = 2.0 * np.pi / counts
     zeros = rng.uniform(0.0, 2.0 * np.pi, 2)
     return {"motor_angle": np.floor((zeros[0] + load + states[:, 0]) / step) * step,
-            "load_angle": np.floor((zeros[1] + load) / step) * step}
+            "load_angle": np.floor((zeros[1] + late) / step) * step}
 
 
 def synthesize(rig, cause="none", size=None, seed=0, duration=2.0, sample_rate=1000.0, oversample=5,
-               experiment=Experiment(), datasheet_error=0.04, encoder_counts=None):
+               experiment=Experiment(), datasheet_error=0.04, encoder_counts=None, encoder_skew=0.0):
     """Simulate a measurement record of ``rig`` with hidden effects.
 
     Parameters
@@ -258,9 +261,13 @@ def synthesize(rig, cause="none", size=None, seed=0, duration=2.0, sample_rate=1
     datasheet_error : float
         Relative range of the data-sheet errors (0.04: each value within +-4 %).
     encoder_counts : int, optional
-        With a count per revolution, the record carries encoder angles
+        With a count per revolution (at least 1; None: no angle columns), the record carries encoder angles
         ``motor_angle`` and ``load_angle`` (rad): the true angles rounded down to
         the encoder's step ``2 pi / encoder_counts``, each from its own random zero.
+    encoder_skew : float
+        How much later (s) the load encoder is read than the motor encoder: its
+        angle is the load's angle ``encoder_skew`` earlier (as the link encoder of
+        the KUKA record, about 3 ms).
 
     Returns
     -------
@@ -275,6 +282,9 @@ def synthesize(rig, cause="none", size=None, seed=0, duration=2.0, sample_rate=1
     >>> record.measurements.n_samples, record.cause, record.effects["viscous_friction@load"]
     (501, 'coulomb_friction@load', 1.0)
     """
+    if encoder_counts is not None and not encoder_counts >= 1:
+        raise ValueError(f"synthesize: encoder_counts = {encoder_counts!r}: give the encoder's counts per revolution "
+                         f"(at least 1), or None for a record without angle columns")
     controller = rig.require_controller()
     rng = np.random.default_rng(seed)
     plant = _perturbed_plant(rig.plant, rng, datasheet_error)
@@ -313,7 +323,7 @@ def synthesize(rig, cause="none", size=None, seed=0, duration=2.0, sample_rate=1
         load_speed=states[:, 2] + noise[n_warm:, 1],
         load_torque=load_torque[record],
         source=f"synthetic({label}, seed={seed})",
-        **_encoder_angles(result.states[record], dt_fine * oversample, encoder_counts, rng),
+        **_encoder_angles(result.states[record], dt_fine * oversample, encoder_counts, rng, encoder_skew),
     )
     first = n_warm * oversample
     initial_state = {"theta_d0": float(result.states[first, 0]), "motor_speed0": float(result.states[first, 1]),
