@@ -28,7 +28,9 @@ describing function in :func:`~backlash_df.limit_cycles.solve_harmonic_balance`,
 solver's own Python (Newton, scipy's least squares, the rounds).
 
 "top 3" is the share of the CPU time (``time.thread_time`` profiles of every thread,
-merged) of the three functions with the most own time, new side.
+merged) of the three functions with the most own time, new side (then the old side's),
+and the last line the share spent inside scipy's ``least_squares`` (its own Python and
+the evaluations it asks for).
 """
 
 import argparse
@@ -106,7 +108,8 @@ def _profile_shares(function):
         stats.add(profile)
     rows = sorted(stats.stats.items(), key=lambda item: -item[1][2])
     total = sum(row[2] for _, row in rows)
-    return [(f"{pathlib.Path(key[0]).name}:{key[2]}", row[2] / total) for key, row in rows[:3]]
+    scipy = sum(row[3] for key, row in rows if key[2] == "least_squares") / total
+    return [(f"{pathlib.Path(key[0]).name}:{key[2]}", row[2] / total) for key, row in rows[:3]], scipy
 
 
 def _side(repeat):
@@ -115,7 +118,8 @@ def _side(repeat):
     for name, (function, numbers) in _cases().items():
         function()  # warm: compiled kernels loaded, scipy imported
         seconds, value = _best(function, repeat)
-        out[name] = {"seconds": seconds, "numbers": numbers(value), "top3": _profile_shares(function)}
+        top3, scipy = _profile_shares(function)
+        out[name] = {"seconds": seconds, "numbers": numbers(value), "top3": top3, "least_squares": scipy}
     print(json.dumps(out))
 
 
@@ -248,6 +252,9 @@ def main():
     for name in new:
         top = ", ".join(f"{where} {100 * share:.0f} %" for where, share in old[name]["top3"])
         print(f"  old top 3, {name}: {top}")
+    print("  share of the CPU time inside scipy's least_squares (the near misses), old -> new: "
+          + ", ".join(f"{name} {100 * old[name]['least_squares']:.0f} % -> {100 * new[name]['least_squares']:.0f} %"
+                      for name in new))
 
 
 if __name__ == "__main__":
