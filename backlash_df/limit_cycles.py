@@ -500,7 +500,8 @@ def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range,
             roots.append(root)
     cycles = sorted((_cycle(problem, p, q) for p, q in roots), key=lambda c: (c.amplitude, c.omega))
     near = []
-    for p, q, distance in _run_threads(problem, [functools.partial(_closest_on_flat, p0, q0, box) for p0, q0 in minima]):
+    solves = [functools.partial(_closest_on_flat, p0, q0, box) for p0, q0 in minima]
+    for p, q, distance in _run_threads(problem, solves):
         at_edge = min(p - box[0][0], box[0][1] - p, q - box[1][0], box[1][1] - q) < 1e-6
         at_root = any(abs(p - pr) < 1e-3 and abs(q - qr) < 1e-3 for pr, qr in roots)
         if distance < 1e-6 or distance > near_miss_cutoff or at_edge or at_root:

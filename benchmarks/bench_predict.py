@@ -17,11 +17,12 @@ Rows (DF only, no simulation, warm: the compiled kernels loaded before the clock
 ``PYTHONPATH`` set to it; "new" is this checkout, in a subprocess alike; the two sides run
 alternately ``--rounds`` times in this run (on this shared machine the CPU time of the
 same code moved by 1.5x between spells of load).  Times are CPU time of the process
-(``time.process_time``, all threads), best of ``--repeat`` runs in each of the rounds.  "accuracy" is the largest relative difference between
+(``time.process_time``, all threads), best of ``--repeat`` runs in each of the rounds.
+"accuracy" is the largest relative difference between
 old and new of every cycle's amplitude, omega and Loeb value and every near miss's
 amplitude, omega and distance (the map cell: its amplitudes and verdicts).
 
-The "floor" row of each case: the describing function and G(jw) evaluated once, in
+The "floor" column of each case: the describing function and G(jw) evaluated once, in
 one call each, at every point the new balance asks for (counted by wrapping the
 describing function in :func:`~backlash_df.limit_cycles.solve_harmonic_balance`, which
 ``predict_limit_cycles`` calls with the same arguments); what is left above it is the
@@ -237,7 +238,8 @@ def main():
         old = _keep_best(old, _run(old_path, "--side", "--repeat", str(args.repeat)))
         new = _keep_best(new, _run(ROOT, "--side", "--repeat", str(args.repeat)))
     floor = _run(ROOT, "--floor", "--repeat", str(args.repeat))
-    print(f"harmonic balance, DF only: old = {commit} (before batching), new = {head}; CPU s, best of {args.repeat} x {args.rounds} "
+    print(f"harmonic balance, DF only: old = {commit} (before batching), new = {head}; "
+          f"CPU s, best of {args.repeat} x {args.rounds} "
           f"(sides alternating); "
           f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} before, "
           f"{os.getloadavg()[0]:.2f} after")
