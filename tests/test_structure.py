@@ -99,3 +99,14 @@ def test_no_file_points_to_a_design_file_outside_the_repository():
     citing = [path for path in tracked if path.endswith((".py", ".md", ".ipynb", ".toml", ".txt"))
               and (ROOT / path).exists() and outside in (ROOT / path).read_text(encoding="utf-8", errors="replace")]
     assert citing == []
+
+
+def test_tests_and_benchmarks_use_public_names():
+    """A name a test or a benchmark needs is public (in its module, or in a ``_``-prefixed module meant for it)."""
+    modules = _modules()
+    private = [f"{path.relative_to(ROOT)} imports {target}.{imported}"
+               for folder in ("tests", "benchmarks") for path in sorted((ROOT / folder).rglob("*.py"))
+               for target, imported in _imports(f"{folder}.{path.stem}", path, modules)
+               if target.startswith("backlash_df") and imported and imported.startswith("_")
+               and not imported.startswith("__")]
+    assert private == []
