@@ -17,6 +17,12 @@ the loci can be nearly tangent to G(jw), so a single local solve is not enough:
    with their distance ``|1 + G N|``, which is the relative change of G (gain
    and phase together) that would make the loci meet.
 
+Where N is pointwise (every describing function but the DC-balanced one) the
+evaluations are batched without changing a digit: G is built once per loop, every
+point asked for brings its Jacobian's four neighbours along, the Newton solves
+from all seeds advance side by side and the near-miss solves run in threads whose
+requests are evaluated together, one call of ``G`` and ``N`` per round.
+
 Stability is Loeb's criterion (Gelb and Vander Velde, 1968, Ch. 2): with
 ``U + jV = 1 + G(jw) N(A, w)``, a cycle is stable if
 
@@ -27,10 +33,12 @@ left half plane.  It is a local, first-harmonic statement; the time simulation
 (:func:`verify_limit_cycles`) is the check.
 """
 
+import copy
 import dataclasses
 import functools
 import html
 import math
+import threading
 import warnings
 
 import numpy as np
@@ -42,7 +50,7 @@ from .models import BacklashModel
 from .plotting import ResultPlot, adaptive_curve, axes_or_new, legend_below, legend_beside
 from .report import figure_html, html_page, roundoff_zero, signed_percent, table_html, text_table
 from .simulation import simulated_limit_cycle
-from .system import command_channels
+from .system import command_channels, frequency_response
 
 __all__ = [
     "LimitCycle",
@@ -259,11 +267,19 @@ class _Problem:
 
     ``g_of_w(omega)``, or ``g_of_w(omega, amplitude)`` where the linear part depends
     on the amplitude through a second nonlinearity (``amplitude_dependent``).
+
+    The solver asks for F through :meth:`values`, a list of groups of points.  Where
+    N is *pointwise* (a point's value does not depend on the other points of the
+    call: every describing function but :class:`BiasedDescribing`, whose DC balance
+    iterates until all points of a call have converged) the groups are evaluated in
+    one call, and every point asked for brings the four neighbours of its
+    finite-difference Jacobian along; otherwise each group keeps a call of its own.
     """
 
     def __init__(self, g_of_w, n_of, half_gap, amplitude_dependent=False):
         self.g_of_w, self.n_of, self.half_gap = g_of_w, n_of, half_gap
         self.amplitude_dependent = amplitude_dependent
+        self.pointwise = not isinstance(n_of, BiasedDescribing)
 
     def to_aw(self, p, q):
         return self.half_gap + np.exp(p), np.exp(q)
@@ -273,21 +289,41 @@ class _Problem:
         g = self.g_of_w(omega, amplitude) if self.amplitude_dependent else self.g_of_w(omega)
         return 1.0 + g * self.n_of(amplitude, omega)
 
+    def values(self, groups):
+        """F at each group ``(p, q)`` of 1-D arrays: a list of complex arrays, one per group."""
+        if not self.pointwise:
+            return [self.residual(p, q) for p, q in groups]
+        flat = self.residual(np.concatenate([p for p, _ in groups]), np.concatenate([q for _, q in groups]))
+        return np.split(flat, np.cumsum([len(p) for p, _ in groups])[:-1])
+
+    def request(self, p, q):
+        """The group that asks for F at (p, q): with its Jacobian's neighbours where N is pointwise."""
+        if self.pointwise:
+            return _neighbours(p, q, centre=True)
+        return np.array([p]), np.array([q])
+
+    def answer(self, values):
+        """``(F, Jacobian or None)`` from the values of a :meth:`request`."""
+        return complex(values[0]), (_jacobian_of(values[1:]) if len(values) > 1 else None)
+
     def jacobian(self, p, q):
         """d(Re F, Im F)/d(p, q) by central differences."""
-        h = _FD_STEP
-        values = self.residual(np.array([p + h, p - h, p, p]), np.array([q, q, q + h, q - h]))
-        dp = (values[0] - values[1]) / (2 * h)
-        dq = (values[2] - values[3]) / (2 * h)
-        return np.array([[dp.real, dq.real], [dp.imag, dq.imag]])
+        return _jacobian_of(self.values([_neighbours(p, q)])[0])
+
+    def at(self, p, q):
+        """``(F, Jacobian)`` at (p, q)."""
+        f, jac = self.answer(self.values([self.request(p, q)])[0])
+        return f, (self.jacobian(p, q) if jac is None else jac)
 
     def newton(self, p, q, box, iterations=60):
-        """Damped Newton from (p, q); returns (p, q) of a root in ``box`` or None."""
-        f = complex(self.residual(p, q))
+        """Damped Newton from (p, q), a coroutine (:func:`_run_together`): yields lists of point groups and
+        is sent their values; returns (p, q) of a root in ``box`` or None."""
+        f, jac = self.answer((yield [self.request(p, q)])[0])
         for _ in range(iterations):
             if abs(f) < _NEWTON_TOL:
                 return p, q
-            jac = self.jacobian(p, q)
+            if jac is None:
+                jac = _jacobian_of((yield [_neighbours(p, q)])[0])
             try:
                 step = np.linalg.solve(jac, -np.array([f.real, f.imag]))
             except np.linalg.LinAlgError:
@@ -295,13 +331,13 @@ class _Problem:
             scale = min(1.0, 2.0 / max(np.linalg.norm(step), 1e-300))  # at most e^2 per step
             for _ in range(30):
                 p_new, q_new = p + scale * step[0], q + scale * step[1]
-                f_new = complex(self.residual(p_new, q_new))
+                f_new, jac_new = self.answer((yield [self.request(p_new, q_new)])[0])
                 if np.isfinite(f_new) and abs(f_new) < abs(f):
                     break
                 scale *= 0.5
             else:
                 return None
-            p, q, f = p_new, q_new, f_new
+            p, q, f, jac = p_new, q_new, f_new, jac_new
             if not (box[0][0] - 1.0 <= p <= box[0][1] + 1.0 and box[1][0] - 0.1 <= q <= box[1][1] + 0.1):
                 return None
         return (p, q) if abs(f) < 1e3 * _NEWTON_TOL else None
@@ -311,17 +347,67 @@ class _Problem:
 
         A trust-region least-squares solve on (Re F, Im F) with the
         finite-difference Jacobian: it follows the narrow curved valleys of
-        nearly tangent loci down to the closest approach (or to a root).
+        nearly tangent loci down to the closest approach (or to a root).  The
+        Jacobian of each point where F was evaluated is kept for the solver's
+        call at that point.
         """
         from scipy import optimize  # lazy: scipy.optimize takes a fraction of a second to import
+
+        known = {}
+
+        def residual(y):
+            f, jac = self.answer(self.values([self.request(y[0], y[1])])[0])
+            if jac is not None:
+                known[y.tobytes()] = jac
+            return _split(f)
+
+        def jacobian(y):
+            jac = known.pop(y.tobytes(), None)
+            return self.jacobian(y[0], y[1]) if jac is None else jac
 
         lower, upper = (box[0][0], box[1][0]), (box[0][1], box[1][1])
         start = np.clip([p, q], lower, upper)
         found = optimize.least_squares(
-            lambda y: _split(self.residual(y[0], y[1])), start, jac=lambda y: self.jacobian(y[0], y[1]),
+            residual, start, jac=jacobian,
             bounds=(lower, upper), method="trf", xtol=1e-13, ftol=1e-15, gtol=1e-15, max_nfev=200,
         )
         return found.x[0], found.x[1], float(np.hypot(*found.fun))
+
+
+def _neighbours(p, q, centre=False):
+    """The points of the central-difference Jacobian at (p, q) (after (p, q) itself with ``centre``)."""
+    h = _FD_STEP
+    ps, qs = [p + h, p - h, p, p], [q, q, q + h, q - h]
+    return (np.array([p] + ps), np.array([q] + qs)) if centre else (np.array(ps), np.array(qs))
+
+
+def _jacobian_of(values):
+    """d(Re F, Im F)/d(p, q) from F at the four points of :func:`_neighbours`."""
+    h = _FD_STEP
+    dp = (values[0] - values[1]) / (2 * h)
+    dq = (values[2] - values[3]) / (2 * h)
+    return np.array([[dp.real, dq.real], [dp.imag, dq.imag]])
+
+
+def _run_together(problem, coroutines):
+    """Run solver coroutines side by side, each round's requests evaluated together; their results, in order."""
+    results = [None] * len(coroutines)
+    pending = {}
+    for k, coroutine in enumerate(coroutines):
+        pending[k] = next(coroutine)
+    while pending:
+        keys = list(pending)
+        values = problem.values([group for k in keys for group in pending[k]])
+        start = 0
+        for k in keys:
+            count = len(pending[k])
+            try:
+                pending[k] = coroutines[k].send(values[start:start + count])
+            except StopIteration as stop:
+                results[k] = stop.value
+                del pending[k]
+            start += count
+    return results
 
 
 def _split(value):
@@ -407,17 +493,15 @@ def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range,
     seeds = [(0.5 * (ps[i] + ps[i + 1]), 0.5 * (qs[j] + qs[j + 1])) for i, j in _winding_cells(values)]
     minima = [(ps[i], qs[j]) for i, j in _local_minima(magnitude)]
     roots = []
-    for p0, q0 in seeds + minima:
-        root = problem.newton(p0, q0, box)
+    for root in _run_together(problem, [problem.newton(p0, q0, box) for p0, q0 in seeds + minima]):
         if root is None or not (box[0][0] <= root[0] <= box[0][1] and box[1][0] <= root[1] <= box[1][1]):
             continue
         if all(abs(root[0] - p) > 1e-6 or abs(root[1] - q) > 1e-6 for p, q in roots):
             roots.append(root)
     cycles = sorted((_cycle(problem, p, q) for p, q in roots), key=lambda c: (c.amplitude, c.omega))
     near = []
-    for p0, q0 in minima:
-        p, q, distance = problem.closest(p0, q0, box)
-        p = _flat_top(problem, p, q, distance, box[0][1])
+    solves = [functools.partial(_closest_on_flat, p0, q0, box) for p0, q0 in minima]
+    for p, q, distance in _run_threads(problem, solves):
         at_edge = min(p - box[0][0], box[0][1] - p, q - box[1][0], box[1][1] - q) < 1e-6
         at_root = any(abs(p - pr) < 1e-3 and abs(q - qr) < 1e-3 for pr, qr in roots)
         if distance < 1e-6 or distance > near_miss_cutoff or at_edge or at_root:
@@ -428,38 +512,144 @@ def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range,
     return cycles, sorted(near, key=lambda m: m.distance)
 
 
+def _closest_on_flat(p, q, box, problem):
+    """:meth:`_Problem.closest` from (p, q), moved to the top of a flat (:func:`_flat_top`): (p, q, |F|)."""
+    p, q, distance = problem.closest(p, q, box)
+    return _flat_top(problem, p, q, distance, box[0][1]), q, distance
+
+
+def _run_threads(problem, tasks):
+    """``[task(problem) for task in tasks]``, where N is pointwise side by side in threads whose requests are
+    evaluated together (:class:`_Rounds`): one call per round instead of one per request."""
+    if not problem.pointwise or len(tasks) < 2:
+        return [task(problem) for task in tasks]
+    rounds = _Rounds(problem, len(tasks))
+    results, errors = [None] * len(tasks), []
+
+    def work(k):
+        own = copy.copy(problem)
+        own.values = functools.partial(rounds.ask, k)
+        try:
+            results[k] = tasks[k](own)
+        except BaseException as error:  # re-raised in the calling thread
+            errors.append(error)
+        finally:
+            rounds.finish()
+
+    threads = [threading.Thread(target=work, args=(k,), daemon=True) for k in range(len(tasks))]
+    for thread in threads:
+        thread.start()
+    try:
+        rounds.serve()
+    finally:
+        for thread in threads:
+            thread.join()
+    if errors:
+        raise errors[0]
+    return results
+
+
+class _Rounds:
+    """Requests of several threads evaluated together: each round waits until every live thread has asked.
+
+    The calling thread waits on one condition (every live thread has asked), each
+    thread on its own event (its answer is there): one wake-up per thread and round.
+    """
+
+    def __init__(self, problem, live):
+        self.problem, self.live = problem, live
+        self.requests, self.answers, self.failed = {}, {}, None
+        self.answered = [threading.Event() for _ in range(live)]
+        self.all_asked = threading.Condition()
+
+    def ask(self, key, groups):
+        """The values of ``groups`` (:meth:`_Problem.values`), evaluated with the other threads' requests."""
+        answered = self.answered[key]
+        answered.clear()
+        with self.all_asked:
+            self.requests[key] = groups
+            if len(self.requests) >= self.live:
+                self.all_asked.notify()
+        answered.wait()
+        if self.failed is not None:
+            raise RuntimeError("the evaluation of a round failed") from self.failed
+        return self.answers.pop(key)
+
+    def finish(self):
+        with self.all_asked:
+            self.live -= 1
+            if len(self.requests) >= self.live:
+                self.all_asked.notify()
+
+    def serve(self):
+        """Answer rounds until every thread has finished; on an error (or an interrupt) the threads are
+        released with it and it is raised here."""
+        with self.all_asked:
+            try:
+                while True:
+                    while self.live and len(self.requests) < self.live:
+                        self.all_asked.wait()
+                    if not self.live:
+                        return
+                    keys = list(self.requests)
+                    values = self.problem.values([group for key in keys for group in self.requests[key]])
+                    start = 0
+                    for key in keys:
+                        count = len(self.requests[key])
+                        self.answers[key] = values[start:start + count]
+                        start += count
+                    self.requests.clear()
+                    for key in keys:
+                        self.answered[key].set()
+            except BaseException as error:
+                self.failed = error
+                for answered in self.answered:
+                    answered.set()
+                raise
+
+
 def _flat_top(problem, p, q, distance, top):
     """The largest p' in [p, top] up to which |F(., q)| stays at ``distance`` (to 1e-9 relative), else p.
 
     Where the gear stays in contact at small amplitudes N(A, w) does not depend on A,
     so |F| is flat in p below the amplitude at which the gap opens, and the minimiser
     stops anywhere on the flat (round-off decides).  The miss is reported at the top
-    of the flat: the largest amplitude at which the loci pass that close.
+    of the flat: the largest amplitude at which the loci pass that close (33 points,
+    then 40 bisections, four at a time where N is pointwise: the midpoints of the next
+    four steps, all 15 candidates, are evaluated in one call).
     """
-    def on_flat(x):
-        return abs(abs(complex(problem.residual(x, q))) - distance) <= 1e-9 * max(distance, 1e-300)
+    def on_flat(xs):
+        values = problem.values([(np.array([x]), np.array([q])) for x in xs])
+        return [abs(abs(complex(v[0])) - distance) <= 1e-9 * max(distance, 1e-300) for v in values]
 
-    if not on_flat(p + 1e-6 * max(1.0, abs(p))):
+    if not on_flat([p + 1e-6 * max(1.0, abs(p))])[0]:
         return p
     points = np.linspace(p, top, 33)
-    flat = [on_flat(x) for x in points]
+    flat = on_flat(points)
     if all(flat):
         return top
     first_off = flat.index(False)
     low, high = points[first_off - 1], points[first_off]
-    for _ in range(40):
-        middle = 0.5 * (low + high)
-        low, high = (middle, high) if on_flat(middle) else (low, middle)
+    depth = 4 if problem.pointwise else 1
+    for _ in range(40 // depth):
+        brackets, middles = [(low, high)], []
+        for _ in range(depth):
+            middles += [0.5 * (lo + hi) for lo, hi in brackets]
+            brackets = [half for (lo, hi), mid in zip(brackets, middles[-len(brackets):])
+                        for half in ((lo, mid), (mid, hi))]
+        middle_flat = dict(zip(middles, on_flat(middles)))
+        for _ in range(depth):
+            middle = 0.5 * (low + high)
+            low, high = (middle, high) if middle_flat[middle] else (low, middle)
     return low
 
 
 def _cycle(problem, p, q):
     amplitude, omega = problem.to_aw(p, q)
-    jac = problem.jacobian(p, q)
+    f, jac = problem.at(p, q)
     # d/dA = d/dp / (A - alpha), d/dw = d/dq / w: positive factors, same sign
     loeb = np.linalg.det(jac) / ((amplitude - problem.half_gap) * omega)
-    residual = abs(complex(problem.residual(p, q)))
-    return LimitCycle(float(amplitude), float(omega), bool(loeb > 0.0), float(loeb), residual)
+    return LimitCycle(float(amplitude), float(omega), bool(loeb > 0.0), float(loeb), abs(f))
 
 
 # --------------------------------------------------------------------------- rig level
@@ -545,7 +735,12 @@ def predict_limit_cycles(rig, model=None, linear=None, amplitude_range=None, ome
             note="the describing function of a torque-limited loop under a load torque (the saturation's DC balance) "
                  "is not implemented; the simulations decide",
         )
-    g_of_w = CommandSlaving(part) if limited else functools.partial(frequency_response_of, linear)
+    if limited:
+        g_of_w = CommandSlaving(part)
+    elif part is not None:
+        g_of_w = functools.partial(frequency_response, part)  # the loop built once, not at every residual
+    else:
+        g_of_w = functools.partial(frequency_response_of, linear)
     cycles, near = solve_harmonic_balance(
         g_of_w, n_of, half_gap, amplitude_range, omega_range, grid=grid, near_miss_cutoff=near_miss_cutoff,
         amplitude_dependent=limited,

@@ -41,6 +41,7 @@ OPTIONS = {
     "bench_models": [],
     "bench_simulation": [],
     "bench_limit_cycles": [],  # its speed table and the two design maps
+    "bench_predict": [],  # the harmonic balance before and after batching (issue 21)
     "bench_orbits": [],
     "bench_startup": [],
     "bench_sweeps": ["--size", "16", "--sim-size", "6", "--repeat", "1"],
