@@ -45,7 +45,6 @@ import dataclasses
 import math
 
 import numpy as np
-from scipy import linalg, optimize
 
 from .disturbances import KINDS, MOTOR_SPEED, TWIST, Disturbance
 from .models import DAMPED_DEAD_ZONE, DEAD_ZONE, ELASTO_BACKLASH, EXACT, PHASE_PLANE, REVISED_DEAD_ZONE, RUBBER
@@ -93,7 +92,7 @@ class LinearStability:
     @property
     def stable(self):
         """All poles in the open left half plane."""
-        return self.max_real < -self._tolerance
+        return bool(self.max_real < -self._tolerance)
 
     @property
     def marginal(self):
@@ -401,6 +400,8 @@ def _rubber_rest(model, side, t0, t1, edge):
     near = side * edge
     if mismatch(near) * mismatch(far) >= 0.0:
         return None
+    from scipy import optimize  # here: importing the package does not import scipy.optimize (0.2 s)
+
     return optimize.brentq(mismatch, min(near, far), max(near, far), xtol=1e-15, rtol=1e-15)
 
 
@@ -520,6 +521,8 @@ def _flow(matrix, directions, undelayed, rows):
     fastest = np.abs(np.linalg.eigvals(undelayed).imag).max()
     step = horizon / 64.0 if fastest == 0.0 else min(horizon / 64.0, 2.0 * math.pi / (_SAMPLES_PER_PERIOD * fastest))
     samples = min(int(math.ceil(horizon / step)), _MAX_SAMPLES)
+    from scipy import linalg  # here, as scipy.optimize above
+
     power = linalg.expm(matrix * (horizon / samples))
     states = np.empty((samples + 1,) + directions.shape)
     states[0] = directions

@@ -1146,7 +1146,7 @@ def _peak(loop, track, period, mean):
     return float(best)
 
 
-def exact_orbits(rig, prediction, simulated=None, *, pade_order=DEFAULT_PADE_ORDER):
+def exact_orbits(rig, prediction, simulated=None, *, pade_order=DEFAULT_PADE_ORDER, near_misses=1):
     """Every distinct periodic orbit found from a prediction's DF cycles and a simulated cycle.
 
     Parameters
@@ -1159,6 +1159,9 @@ def exact_orbits(rig, prediction, simulated=None, *, pade_order=DEFAULT_PADE_ORD
         A simulated cycle as a further seed (a state on it for a SimulationResult).
     pade_order : int
         As :func:`periodic_orbit`.
+    near_misses : int
+        How many of the closest near misses seed the shooting (``2``: twice the
+        seeds of a loop whose loci miss, for a check of the answer under refinement).
 
     Returns
     -------
@@ -1167,7 +1170,7 @@ def exact_orbits(rig, prediction, simulated=None, *, pade_order=DEFAULT_PADE_ORD
         within 1e-5 (relative) are one.  Seeds from which shooting fails are skipped.
     """
     model = rig.make_model(prediction.model)
-    seeds = list(prediction.cycles) + list(prediction.near_misses[:1])
+    seeds = list(prediction.cycles) + list(prediction.near_misses[:near_misses])
     if simulated is not None and (not hasattr(simulated, "found") or simulated.found):
         seeds.append(simulated)
     orbits = []

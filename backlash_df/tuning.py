@@ -267,7 +267,7 @@ class Certificate:
         })
 
 
-def certify(rig, model=None, tolerance=0.0):
+def certify(rig, model=None, tolerance=0.0, refinement=1):
     """Certify one tuning: the verdict with exact orbits, and the three checks of the module docs.
 
     Parameters
@@ -278,6 +278,10 @@ def certify(rig, model=None, tolerance=0.0):
         Torque law (default the rig's).
     tolerance : float
         Largest first-harmonic amplitude of theta_d (rad) accepted as hunting within tolerance.
+    refinement : int
+        The verdict's simulation step divided by this, its shooting seeded from this
+        many near misses (:func:`~backlash_df.verdict.judge_loop`): a certificate
+        that holds at 2 holds under refinement.
 
     Returns
     -------
@@ -285,7 +289,7 @@ def certify(rig, model=None, tolerance=0.0):
     """
     name = rig.make_model(model).name
     prediction = verify_limit_cycles(rig, predict_limit_cycles(rig, name))
-    verdict = judge_loop(rig, prediction, exact=True)
+    verdict = judge_loop(rig, prediction, exact=True, refinement=refinement)
     amplitude = verdict.cycle.amplitude if verdict.cycle is not None else 0.0
     quiet = verdict.verdict == "no oscillation" and not prediction.cycles and not verdict.orbits
     within = (tolerance > 0.0 and verdict.verdict in ("limit cycle", "bistable") and verdict.cycle is not None

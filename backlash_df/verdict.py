@@ -52,7 +52,6 @@ import dataclasses
 import math
 import warnings
 
-import numpy as np
 
 from .disturbances import KINDS, TWIST, Disturbance, kind_words, standard_disturbances
 from .equilibria import PADE_ORDER, LinearStability, contact_shaft, linear_stability, loop_rests
@@ -61,7 +60,7 @@ from .models import BacklashModel
 from .orbits import exact_orbits, periodic_orbit
 from .plotting import ResultPlot, axes_or_new, legend_beside, log_scale
 from .report import roundoff_zero, signed_percent, text_table
-from .simulation import simulated_limit_cycle
+from .simulation import default_step, simulated_limit_cycle
 from .system import lti_linear_part
 
 __all__ = ["VERDICTS", "LinearStability", "Probe", "LoopVerdict", "linear_stability", "probe", "ladder",
@@ -135,7 +134,7 @@ class Probe:
                 "duration": float(self.duration)}
 
 
-def probe(rig, model, disturbance, rest=None, linear=None, t_end=10.0, max_t_end=160.0, role="ladder"):
+def probe(rig, model, disturbance, rest=None, linear=None, t_end=10.0, max_t_end=160.0, role="ladder", dt=None):
     """Simulate the loop from a rest disturbed by one disturbance, until it has decided.
 
     The run starts at ``t_end`` and doubles (from the start) up to ``max_t_end``
@@ -157,6 +156,8 @@ def probe(rig, model, disturbance, rest=None, linear=None, t_end=10.0, max_t_end
         First and largest simulated time, s.
     role : str
         Stored in the probe (:class:`Probe`).
+    dt : float, optional
+        Simulation step, s (default :func:`~backlash_df.simulation.default_step`).
 
     Returns
     -------
@@ -182,7 +183,7 @@ def probe(rig, model, disturbance, rest=None, linear=None, t_end=10.0, max_t_end
         if not rests:
             raise ValueError(f"probe: the loop has no rest: {note}")
         rest = rests[0]
-    measured, result = simulated_limit_cycle(rig, model, t_end=t_end, max_t_end=max_t_end,
+    measured, result = simulated_limit_cycle(rig, model, t_end=t_end, max_t_end=max_t_end, dt=dt,
                                              initial=rest.initial(disturbance), linear=linear, theta_b0=rest.theta_b)
     return Probe(disturbance, measured, role, _scale(rig, disturbance, linear), float(result.time[-1]), rest)
 
@@ -539,16 +540,16 @@ def _cycling(prediction, contact, rests, probes, orbits, calm):
     return "bistable", (f"{calm_words}; {_one(first)} ends on {what}" + start + others + runaway), fields
 
 
-def _exact(rig, prediction, probes, t_end, max_t_end):
+def _exact(rig, prediction, probes, t_end, max_t_end, dt=None, near_misses=1):
     """Exact orbits seeded by the DF cycles and the first simulated cycle, and a note if there are none."""
     seed = None
     cycling = [p for p in probes if p.measured.found]
     if cycling:  # the run again, for a state on the cycle
         first = cycling[0]
-        _, seed = simulated_limit_cycle(rig, prediction.model, t_end=t_end, max_t_end=max_t_end,
+        _, seed = simulated_limit_cycle(rig, prediction.model, t_end=t_end, max_t_end=max_t_end, dt=dt,
                                         initial=first.rest.initial(first.disturbance), theta_b0=first.rest.theta_b)
     try:
-        orbits = exact_orbits(rig, prediction, simulated=seed)
+        orbits = exact_orbits(rig, prediction, simulated=seed, near_misses=near_misses)
     except ValueError as error:  # a law shooting does not handle
         return (), " ".join(str(error).split())
     return tuple(orbits), "" if orbits else "shooting found no periodic orbit from the DF and simulated cycles"
@@ -567,7 +568,8 @@ def _separatrix(rig, prediction, orbits, cycle):
     return max(below, key=lambda o: o.amplitude, default=None)
 
 
-def judge_loop(rig, prediction, linear=None, t_end=10.0, max_t_end=160.0, disturbances=None, exact=False):
+def judge_loop(rig, prediction, linear=None, t_end=10.0, max_t_end=160.0, disturbances=None, exact=False,
+               refinement=1):
     """The verdict on a rig's loop with one torque law (module docs).
 
     Parameters
@@ -588,6 +590,10 @@ def judge_loop(rig, prediction, linear=None, t_end=10.0, max_t_end=160.0, distur
         Also find the exact periodic orbits (:mod:`backlash_df.orbits`; the
         rig's own loop only): a stable one on the simulated cycle confirms it.
         A bistable loop's separating orbit is sought either way.
+    refinement : int
+        Divide every probe's simulation step by this and seed the shooting from
+        this many near misses (1: the defaults); a verdict that holds at 2 holds
+        under refinement.
 
     Returns
     -------
@@ -602,9 +608,11 @@ def judge_loop(rig, prediction, linear=None, t_end=10.0, max_t_end=160.0, distur
     if not rests:
         return LoopVerdict(prediction.model, "unstable", f"the loop has no rest: {rest_note}", contact, opened, (),
                            rest_note=rest_note, prediction=prediction)
-    probes = tuple(probe(rig, model, disturbance, rest, user_linear, t_end, max_t_end, role)
+    dt = None if refinement == 1 else default_step(part, model) / refinement
+    probes = tuple(probe(rig, model, disturbance, rest, user_linear, t_end, max_t_end, role, dt)
                    for disturbance, rest, role in ladder(rig, rests, disturbances, user_linear, prediction))
-    orbits, note = _exact(rig, prediction, probes, t_end, max_t_end) if exact and user_linear is None else ((), "")
+    orbits, note = (_exact(rig, prediction, probes, t_end, max_t_end, dt, refinement) if exact and user_linear is None
+                    else ((), ""))
     verdict, reason, fields = _decide(prediction, contact, rests, probes, orbits)
     separatrix = None
     if verdict == "bistable" and user_linear is None:

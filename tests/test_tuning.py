@@ -18,7 +18,7 @@ import backlash_df as bd
 from backlash_df.cli import main
 from backlash_df.disturbances import shaft_mode, standard_disturbances
 from backlash_df.sweeps import rig_with
-from backlash_df.tuning import contact_bandwidth
+from backlash_df.tuning import certify, contact_bandwidth
 from conftest import EXAMPLES, example_rig
 
 LAG = example_rig("motor_lag_feedback")
@@ -220,3 +220,16 @@ def test_an_interrupted_tune_resumes_to_the_same_answer_and_recomputes_no_finish
     first, second = uninterrupted.to_dict(), resumed.to_dict()
     first.pop("seconds"), second.pop("seconds")
     assert second == first
+
+
+@pytest.mark.xdist_group("tunings")
+def test_the_certificate_holds_under_refinement_at_a_sharp_boundary(tunings):
+    """Half the simulation step and twice the shooting seeds: the answer is certified again, and the
+    faster tuning that failed its certificate (1 % above, at the sharp boundary) fails again."""
+    tuning = tuned(tunings, "motor_lag_feedback")
+    rig, _ = CASES["motor_lag_feedback"]
+    failed = [c for c in tuning.certificates if not c.certified and c.bandwidth > tuning.best.bandwidth]
+    assert failed, "the case has a sharp boundary: a faster tuning failed its certificate"
+    refined = certify(rig_with(rig, "kp", tuning.best.values[0]), refinement=2)
+    assert refined.certified and refined.verdict.verdict == tuning.best.verdict.verdict == "no oscillation"
+    assert not certify(rig_with(rig, "kp", failed[0].values[0]), refinement=2).certified
