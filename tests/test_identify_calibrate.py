@@ -265,5 +265,8 @@ def test_generator_is_reproducible_and_hides_the_given_sizes():
         synthesize(rig, ["coulomb_friction@load", "breakaway_friction@motor"], seed=1, duration=0.5)
     with pytest.raises(ValueError, match="encoder_counts = 0: give the encoder's counts per revolution"):
         synthesize(rig, "none", seed=1, duration=0.5, encoder_counts=0)  # was a ZeroDivisionError
+    limited = dataclasses.replace(rig, controller=dataclasses.replace(rig.controller, torque_limit=50.0))
+    with pytest.raises(ValueError, match="runs a PI speed loop; the rig's torque_limit is not modelled"):
+        synthesize(limited, "none", seed=1, duration=0.5)  # was simulated without its limit
     stiction = synthesize(rig, {"coulomb_friction@load": 3.0, "breakaway_friction@load": 6.0}, seed=1, duration=0.5)
     assert stiction.effects == {"coulomb_friction@load": 3.0, "breakaway_friction@load": 6.0}

@@ -233,3 +233,31 @@ def test_the_certificate_holds_under_refinement_at_a_sharp_boundary(tunings):
     refined = certify(rig_with(rig, "kp", tuning.best.values[0]), refinement=2)
     assert refined.certified and refined.verdict.verdict == tuning.best.verdict.verdict == "no oscillation"
     assert not certify(rig_with(rig, "kp", failed[0].values[0]), refinement=2).certified
+
+
+def first_harmonic(rig, disturbance, t_end=60.0):
+    """The first-harmonic amplitude of theta_d (rad) over the last 10 s of a simulation: the dominant frequency
+    from a zero-padded FFT, then a least-squares fit of a sine and a cosine there."""
+    run = bd.simulate(rig, t_end=t_end, initial=disturbance.initial())
+    late = run.time > t_end - 10.0
+    time, twist = run.time[late], run.theta_d[late] - np.mean(run.theta_d[late])
+    spectrum = np.abs(np.fft.rfft(twist, 8 * twist.size))
+    omega = 2 * np.pi * np.fft.rfftfreq(8 * twist.size, time[1] - time[0])[np.argmax(spectrum)]
+    basis = np.column_stack([np.cos(omega * time), np.sin(omega * time)])
+    return float(np.hypot(*np.linalg.lstsq(basis, twist, rcond=None)[0]))
+
+
+@pytest.mark.xdist_group("tunings")
+def test_a_tolerance_buys_bandwidth_and_the_loop_hunts_within_it(tunings):
+    """With tolerance A the answer is faster than the certified one, and simulations from the standard set end
+    on cycles whose first harmonic of theta_d is within A (the test's own Fourier fit)."""
+    rig, vary = CASES["motor_lag_feedback"]
+    tolerance = 0.35
+    strict = tuned(tunings, "motor_lag_feedback")
+    loose = bd.tune(rig, vary, tolerance=tolerance)
+    assert loose.feasible and loose.best.bandwidth > strict.best.bandwidth
+    assert 0.0 < loose.best.amplitude <= tolerance
+    answer = rig_with(rig, "kp", loose.best.values[0])
+    amplitudes = [first_harmonic(answer, disturbance) for disturbance in standard_disturbances(answer)]
+    assert max(amplitudes) <= 1.02 * tolerance
+    assert max(amplitudes) == pytest.approx(loose.best.amplitude, rel=0.05)

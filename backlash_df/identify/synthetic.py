@@ -286,6 +286,13 @@ def synthesize(rig, cause="none", size=None, seed=0, duration=2.0, sample_rate=1
         raise ValueError(f"synthesize: encoder_counts = {encoder_counts!r}: give the encoder's counts per revolution "
                          f"(at least 1), or None for a record without angle columns")
     controller = rig.require_controller()
+    unmodelled = [what for what, present in (
+        ('structure = "cascade"', controller.cascade), ("torque_limit", controller.torque_limit > 0.0),
+        ("a speed or position controller of the user's own",
+         controller.speed_controller is not None or controller.position_controller is not None)) if present]
+    if unmodelled:
+        raise ValueError(f"synthesize: the record generator runs a PI speed loop; the rig's {unmodelled[0]} is not "
+                         "modelled in it (give a rig whose [controller] is a PI speed loop)")
     rng = np.random.default_rng(seed)
     plant = _perturbed_plant(rig.plant, rng, datasheet_error)
     effects = _hidden_effects(cause, size, rig, rng, experiment)
