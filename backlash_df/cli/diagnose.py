@@ -79,6 +79,10 @@ def diagnose_command(data, rig_file, json_out, report_out, strict):
             fits = ", ".join(f"{name} {model.fit_percent[name]:.1f} % k-step / {model.ahead_fit_percent[name]:.1f} % "
                              f"ahead / {model.free_run_fit_percent[name]:.1f} % free run" for name in model.fit_percent)
             click.echo(f"  validation fit, {structure} {label}: {fits}")
+    click.echo("  (fit: 100 (1 - |y - y_pred| / |y - mean y|) % per speed over the validation part, as MATLAB's compare: "
+               "k-step from each segment's measured start, 0.4 s ahead, free run from the part's start; below 0 "
+               "where the prediction strays farther from the data than their mean, as a free run of a model that "
+               "lacks the data's friction does)")
     for warning in result.warnings:
         click.echo(f"warning: {warning}")
     texts = {}

@@ -987,14 +987,23 @@ def _warnings(measurements, baseline, extended, keys, structure="two_mass"):
     parameters = extended.calibration.parameters
     physical = PLANT_PARAMETERS + RIGID_PARAMETERS + tuple(get_effect(k).value_key for k in keys
                                                            if not get_effect(k).signed)
+    bounded = []
     for name, parameter in parameters.items():
         low, _ = parameter.ci95
         if parameter.on_bound and name not in ("motor_speed0", "load_speed0"):
-            notes.append(f"{name} = {parameter.value:.4g} {parameter.unit} ends on a bound of its range "
-                         f"[{parameter.lower:.4g}, {parameter.upper:.4g}]: the data do not determine it")
+            bounded.append(f"{name} = {parameter.value:.4g} {parameter.unit} (range [{parameter.lower:.4g}, "
+                           f"{parameter.upper:.4g}])")
         elif name in physical and low < 0.0 <= parameter.value:
             notes.append(f"the 95 % interval of {name} includes unphysical negative values "
                          f"({low:.4g} .. {parameter.ci95[1]:.4g} {parameter.unit})")
+    if bounded:
+        plant = [name for name in parameters if name in PLANT_PARAMETERS and parameters[name].on_bound]
+        hint = (" (values of the shaft a record cannot determine where it does not resolve the shaft's mode: the "
+                "causes are then named from the rigid-body model, which does not use them; elsewhere, check them in "
+                "the rig file)" if plant else "")
+        notes.append(f"{'these values end' if len(bounded) > 1 else 'this value ends'} on a bound of the range the "
+                     f"fit allows, so the data do not determine {'them' if len(bounded) > 1 else 'it'}{hint}: "
+                     + "; ".join(bounded))
     return notes + (_initial_state_notes(measurements, extended) if two_mass else [])
 
 
