@@ -66,7 +66,6 @@ from pathlib import Path
 import numba
 import numpy as np
 from scipy.linalg import expm, matrix_balance
-from sksundae.cvode import CVODE
 
 from backlash_df import load_rig, simulate
 from backlash_df.loops import drive_loop
@@ -274,6 +273,8 @@ def cvode_solver(loop, mode, method, rtol):
 
     events.terminal, events.direction = [True] * len(surfaces), [-1] * len(surfaces)
     options = {"jacfn": jacobian} if method == "BDF" else {}
+    from sksundae.cvode import CVODE  # here: only the CVODE rows need scikit-sundae (the bench extra)
+
     return CVODE(rhs, method=method, rtol=rtol, atol=1e-3 * rtol, eventsfn=events, num_events=len(surfaces),
                  max_num_steps=1_000_000, **options)
 
