@@ -5,6 +5,7 @@ from click.testing import CliRunner
 
 from backlash_df._jit import on_first_compile
 from backlash_df.cli import main
+from backlash_df.cli.common import COMPILING_NOTICE
 
 
 def _fresh_function():
@@ -57,5 +58,5 @@ def test_command_line_says_so_on_stderr_only_when_compiling(tmp_path, monkeypatc
     monkeypatch.setattr(predict_module, "analyse_loop", analyse_compiling)
     cold = runner.invoke(main, ["predict", str(rig)])
     assert cold.exit_code == 0
-    assert cold.stderr.count("backlash-df: compiling kernels (first run only, about 20 s of one core)") == 1
+    assert cold.stderr.count(COMPILING_NOTICE) == 1
     assert "compiling" not in cold.stdout

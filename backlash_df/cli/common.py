@@ -9,7 +9,7 @@ import click
 from .._jit import on_first_compile
 from ..models import MODEL_NAMES
 
-__all__ = ["Group", "fail", "FINITE", "MODEL", "numbers", "echo_table", "read_text"]
+__all__ = ["Group", "fail", "FINITE", "MODEL", "COMPILING_NOTICE", "numbers", "echo_table", "read_text"]
 
 
 def fail(message, code=2):
@@ -52,9 +52,13 @@ class Group(click.Group):
             fail(error)
 
 
+#: The stderr line a command prints once when numba compiles (a cold cache: the first run).
+COMPILING_NOTICE = "backlash-df: compiling kernels (first run only, about 20 s of one core)"
+
+
 def _compiling_notice():
-    """One stderr line while numba compiles the kernels a command needs (a cold cache: the first run)."""
-    click.echo("backlash-df: compiling kernels (first run only, about 20 s of one core)", err=True)
+    """One stderr line while numba compiles the kernels a command needs."""
+    click.echo(COMPILING_NOTICE, err=True)
 
 
 #: A torque-law name (``--model``).
