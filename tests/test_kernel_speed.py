@@ -3,6 +3,8 @@
 import numba
 from click.testing import CliRunner
 
+import backlash_df.cli.common
+
 from backlash_df._jit import on_first_compile
 from backlash_df.cli import main
 from backlash_df.cli.common import COMPILING_NOTICE
@@ -52,10 +54,14 @@ def test_command_line_says_so_on_stderr_only_when_compiling(tmp_path, monkeypatc
     original = predict_module.analyse_loop
 
     def analyse_compiling(*args, **kwargs):
-        fresh(1.0)
+        fresh(1.0)  # the function of the moment: compiled by the first call
         return original(*args, **kwargs)
 
     monkeypatch.setattr(predict_module, "analyse_loop", analyse_compiling)
+    piped = runner.invoke(main, ["predict", str(rig)])  # stderr not a terminal: a log, a pipe, a test runner
+    assert piped.exit_code == 0 and "compiling" not in piped.output
+    fresh = _fresh_function()
+    monkeypatch.setattr(backlash_df.cli.common, "stderr_is_terminal", lambda: True)  # a person at a terminal
     cold = runner.invoke(main, ["predict", str(rig)])
     assert cold.exit_code == 0
     assert cold.stderr.count(COMPILING_NOTICE) == 1

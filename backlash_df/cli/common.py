@@ -9,7 +9,7 @@ import click
 from .._jit import on_first_compile
 from ..models import MODEL_NAMES
 
-__all__ = ["Group", "fail", "FINITE", "MODEL", "COMPILING_NOTICE", "numbers", "echo_table", "read_text"]
+__all__ = ["Group", "fail", "FINITE", "MODEL", "COMPILING_NOTICE", "stderr_is_terminal", "numbers", "echo_table", "read_text"]
 
 
 def fail(message, code=2):
@@ -57,8 +57,15 @@ COMPILING_NOTICE = "backlash-df: compiling kernels (first run only, about 20 s o
 
 
 def _compiling_notice():
-    """One stderr line while numba compiles the kernels a command needs."""
-    click.echo(COMPILING_NOTICE, err=True)
+    """One stderr line while numba compiles the kernels a command needs, for a person waiting at a terminal
+    (not in a pipe, a log or a test runner's captured output)."""
+    if stderr_is_terminal():
+        click.echo(COMPILING_NOTICE, err=True)
+
+
+def stderr_is_terminal():
+    """True where standard error is a terminal."""
+    return sys.stderr.isatty()
 
 
 #: A torque-law name (``--model``).
