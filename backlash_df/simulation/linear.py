@@ -18,7 +18,7 @@ from ..plotting import ResultPlot, axes_or_new
 from ..system import closed_loop_matrix, command_matrices, exp_ladder, mode_matrices, two_mass_system
 from ._kernels import LEVELS, run_exact, run_rk4
 
-__all__ = ["SimulationResult", "simulate_linear", "simulate_two_mass", "default_step", "MAX_STEPS"]
+__all__ = ["SimulationResult", "simulate_linear", "simulate_two_mass", "timed_inputs", "default_step", "MAX_STEPS"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -317,14 +317,24 @@ def simulate_two_mass(plant, model, t_end, dt, motor_torque=0.0, load_torque=0.0
         model = make_model(model, **plant.shaft)
     system = two_mass_system(plant.motor_inertia, plant.load_inertia)
 
+    return simulate_linear(system, model, t_end, dt, inputs=timed_inputs(motor_torque, load_torque), z0=z0,
+                           theta_b0=theta_b0)
+
+
+def timed_inputs(*values):
+    """The ``inputs(time)`` of :func:`simulate_linear` for external inputs given one by one.
+
+    Each value is a constant, an array on the time grid, or a function of time;
+    the returned function gives them as the columns of an array ``(len(time), len(values))``.
+    """
     def inputs(time):
         columns = []
-        for value in (motor_torque, load_torque):
+        for value in values:
             column = value(time) if callable(value) else value
             columns.append(np.broadcast_to(np.asarray(column, dtype=float), time.shape))
         return np.stack(columns, axis=1)
 
-    return simulate_linear(system, model, t_end, dt, inputs=inputs, z0=z0, theta_b0=theta_b0)
+    return inputs
 
 
 

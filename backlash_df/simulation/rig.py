@@ -6,7 +6,7 @@ from ..loops import drive_loop
 from ..models import BacklashModel
 from ..system import lti_linear_part
 from .cycles import measure_limit_cycle
-from .linear import default_step, simulate_linear
+from .linear import default_step, simulate_linear, timed_inputs
 
 __all__ = ["simulate_rig", "simulated_limit_cycle", "initial_state"]
 
@@ -88,16 +88,7 @@ def simulate_rig(rig, model=None, t_end=20.0, dt=None, speed_reference=0.0, load
     dt = default_step(system, model) if dt is None else dt
     z0 = initial_state(system, initial, kick)
     load_torque = rig.load.torque if load_torque is None else load_torque
-    inputs = None
-    if system.E.shape[1] == 2:
-
-        def inputs(time):
-            columns = []
-            for value in (speed_reference, load_torque):
-                column = value(time) if callable(value) else value
-                columns.append(np.broadcast_to(np.asarray(column, dtype=float), time.shape))
-            return np.stack(columns, axis=1)
-
+    inputs = timed_inputs(speed_reference, load_torque) if system.E.shape[1] == 2 else None
     return simulate_linear(system, model, t_end, dt, inputs=inputs, z0=z0, theta_b0=theta_b0)
 
 
