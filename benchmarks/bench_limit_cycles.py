@@ -95,8 +95,8 @@ def scipy_plain(loop, method, rtol, t_eval):
 
 def numba_events(loop, rtol, t_eval):
     """The compiled Dormand-Prince 5(4) with event location of ``compiled_rk.py``; theta_d on ``t_eval``."""
-    k, _, alpha, _ = loop.params
-    contact = np.outer(loop.b, k * loop.c_x + loop.c_v * loop.params[1])
+    k, c, alpha, _ = loop.params
+    contact = np.outer(loop.b, k * loop.c_x + c * loop.c_v)
     mats = np.stack([loop.a + (contact if m else 0.0) for m in (-2, 0, 2)])
     offs = np.stack([-np.sign(m) * k * alpha * loop.b for m in (-2, 0, 2)])
     out = np.full(t_eval.size, np.nan)
