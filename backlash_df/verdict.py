@@ -444,7 +444,7 @@ def _df_words(prediction):
         return "the DF predicts a stable cycle at " + ", ".join(
             f"A = {c.amplitude:.4g} rad, w = {c.omega:.4g} rad/s" for c in stable)
     if prediction.near_misses:
-        return f"the DF predicts none (loci {100 * prediction.near_misses[0].distance:.1f} % apart)"
+        return f"the DF predicts none (loci {100 * prediction.near_misses[0].distance:.3g} % apart)"
     return "the DF predicts no stable cycle"
 
 
