@@ -65,12 +65,14 @@ inputs interpolated linearly) and runs every segment in one call.
 """
 
 import dataclasses
+import functools
 import math
 from concurrent.futures import ThreadPoolExecutor
 
-import numba
 import numpy as np
 
+from .._jit import inline as _inline
+from .._jit import jit as _jit
 from .._json import json_ready
 from ..models import LAW_CODES, PHASE_PLANE, RUBBER, held_mode, mode_torque
 from ..plotting import ResultPlot, axes_or_new, legend_beside
@@ -134,7 +136,6 @@ FREE_RUN_MIN = 50.0
 #: Power ratio of the motor speed's spectrum over its noise floor below which a frequency is not resolved
 #: by the record (:func:`shaft_resolution`; 10 dB).
 RESOLVED_SNR = 10.0
-_jit = numba.njit(cache=True, nogil=True)
 
 
 def fit_percent(measured, simulated):
@@ -160,68 +161,62 @@ def fit_percent(measured, simulated):
 # --------------------------------------------------------------------------- compiled prediction kernel
 
 
-@_jit
+@_inline
 def _friction(w, viscous, coulomb, breakaway, eps, w_s):
+    """``F(w)`` of the module docs, N m; without Coulomb or breakaway friction no tanh or exp is evaluated
+    (the same number: they are multiplied by zero)."""
+    if coulomb == 0.0 and breakaway == 0.0:
+        return viscous * w
     return viscous * w + (coulomb + breakaway * math.exp(-(w / w_s) ** 2)) * math.tanh(w / eps)
 
 
-@_jit
-def _derivative(z, tm, tl, law, mode, p, eps, w_s, out):
-    """Right-hand side of the model (module docs); returns the shaft torque (N m)."""
-    x = z[0]
-    v = z[1] - z[2]
+@_inline
+def _rates(x, wm, wl, tm, tl, law, mode, p, eps, w_s):
+    """Right-hand side of the model (module docs) at theta_d = ``x`` and speeds ``wm, wl`` (rad, rad/s):
+    ``(dtheta_d/dt, dw_m/dt, dw_l/dt, shaft torque in N m)``."""
+    v = wm - wl
     m = held_mode(law, mode, x, v, p[2], p[3], p[4], p[5])
     torque = mode_torque(law, m, x, v, p[2], p[3], p[4], p[5])
-    out[0] = v
-    out[1] = (tm + p[12] - torque - _friction(z[1], p[8], p[6], p[10], eps, w_s)) / p[0]
-    out[2] = (tl + torque - _friction(z[2], p[9], p[7], p[11], eps, w_s)) / p[1]
-    return torque
-
-
-@_jit
-def _step(z, i, frac0, frac1, tm, tl, law, mode, p, eps, w_s, work):
-    """One RK4 step from the fraction ``frac0`` to ``frac1`` of sample interval ``i`` (inputs interpolated)."""
-    k1, k2, k3, k4, tmp = work[0], work[1], work[2], work[3], work[4]
-    h = (frac1 - frac0) * p[13]
-    fm = 0.5 * (frac0 + frac1)
-    _derivative(z, tm[i] + frac0 * (tm[i + 1] - tm[i]), tl[i] + frac0 * (tl[i + 1] - tl[i]), law, mode, p, eps, w_s, k1)
-    tmm = tm[i] + fm * (tm[i + 1] - tm[i])
-    tlm = tl[i] + fm * (tl[i + 1] - tl[i])
-    for j in range(3):
-        tmp[j] = z[j] + 0.5 * h * k1[j]
-    _derivative(tmp, tmm, tlm, law, mode, p, eps, w_s, k2)
-    for j in range(3):
-        tmp[j] = z[j] + 0.5 * h * k2[j]
-    _derivative(tmp, tmm, tlm, law, mode, p, eps, w_s, k3)
-    for j in range(3):
-        tmp[j] = z[j] + h * k3[j]
-    _derivative(tmp, tm[i] + frac1 * (tm[i + 1] - tm[i]), tl[i] + frac1 * (tl[i + 1] - tl[i]), law, mode, p, eps,
-                w_s, k4)
-    for j in range(3):
-        z[j] += h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
-    return held_mode(law, mode, z[0], z[1] - z[2], p[2], p[3], p[4], p[5])
+    return (v, (tm + p[12] - torque - _friction(wm, p[8], p[6], p[10], eps, w_s)) / p[0],
+            (tl + torque - _friction(wl, p[9], p[7], p[11], eps, w_s)) / p[1], torque)
 
 
 @_jit
 def _segments(law, p, eps, w_s, tm, tl, starts, stops, z0, substeps, states, torque):
-    """Simulate each segment ``starts[i]:stops[i]`` from state ``z0[i]`` (RK4, inputs interpolated)."""
-    work = np.empty((5, 3))
-    z = np.empty(3)
+    """Simulate each segment ``starts[i]:stops[i]`` from state ``z0[i]`` (RK4, inputs interpolated).
+
+    The state is held in scalars and :func:`_rates` is inlined: no array is passed
+    inside the step loop (numba reference-counts array arguments of compiled calls).
+    """
     last = tm.shape[0] - 1
     for s in range(starts.shape[0]):
-        for j in range(3):
-            z[j] = z0[s, j]
-        mode = held_mode(law, 0, z[0], z[1] - z[2], p[2], p[3], p[4], p[5])
+        x, wm, wl = z0[s, 0], z0[s, 1], z0[s, 2]
+        mode = held_mode(law, 0, x, wm - wl, p[2], p[3], p[4], p[5])
         for i in range(starts[s], stops[s]):
-            for j in range(3):
-                states[i, j] = z[j]
-            torque[i] = _derivative(z, tm[i], tl[i], law, mode, p, eps, w_s, work[0])
-            if i < last:
-                for q in range(substeps):
-                    mode = _step(z, i, q / substeps, (q + 1.0) / substeps, tm, tl, law, mode, p, eps, w_s, work)
+            states[i, 0], states[i, 1], states[i, 2] = x, wm, wl
+            torque[i] = _rates(x, wm, wl, tm[i], tl[i], law, mode, p, eps, w_s)[3]
+            if i == last:
+                continue
+            d_tm, d_tl = tm[i + 1] - tm[i], tl[i + 1] - tl[i]
+            for q in range(substeps):
+                f0, f1 = q / substeps, (q + 1.0) / substeps
+                h = (f1 - f0) * p[13]
+                fm = 0.5 * (f0 + f1)
+                tmm, tlm = tm[i] + fm * d_tm, tl[i] + fm * d_tl
+                a0, a1, a2, _ = _rates(x, wm, wl, tm[i] + f0 * d_tm, tl[i] + f0 * d_tl, law, mode, p, eps, w_s)
+                b0, b1, b2, _ = _rates(x + 0.5 * h * a0, wm + 0.5 * h * a1, wl + 0.5 * h * a2, tmm, tlm, law, mode, p,
+                                       eps, w_s)
+                c0, c1, c2, _ = _rates(x + 0.5 * h * b0, wm + 0.5 * h * b1, wl + 0.5 * h * b2, tmm, tlm, law, mode, p,
+                                       eps, w_s)
+                d0, d1, d2, _ = _rates(x + h * c0, wm + h * c1, wl + h * c2, tm[i] + f1 * d_tm, tl[i] + f1 * d_tl, law,
+                                       mode, p, eps, w_s)
+                x += h / 6.0 * (a0 + 2.0 * b0 + 2.0 * c0 + d0)
+                wm += h / 6.0 * (a1 + 2.0 * b1 + 2.0 * c1 + d1)
+                wl += h / 6.0 * (a2 + 2.0 * b2 + 2.0 * c2 + d2)
+                mode = held_mode(law, mode, x, wm - wl, p[2], p[3], p[4], p[5])
 
 
-@_jit
+@_inline
 def _rigid_rate(w, tm, tl, p, eps, w_s):
     """``dw/dt`` of the rigid body; ``p`` = (inertia, Coulomb, viscous, breakaway, offset), N m and N m s/rad."""
     return (tm + tl + p[4] - _friction(w, p[2], p[1], p[3], eps, w_s)) / p[0]
@@ -1113,11 +1108,12 @@ class Shooting:
     def penalty(self, x):
         """The prior's rows: each speed correction against the smoothed speed's noise, each drift step
         against the random walk's."""
-        return self.weight * (self.prior_matrix() @ x)
+        return self.weight * (self.prior_matrix @ x)
 
+    @functools.cached_property
     def prior_matrix(self):
         """The prior's rows as a sparse matrix on the corrections' vector (identity; first differences for
-        the drift)."""
+        the drift), built once."""
         from scipy import sparse
 
         g = self.n_segments
@@ -1228,7 +1224,7 @@ def parallel_jacobian(residual, n_global, shooting, upper, workers, rel_step=1e-
     (:class:`Shooting`), each speed's corrections of all segments in one
     evaluation (a correction moves its own segment's rows only), returned as a
     sparse matrix with the prior's rows exact (the weight times
-    :meth:`Shooting.prior_matrix`).
+    :attr:`Shooting.prior_matrix`).
 
     Parameters
     ----------
@@ -1257,7 +1253,7 @@ def parallel_jacobian(residual, n_global, shooting, upper, workers, rel_step=1e-
 
         groups += [n_global + block for block in shooting.blocks()]
         rows = np.arange(shooting.segment_of_row.size)
-        prior = shooting.weight * shooting.prior_matrix()
+        prior = shooting.weight * shooting.prior_matrix
 
     def jacobian(x, f0=None):
         f0 = residual(x) if f0 is None else f0

@@ -71,14 +71,26 @@ import html
 import json
 import math
 import warnings
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
 from .._json import json_ready
 from ..plotting import ResultPlot, axes_or_new, legend_beside
 from ..report import figure_html, html_page, table_html
-from .calibrate import (DEFAULT_HORIZON, PLANT_PARAMETERS, RIGID_PARAMETERS, calibrate, data_states, predict, refine,
-                        segment_bounds, shaft_resolution, single_threaded_blas, speed_noise)
+from .calibrate import (
+    DEFAULT_HORIZON,
+    PLANT_PARAMETERS,
+    RIGID_PARAMETERS,
+    calibrate,
+    data_states,
+    predict,
+    refine,
+    segment_bounds,
+    shaft_resolution,
+    single_threaded_blas,
+    speed_noise,
+)
 from .effects import EFFECT_NAMES, get_effect
 from .residuals import residual_analysis
 
@@ -711,14 +723,27 @@ class _Search:
             return value * float(np.sqrt(np.mean(speed**2)))
         return None
 
-    def fit(self, effects, start_values=None, polish=False, screen=False):
+    def fit(self, effects, start_values=None, polish=False, screen=False, workers=None):
+        """The scored fit of ``effects`` (:func:`~.calibrate.calibrate`; ``screen``: plant values held), its
+        Jacobian in ``workers`` threads (default: the search's)."""
         calibration = calibrate(self.measurements, self.rig, effects, window=(self.estimation.start,
                                 self.estimation.stop), start_values=start_values, horizon=self.horizon,
-                                workers=self.workers, max_nfev=NESTED_NFEV if start_values else None, polish=polish,
+                                workers=workers or self.workers, max_nfev=NESTED_NFEV if start_values else None,
+                                polish=polish,
                                 fixed=(PLANT_PARAMETERS + RIGID_PARAMETERS if screen else ()) + self.held,
                                 structure=self.structure)
         self.progress(self.label(effects))
         return self.score(effects, calibration)
+
+    def fits(self, jobs, screen=False):
+        """:meth:`fit` of every ``(effects, start_values)`` of ``jobs``, in order, the fits side by side in the
+        search's threads (each fit's Jacobian then on one): the same results as one by one, since a fit's
+        numbers do not depend on its threads, and near the threads' count times faster (the kernel releases
+        the GIL; a single fit's Jacobian leaves the optimiser's own steps serial)."""
+        if self.workers <= 1 or len(jobs) <= 1:
+            return [self.fit(effects, start, screen=screen) for effects, start in jobs]
+        with ThreadPoolExecutor(min(self.workers, len(jobs))) as pool:
+            return list(pool.map(lambda job: self.fit(*job, screen=screen, workers=1), jobs))
 
     def settle_skew(self, baseline):
         """The baseline with the encoder skew settled as a property of the record: fitted with the nominal
@@ -796,19 +821,16 @@ def _forward(search, baseline, keys, tried):
     """
     current, steps, runners = baseline, [], []
     while True:
-        screened = []
-        for key in (key for key in keys if key not in current.effects):
-            effect = get_effect(key)
-            start = current.calibration.values | {effect.value_key: effect.start(search.rig)}
-            trial = search.judge(search.fit(current.effects + (key,), start, screen=True), current, key)
-            tried.append(dataclasses.replace(trial, reason="screening: " + trial.reason))
-            screened.append(trial)
+        added = [key for key in keys if key not in current.effects]
+        screens = search.fits([(current.effects + (key,), current.calibration.values
+                                | {get_effect(key).value_key: get_effect(key).start(search.rig)}) for key in added],
+                              screen=True)
+        screened = [search.judge(fit, current, key) for fit, key in zip(screens, added)]
+        tried += [dataclasses.replace(trial, reason="screening: " + trial.reason) for trial in screened]
         promising = sorted((t for t in screened if t.gain >= MIN_GAIN), key=lambda t: -t.gain)[:MAX_REFITS]
-        refits = []
-        for trial in promising:
-            full = search.judge(search.fit(trial.effects, trial.calibration.values), current, trial.added)
-            tried.append(full)
-            refits.append(full)
+        fulls = search.fits([(trial.effects, trial.calibration.values) for trial in promising])
+        refits = [search.judge(full, current, trial.added) for full, trial in zip(fulls, promising)]
+        tried += refits
         passing = [full for full in refits if full.accepted]
         if not passing:
             return steps, [key for key in dict.fromkeys(runners) if key not in current.effects]
@@ -838,13 +860,10 @@ def _backward(search, steps, runners, tried):
         final = search.fit(final.effects + tuple(runners), start)
     alone = steps[0].added if len(steps) == 1 and not runners else None
     while len(final.effects) > 1:
-        checks = []
-        for key in final.effects:
-            rest = tuple(k for k in final.effects if k != key)
-            without = search.fit(rest, final.calibration.values | {get_effect(key).value_key: 0.0})
-            check = search.judge(final, without, key)
-            tried.append(dataclasses.replace(check, reason="backward check: " + check.reason))
-            checks.append((check, without))
+        withouts = search.fits([(tuple(k for k in final.effects if k != key),
+                                 final.calibration.values | {get_effect(key).value_key: 0.0}) for key in final.effects])
+        checks = [(search.judge(final, without, key), without) for key, without in zip(final.effects, withouts)]
+        tried += [dataclasses.replace(check, reason="backward check: " + check.reason) for check, _ in checks]
         failing = [(not _includes_null(final.calibration.effect_parameter(check.added), check.added), check.gain,
                     without) for check, without in checks if not (check.accepted or _separated(search, check, without))]
         if not failing:
@@ -1167,9 +1186,10 @@ def diagnose(measurements, rig, candidates=None, estimation_fraction=0.6, transi
     horizon : float
         Length (s) of the k-step segments.
     workers : int
-        Threads for the Jacobian columns.
+        Threads: the independent fits of a selection step (the screenings, the full refits, the backward
+        checks) side by side, the other fits' Jacobian columns; the result does not depend on it.
     progress : callable, optional
-        Called with a label after every fit (a progress bar's update).
+        Called with a label after every fit (a progress bar's update; from the fits' threads).
 
     Returns
     -------
