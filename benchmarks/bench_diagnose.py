@@ -37,7 +37,7 @@ Run: ``python benchmarks/bench_diagnose.py [--seeds 6] [--processes 2] [--repeat
 import argparse
 import dataclasses
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from pathlib import Path
 from typing import NamedTuple
 
@@ -45,6 +45,7 @@ import numpy as np
 
 from backlash_df import load_rig
 from backlash_df.identify import diagnose, load_measurements, synthesize
+from backlash_df.identify.calibrate import TwoMassModel, nominal_values, segment_bounds
 from backlash_df.identify.diagnose import EXTENDED_MIN_AHEAD_FIT, VALIDATION_HORIZON
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -154,6 +155,24 @@ def timing(repeat):
     print(f"one diagnose, {record.measurements.n_samples} samples, whole catalogue: {best[2][0]:.1f} s with 2 threads "
           f"(target < 20 s); one thread {best[1][0]:.1f} s, ratio {best[1][0] / best[2][0]:.2f} (wall clock; the "
           f"machine is shared, cpu times above)")
+    print(f"  ceiling of two threads on this machine: the prediction kernel alone (200 k-step runs of the record) "
+          f"{kernel_thread_ratio(record.measurements, rig):.2f}x faster on 2 threads than on 1")
+
+
+def kernel_thread_ratio(measurements, rig, runs=200):
+    """Wall-clock ratio of ``runs`` k-step runs of the two-mass model on one thread and on two: what the
+    hardware gives the compute-bound kernel (the diagnosis' other part holds the GIL)."""
+    model = TwoMassModel(measurements, rig)
+    values = nominal_values(rig) | {"theta_d0": 0.0}
+    starts, stops = segment_bounds(0, measurements.n_samples, 200)
+    model.run(values, starts, stops)
+    best = {}
+    for workers in (1, 2) * 3:
+        start = time.perf_counter()
+        with ThreadPoolExecutor(workers) as pool:
+            list(pool.map(lambda _: model.run(values, starts, stops), range(runs)))
+        best[workers] = min(best.get(workers, np.inf), time.perf_counter() - start)
+    return best[1] / best[2]
 
 
 def rigid_body_fit(measurements, inertia, window=slice(None)):
