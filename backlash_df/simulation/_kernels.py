@@ -21,6 +21,7 @@ import numpy as np
 
 from .._jit import inline as _inline
 from .._jit import jit as _jit
+from .._jit import jit_unchecked as _jit_unchecked
 from ..models import EXACT, exact_step, held_mode, mode_torque
 from ..system import command_index, command_mode_of, initial_command_mode
 
@@ -343,7 +344,7 @@ def _diverged(i, z, n, Z, T, THETA, MODES, CMODES):
     return False
 
 
-@_jit
+@_jit_unchecked
 def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, CMODES):
     """RK4 run of ``n_steps`` steps ``dt`` from ``z0``, filling ``Z``, ``T``, ``THETA``, the modes; returns the event count.
 
