@@ -85,7 +85,7 @@ def _torque(law, mode, x, v, p):
     return mode_torque(law, mode, x, v, p[0], p[1], p[2], p[3])
 
 
-@_inline
+@_jit_unchecked
 def _signals(t, delay, W, hist, dt, wvals, dvals):
     """The inputs ``w(t)`` into ``wvals`` and the delayed signals ``u_d(t)`` into ``dvals``."""
     # W spans the run uniformly: one row per output step, or two (half steps)
@@ -112,7 +112,7 @@ def _row_value(row, z, wvals, dvals):
     return acc
 
 
-@_inline
+@_jit_unchecked
 def _friction(z, f_row, f_level, f_eps, f_break, f_ws):
     """Friction torque of the driven machine at ``z`` (N m): smoothed Coulomb and breakaway; 0 without."""
     if f_level > 0.0 or f_break > 0.0:
@@ -123,7 +123,7 @@ def _friction(z, f_row, f_level, f_eps, f_break, f_ws):
     return 0.0
 
 
-@_inline
+@_jit_unchecked
 def _field(z, torque, friction, wvals, dvals, a_mat, b_t, e_mat, e_d, e_f, out, row):
     """``dz/dt = A z + b T + E w + e_d u_d - e_f F`` with the command linear, into ``out[row]``."""
     n = z.shape[0]
@@ -143,7 +143,7 @@ def _field(z, torque, friction, wvals, dvals, a_mat, b_t, e_mat, e_d, e_f, out, 
         out[row, i] = acc
 
 
-@_inline
+@_jit_unchecked
 def _command_field(z, cmode, column, u_row, limit, integrator, wvals, dvals, out, row):
     """``out[row]`` in command mode ``cmode``: saturated, +-limit in place of u; clamped (and sliding,
     projected after the step), the integrator held."""
@@ -160,17 +160,20 @@ def _stage(z, t, mode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, fri
     """``dz/dt`` at ``(z, t)`` in backlash mode ``mode``, the command linear, into ``out[row]``.
 
     The arrays of :meth:`~backlash_df.system.LinearPart.kernel_arrays` one by one,
-    ``friction`` its four constants: inlined, and every function it calls calls none,
-    so a stage makes no call and passes no tuple whose arrays numba reference-counts.
+    ``friction`` its four constants.  :func:`_rk4` writes these lines out: numba
+    reference-counts an inlined helper's arrays held across a call (here the law's
+    torque and the call-free helpers), and the arrays a compiled function takes if it
+    calls another, on every call.
     """
     x, v = _xv(z, c_x, c_v)
+    torque = _torque(law, mode, x, v, p)
     _signals(t, delay, W, hist, dt, wvals, dvals)
     f_level, f_eps, f_break, f_ws = friction
-    _field(z, _torque(law, mode, x, v, p), _friction(z, f_row, f_level, f_eps, f_break, f_ws), wvals, dvals, a_mat,
-           b_t, e_mat, e_d, e_f, out, row)
+    _field(z, torque, _friction(z, f_row, f_level, f_eps, f_break, f_ws), wvals, dvals, a_mat, b_t, e_mat, e_d, e_f,
+           out, row)
 
 
-@_inline
+@_jit
 def _rk4(z, t, h, mode, cmode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction, delay, column, u_row,
          limit, integrator, W, hist, dt, k, tmp, wvals, dvals, out):
     """One classical RK4 step ``h`` from ``(z, t)``, both modes frozen, into ``out``; stages in rows 0-3 of ``k``.
@@ -179,10 +182,14 @@ def _rk4(z, t, h, mode, cmode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_
     """
     n = z.shape[0]
     _copy_vector(z, tmp, n)
+    f_level, f_eps, f_break, f_ws = friction
     stage_t = t
-    for stage in range(4):
-        _stage(tmp, stage_t, mode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction, delay, W, hist,
-               dt, wvals, dvals, k, stage)
+    for stage in range(4):  # _stage written out: the call would reference-count its arrays
+        x, v = _xv(tmp, c_x, c_v)
+        torque = _torque(law, mode, x, v, p)
+        _signals(stage_t, delay, W, hist, dt, wvals, dvals)
+        _field(tmp, torque, _friction(tmp, f_row, f_level, f_eps, f_break, f_ws), wvals, dvals, a_mat, b_t, e_mat, e_d,
+               e_f, k, stage)
         if cmode != 0:
             _command_field(tmp, cmode, column, u_row, limit, integrator, wvals, dvals, k, stage)
         if stage < 3:
@@ -382,7 +389,7 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
         if i == n_steps or _diverged(i, z, n, Z, T, THETA, MODES, CMODES):
             break
         t = i * dt
-        if limit == 0.0:  # the first try of _advance, here: no call that reference-counts the arrays
+        if limit == 0.0:  # the first try of _advance, here: one call a step, and no tuple of arrays passed
             _rk4(z, t, dt, mode, cmode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction, delay, column,
                  u_row, limit, integrator, W, hist, dt, work, tmp, wvals, dvals, z_new)
             x1, v1 = _xv(z_new, c_x, c_v)
