@@ -160,7 +160,7 @@ def _stage(z, t, mode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, fri
     """``dz/dt`` at ``(z, t)`` in backlash mode ``mode``, the command linear, into ``out[row]``.
 
     The arrays of :meth:`~backlash_df.system.LinearPart.kernel_arrays` one by one,
-    ``friction`` its four constants.  :func:`_rk4` writes these lines out: numba
+    ``friction`` its four constants.  :func:`_free_steps` writes these lines out: numba
     reference-counts an inlined helper's arrays held across a call (here the law's
     torque and the call-free helpers), and the arrays a compiled function takes if it
     calls another, on every call.
@@ -173,7 +173,7 @@ def _stage(z, t, mode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, fri
            out, row)
 
 
-@_jit
+@_inline
 def _rk4(z, t, h, mode, cmode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction, delay, column, u_row,
          limit, integrator, W, hist, dt, k, tmp, wvals, dvals, out):
     """One classical RK4 step ``h`` from ``(z, t)``, both modes frozen, into ``out``; stages in rows 0-3 of ``k``.
@@ -182,14 +182,10 @@ def _rk4(z, t, h, mode, cmode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_
     """
     n = z.shape[0]
     _copy_vector(z, tmp, n)
-    f_level, f_eps, f_break, f_ws = friction
     stage_t = t
-    for stage in range(4):  # _stage written out: the call would reference-count its arrays
-        x, v = _xv(tmp, c_x, c_v)
-        torque = _torque(law, mode, x, v, p)
-        _signals(stage_t, delay, W, hist, dt, wvals, dvals)
-        _field(tmp, torque, _friction(tmp, f_row, f_level, f_eps, f_break, f_ws), wvals, dvals, a_mat, b_t, e_mat, e_d,
-               e_f, k, stage)
+    for stage in range(4):
+        _stage(tmp, stage_t, mode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction, delay, W, hist,
+               dt, wvals, dvals, k, stage)
         if cmode != 0:
             _command_field(tmp, cmode, column, u_row, limit, integrator, wvals, dvals, k, stage)
         if stage < 3:
@@ -351,6 +347,53 @@ def _diverged(i, z, n, Z, T, THETA, MODES, CMODES):
     return False
 
 
+@_jit
+def _free_steps(i, z, theta_b, mode, cmode, limit, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction,
+                delay, W, hist, dt, n_steps, d_rows, k, tmp, wvals, dvals, z_new, Z, T, THETA, MODES, CMODES):
+    """Sample ``i`` recorded, then, without a torque limit, the steps that stay in their modes, each sample recorded.
+
+    Returns ``(j, theta_b, ended)``: ``j`` the last sample recorded, ``z`` and
+    ``theta_b`` its state; ``ended`` if the run ends there (the last sample, or
+    diverged), else step ``j`` is left to the event path of :func:`run_rk4` (it
+    leaves its modes, or a limit is set).  The step is :func:`_rk4` in command mode 0
+    with :func:`_stage` written out: one call per run of such steps, and no array
+    held by an inlined helper across a call (numba would reference-count them).
+    """
+    n = z.shape[0]
+    f_level, f_eps, f_break, f_ws = friction
+    while True:
+        x, v = _xv(z, c_x, c_v)
+        torque = _torque(law, mode, x, v, p)
+        _record(i, z, n, theta_b, mode, cmode, torque, d_rows, Z, T, THETA, MODES, CMODES, hist)
+        if i == n_steps or _diverged(i, z, n, Z, T, THETA, MODES, CMODES):
+            return i, theta_b, True
+        if limit != 0.0:
+            return i, theta_b, False
+        t = i * dt
+        _copy_vector(z, tmp, n)
+        stage_t = t
+        for stage in range(4):
+            x_s, v_s = _xv(tmp, c_x, c_v)  # x, v: the step's start, for _backlash_after
+            torque = _torque(law, mode, x_s, v_s, p)
+            _signals(stage_t, delay, W, hist, dt, wvals, dvals)
+            _field(tmp, torque, _friction(tmp, f_row, f_level, f_eps, f_break, f_ws), wvals, dvals, a_mat, b_t, e_mat,
+                   e_d, e_f, k, stage)
+            if stage < 3:
+                ahead = dt if stage == 2 else 0.5 * dt
+                for j in range(n):
+                    tmp[j] = z[j] + ahead * k[stage, j]
+                stage_t = t + ahead
+        for j in range(n):
+            z_new[j] = z[j] + dt / 6.0 * (k[0, j] + 2.0 * k[1, j] + 2.0 * k[2, j] + k[3, j])
+        x1, v1 = _xv(z_new, c_x, c_v)
+        theta_end, changed = _backlash_after(law, p, mode, theta_b, x, v, x1, v1, dt)
+        if changed:
+            return i, theta_b, False
+        _copy_vector(z_new, z, n)
+        theta_b = theta_end
+        i += 1
+
+
 @_jit_unchecked
 def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, CMODES):
     """RK4 run of ``n_steps`` steps ``dt`` from ``z0``, filling ``Z``, ``T``, ``THETA``, the modes; returns the event count.
@@ -382,22 +425,15 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
     # unpacked once: a tuple of arrays passed on, even to an inlined helper, is reference-counted member by member
     a_mat, b_t, e_mat, c_x, c_v, _, e_d, delay, f_row, e_f, f_level, f_eps, f_break, f_ws = sys
     friction = (f_level, f_eps, f_break, f_ws)
-    column, u_row, _, limit, integrator = cmd
-    for i in range(n_steps + 1):
-        x, v = _xv(z, c_x, c_v)
-        _record(i, z, n, theta_b, mode, cmode, _torque(law, mode, x, v, p), d_rows, Z, T, THETA, MODES, CMODES, hist)
-        if i == n_steps or _diverged(i, z, n, Z, T, THETA, MODES, CMODES):
+    limit = cmd[3]
+    i = 0
+    while True:
+        i, theta_b, ended = _free_steps(i, z, theta_b, mode, cmode, limit, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d,
+                                        e_f, f_row, friction, delay, W, hist, dt, n_steps, d_rows, work, tmp, wvals,
+                                        dvals, z_new, Z, T, THETA, MODES, CMODES)
+        if ended:
             break
         t = i * dt
-        if limit == 0.0:  # the first try of _advance, here: one call a step, and no tuple of arrays passed
-            _rk4(z, t, dt, mode, cmode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction, delay, column,
-                 u_row, limit, integrator, W, hist, dt, work, tmp, wvals, dvals, z_new)
-            x1, v1 = _xv(z_new, c_x, c_v)
-            theta_end, changed = _backlash_after(law, p, mode, theta_b, x, v, x1, v1, dt)
-            if not changed:
-                _copy_vector(z_new, z, n)
-                theta_b = theta_end
-                continue
         remaining = dt
         for _ in range(_MAX_EVENTS_PER_STEP):
             theta_end, changed = _advance(z, theta_b, t, remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
@@ -442,6 +478,7 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
             theta_b, _ = _advance(z, theta_b, t, remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp,
                                   wvals, dvals, z_new)
             _copy_vector(z_new, z, n)
+        i += 1
     return events
 
 
