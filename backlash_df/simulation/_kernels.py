@@ -394,7 +394,7 @@ def _free_steps(i, z, theta_b, mode, cmode, limit, law, p, a_mat, b_t, e_mat, c_
         i += 1
 
 
-@_jit_unchecked
+@_jit
 def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, CMODES):
     """RK4 run of ``n_steps`` steps ``dt`` from ``z0``, filling ``Z``, ``T``, ``THETA``, the modes; returns the event count.
 
