@@ -10,10 +10,15 @@ import contextlib
 import numba
 from numba.core import event
 
-__all__ = ["jit", "inline", "copy_into", "on_first_compile"]
+__all__ = ["jit", "jit_unchecked", "inline", "copy_into", "on_first_compile"]
 
 #: Decorator of every compiled kernel of :mod:`backlash_df.system` and :mod:`backlash_df.simulation`.
 jit = numba.njit(cache=True, nogil=True)
+#: The same with numpy's error model: a float division by zero gives inf or NaN instead of raising.
+#: For call-free helpers whose divisors cannot be zero: the raise path of a checked division
+#: keeps numba from pruning the reference counts of their array arguments (the RK4 kernel's
+#: stage helpers: reference counting 43 % of a run with it, 24 % without).
+jit_unchecked = numba.njit(cache=True, nogil=True, error_model="numpy")
 #: The same for a small helper of a compiled loop, inlined into its callers by numba: a
 #: compiled function that calls another makes numba reference-count its array arguments
 #: on every call (NRT_incref/NRT_decref), a helper without calls does not.

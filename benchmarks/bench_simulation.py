@@ -48,7 +48,11 @@ torque and mode recorded, the mode guard :func:`~backlash_df.models.held_mode`) 
 kernel's time per step against it; and the **profile** of the kernel's run by ``perf``
 (sampled at 4 kHz over 200 runs after the warm-up; numba's code named through a perf map
 written from the compiled libraries): the share of the process of the top three
-functions.  Last, the summary at errors 1e-6 and 1e-10: the cheapest run of each method
+functions.  Then the laws of the RK4 kernel (rubber, beta 0.01 and 0.05, and ElastoBacklash on
+``load_feedback.toml``, no reference: their time per step only): the same floor row and a
+**4-stage floor**, a numba loop doing RK4's work per step (four stages ``A z + b T``, each with
+the law's torque, the kernel's record of state, torque, theta_b and both modes, the mode
+guard), against ``simulate``'s time per step.  Last, the summary at errors 1e-6 and 1e-10: the cheapest run of each method
 and the kernel's time against the best competitor's; ``build/work_precision.png``.
 """
 
@@ -62,12 +66,13 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import numba
 import numpy as np
 from scipy.linalg import expm, matrix_balance
 
-from backlash_df import load_rig, simulate
+from backlash_df import load_rig, make_model, simulate
 from backlash_df.loops import drive_loop
 from backlash_df.models import EQUATIONS, held_mode, mode_torque
 from backlash_df.simulation import initial_state
@@ -342,6 +347,94 @@ def floor_row(loop, repeat):
     return floor / n_steps * 1e9, kernel / n_steps * 1e9, phis.shape[1]
 
 
+@numba.njit(cache=True)
+def floor_rk4_loop(a_mat, b_t, z0, law, p, c_x, c_v, dt, n_steps, states, torque, theta, modes, cmodes):
+    """The RK4 kernel's work per step without events, inputs or friction: four stages ``A z + b T(mode, z)``,
+    the combination, the kernel's record (state, torque, theta_b, both modes) and the mode guard."""
+    n = z0.size
+    z, tmp, k = z0.copy(), np.empty(n), np.empty((4, n))
+    mode = 0
+    for i in range(n_steps + 1):
+        x = 0.0
+        v = 0.0
+        for j in range(n):
+            states[i, j] = z[j]
+            x += c_x[j] * z[j]
+            v += c_v[j] * z[j]
+        torque[i] = mode_torque(law, mode, x, v, p[0], p[1], p[2], p[3])
+        theta[i] = 0.0
+        modes[i] = mode
+        cmodes[i] = 0
+        if i == n_steps:
+            break
+        for j in range(n):
+            tmp[j] = z[j]
+        for s in range(4):
+            xs = 0.0
+            vs = 0.0
+            for j in range(n):
+                xs += c_x[j] * tmp[j]
+                vs += c_v[j] * tmp[j]
+            stage_torque = mode_torque(law, mode, xs, vs, p[0], p[1], p[2], p[3])
+            for r in range(n):
+                acc = b_t[r] * stage_torque
+                for j in range(n):
+                    acc += a_mat[r, j] * tmp[j]
+                k[s, r] = acc
+            if s < 3:
+                ahead = dt if s == 2 else 0.5 * dt
+                for j in range(n):
+                    tmp[j] = z[j] + ahead * k[s, j]
+        x = 0.0
+        v = 0.0
+        for j in range(n):
+            z[j] = z[j] + dt / 6.0 * (k[0, j] + 2.0 * k[1, j] + 2.0 * k[2, j] + k[3, j])
+            x += c_x[j] * z[j]
+            v += c_v[j] * z[j]
+        mode = held_mode(law, mode, x, v, p[0], p[1], p[2], p[3])
+    return mode
+
+
+#: The laws the RK4 kernel integrates (not piecewise affine), on load_feedback.toml: (law, beta).
+RK4_LAWS = (("rubber", 0.01), ("rubber", 0.05), ("elasto-backlash", 0.0))
+
+
+def rk4_loop(law, beta):
+    """A case of the RK4 kernel: the PI loop of load_feedback.toml with ``law``, the attributes floor_row reads."""
+    rig = load_rig(ROOT / "examples" / "load_feedback.toml")
+    plant = rig.plant
+    model = make_model(law, stiffness=plant.stiffness, damping=plant.damping, half_gap=plant.half_gap,
+                       **({"rubber_thickness": beta} if beta else {}))
+    part = drive_loop(rig).linear_part()
+    return SimpleNamespace(rig=rig, model=model, part=part, z0=initial_state(part, None, KICK))
+
+
+def rk4_floor_row(loop, repeat):
+    """(floor_row's three numbers, the 4-stage floor's ns per step) of an RK4 case, in one process."""
+    dt = GRID / SPLITS[-1]
+    n_steps = round(T_END / dt)
+    n = loop.z0.size
+    outputs = (np.empty((n_steps + 1, n)), np.empty(n_steps + 1), np.empty(n_steps + 1),
+               np.empty(n_steps + 1, dtype=np.int64), np.zeros(n_steps + 1, dtype=np.int64))
+
+    def run():
+        return floor_rk4_loop(loop.part.A, loop.part.b, loop.z0, loop.model.law, loop.model.params, loop.part.c_x,
+                              loop.part.c_v, dt, n_steps, *outputs)
+
+    run()
+    four, _ = best_of(run, max(repeat, 5))
+    return (*floor_row(loop, repeat), four / n_steps * 1e9)
+
+
+def print_rk4_rows(repeat):
+    for law, beta in RK4_LAWS:
+        floor, kernel, size, four = rk4_floor_row(rk4_loop(law, beta), repeat)
+        name = f"{law} (beta = {beta:g})" if beta else law
+        print(f"  RK4 kernel, {name}, load_feedback (dt = {GRID / SPLITS[-1]:.0e} s): floor ({size} x {size} product) "
+              f"{floor:.1f} ns/step, 4-stage floor {four:.1f} ns/step; kernel (whole call) {kernel:.0f} ns/step = "
+              f"{kernel / floor:.1f}x the floor, {kernel / four:.1f}x the 4-stage floor", flush=True)
+
+
 PROFILE_WORKER = """
 import sys, time
 sys.path.insert(0, {bench!r})
@@ -532,6 +625,8 @@ def main():
         if not args.no_profile:
             print(f"  profile of the kernel's run (perf, {PROFILE_RUNS} runs, share of the process): {profile(loop)}")
         cases.append((loop, points))
+    print(f"\nthe RK4 kernel's laws (load average {os.getloadavg()[0]:.2f})")
+    print_rk4_rows(args.repeat)
     print("\nsummary: the cheapest run of each method reaching the error")
     for loop, points in cases:
         print(f" {loop.name}")

@@ -92,3 +92,20 @@ def test_exact_reference_agrees_with_the_kernel_and_refinement():
     assert switches > 50
     assert np.abs(refined - reference).max() < 1e-15 * scale
     assert np.abs(kernel - reference).max() < 1e-10 * scale
+
+
+def test_rk4_floor_is_a_fourth_order_rk4_step():
+    """The RK4 floor's four stages are a classical RK4 step: off contact (a huge gap, no torque) its theta_d
+    after 0.5 s approaches the exact flow exp(A t) z0, the error falling about 16-fold per halving of dt."""
+    params = np.array([1.0, 0.0, 1e3, 0.0])
+    exact = (expm(A * 0.5) @ Z0)[0]
+    errors = []
+    for n_steps in (250, 500):
+        outputs = (np.empty((n_steps + 1, 2)), np.empty(n_steps + 1), np.empty(n_steps + 1),
+                   np.empty(n_steps + 1, dtype=np.int64), np.zeros(n_steps + 1, dtype=np.int64))
+        bench_simulation.floor_rk4_loop(A, np.array([0.0, 1.0]), Z0, DAMPED_DEAD_ZONE, params, np.array([1.0, 0.0]),
+                                        np.array([0.0, 1.0]), 0.5 / n_steps, n_steps, *outputs)
+        assert np.all(outputs[1] == 0.0) and np.all(outputs[3] == 0)  # free all along: no torque
+        errors.append(abs(outputs[0][-1, 0] - exact))
+    assert errors[1] < 1e-7 * abs(Z0).max()
+    assert 12.0 < errors[0] / errors[1] < 20.0

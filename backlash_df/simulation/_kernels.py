@@ -21,6 +21,7 @@ import numpy as np
 
 from .._jit import inline as _inline
 from .._jit import jit as _jit
+from .._jit import jit_unchecked as _jit_unchecked
 from ..models import EXACT, exact_step, held_mode, mode_torque
 from ..system import command_index, command_mode_of, initial_command_mode
 
@@ -73,7 +74,7 @@ def _history(hist, position, last, col):
             - 3.0 * (u + 1.0) * u * (u - 2.0) * f2 + (u + 1.0) * u * (u - 1.0) * f3) / 6.0
 
 
-@_jit
+@_inline
 def _torque(law, mode, x, v, p):
     if law == EXACT:
         if mode > 0:
@@ -84,7 +85,7 @@ def _torque(law, mode, x, v, p):
     return mode_torque(law, mode, x, v, p[0], p[1], p[2], p[3])
 
 
-@_jit
+@_jit_unchecked
 def _signals(t, delay, W, hist, dt, wvals, dvals):
     """The inputs ``w(t)`` into ``wvals`` and the delayed signals ``u_d(t)`` into ``dvals``."""
     # W spans the run uniformly: one row per output step, or two (half steps)
@@ -111,7 +112,7 @@ def _row_value(row, z, wvals, dvals):
     return acc
 
 
-@_jit
+@_jit_unchecked
 def _friction(z, f_row, f_level, f_eps, f_break, f_ws):
     """Friction torque of the driven machine at ``z`` (N m): smoothed Coulomb and breakaway; 0 without."""
     if f_level > 0.0 or f_break > 0.0:
@@ -122,7 +123,7 @@ def _friction(z, f_row, f_level, f_eps, f_break, f_ws):
     return 0.0
 
 
-@_jit
+@_jit_unchecked
 def _field(z, torque, friction, wvals, dvals, a_mat, b_t, e_mat, e_d, e_f, out, row):
     """``dz/dt = A z + b T + E w + e_d u_d - e_f F`` with the command linear, into ``out[row]``."""
     n = z.shape[0]
@@ -142,7 +143,7 @@ def _field(z, torque, friction, wvals, dvals, a_mat, b_t, e_mat, e_d, e_f, out, 
         out[row, i] = acc
 
 
-@_jit
+@_jit_unchecked
 def _command_field(z, cmode, column, u_row, limit, integrator, wvals, dvals, out, row):
     """``out[row]`` in command mode ``cmode``: saturated, +-limit in place of u; clamped (and sliding,
     projected after the step), the integrator held."""
@@ -154,29 +155,39 @@ def _command_field(z, cmode, column, u_row, limit, integrator, wvals, dvals, out
 
 
 @_inline
-def _stage(z, t, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, out, row):
-    """``dz/dt`` at ``(z, t)`` in backlash mode ``mode`` and command mode ``cmode``, into ``out[row]``.
+def _stage(z, t, mode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction, delay, W, hist, dt, wvals,
+           dvals, out, row):
+    """``dz/dt`` at ``(z, t)`` in backlash mode ``mode``, the command linear, into ``out[row]``.
 
-    Inlined, and every function it calls calls none: the hot loop of :func:`run_rk4`
-    makes no call whose arrays numba reference-counts.
+    The arrays of :meth:`~backlash_df.system.LinearPart.kernel_arrays` one by one,
+    ``friction`` its four constants.  :func:`_free_steps` writes these lines out: numba
+    reference-counts an inlined helper's arrays held across a call (here the law's
+    torque and the call-free helpers), and the arrays a compiled function takes if it
+    calls another, on every call.
     """
-    a_mat, b_t, e_mat, c_x, c_v, _, e_d, delay, f_row, e_f, f_level, f_eps, f_break, f_ws = sys
     x, v = _xv(z, c_x, c_v)
+    torque = _torque(law, mode, x, v, p)
     _signals(t, delay, W, hist, dt, wvals, dvals)
-    _field(z, _torque(law, mode, x, v, p), _friction(z, f_row, f_level, f_eps, f_break, f_ws), wvals, dvals, a_mat,
-           b_t, e_mat, e_d, e_f, out, row)
-    if cmode != 0:
-        _command_field(z, cmode, cmd[0], cmd[1], cmd[3], cmd[4], wvals, dvals, out, row)
+    f_level, f_eps, f_break, f_ws = friction
+    _field(z, torque, _friction(z, f_row, f_level, f_eps, f_break, f_ws), wvals, dvals, a_mat, b_t, e_mat, e_d, e_f,
+           out, row)
 
 
 @_inline
-def _rk4(z, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, k, tmp, wvals, dvals, out):
-    """One classical RK4 step ``h`` from ``(z, t)``, both modes frozen, into ``out``; stages in rows 0-3 of ``k``."""
+def _rk4(z, t, h, mode, cmode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction, delay, column, u_row,
+         limit, integrator, W, hist, dt, k, tmp, wvals, dvals, out):
+    """One classical RK4 step ``h`` from ``(z, t)``, both modes frozen, into ``out``; stages in rows 0-3 of ``k``.
+
+    ``column, u_row, limit, integrator`` the command's (module docs), read in command modes other than 0.
+    """
     n = z.shape[0]
     _copy_vector(z, tmp, n)
     stage_t = t
     for stage in range(4):
-        _stage(tmp, stage_t, mode, cmode, sys, cmd, law, p, W, hist, dt, wvals, dvals, k, stage)
+        _stage(tmp, stage_t, mode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction, delay, W, hist,
+               dt, wvals, dvals, k, stage)
+        if cmode != 0:
+            _command_field(tmp, cmode, column, u_row, limit, integrator, wvals, dvals, k, stage)
         if stage < 3:
             ahead = h if stage == 2 else 0.5 * h
             for i in range(n):
@@ -190,24 +201,27 @@ def _rk4(z, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, k, tmp, wvals, dva
 def _command_mode_rk4(mode, cmode, z, t, sys, cmd, law, p, W, hist, dt, work, wvals, dvals):
     """The command mode of state ``z`` at ``t`` reached in ``cmode`` (``du/dt`` by the clamped field
     and by differences of the inputs and delayed signals over half a step)."""
-    _, row, error, limit, integrator = cmd
+    column, row, error, limit, integrator = cmd
     if limit == 0.0:
         return 0
-    _signals(t, sys[7], W, hist, dt, wvals, dvals)
+    a_mat, b_t, e_mat, c_x, c_v, _, e_d, delay, f_row, e_f, f_level, f_eps, f_break, f_ws = sys
+    _signals(t, delay, W, hist, dt, wvals, dvals)
     u = _row_value(row, z, wvals, dvals)
     e = _row_value(error, z, wvals, dvals)
     side = (1 if cmode > 0 else -1) if cmode != 0 else (1 if u > limit else (-1 if u < -limit else 0))
     if side == 0:
         return 0
-    _stage(z, t, mode, 2 * side if integrator >= 0 else side, sys, cmd, law, p, W, hist, dt, wvals, dvals, work, 5)
+    _stage(z, t, mode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, (f_level, f_eps, f_break, f_ws), delay,
+           W, hist, dt, wvals, dvals, work, 5)
+    _command_field(z, 2 * side if integrator >= 0 else side, column, row, limit, integrator, wvals, dvals, work, 5)
     clamped = 0.0
     for j in range(z.shape[0]):
         clamped += row[j] * work[5, j]
     n, m = z.shape[0], wvals.shape[0]
     h = 0.5 * dt
-    _signals(t + h, sys[7], W, hist, dt, wvals, dvals)
+    _signals(t + h, delay, W, hist, dt, wvals, dvals)
     ahead_w, ahead_d = wvals.copy(), dvals.copy()
-    _signals(max(t - h, 0.0), sys[7], W, hist, dt, wvals, dvals)
+    _signals(max(t - h, 0.0), delay, W, hist, dt, wvals, dvals)
     span = t + h - max(t - h, 0.0)
     for j in range(m):
         clamped += row[n + j] * (ahead_w[j] - wvals[j]) / span
@@ -266,15 +280,17 @@ def _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
     projected back onto ``u = +-limit``: with the command saturated the rest of the
     loop does not see the integrator.
     """
-    _rk4(z, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp, wvals, dvals, z_out)
+    a_mat, b_t, e_mat, c_x, c_v, _, e_d, delay, f_row, e_f, f_level, f_eps, f_break, f_ws = sys
+    column, row, _, limit, integrator = cmd
+    _rk4(z, t, h, mode, cmode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, (f_level, f_eps, f_break, f_ws),
+         delay, column, row, limit, integrator, W, hist, dt, work, tmp, wvals, dvals, z_out)
     if abs(cmode) == 3:
-        _, row, _, limit, integrator = cmd
-        _signals(t + h, sys[7], W, hist, dt, wvals, dvals)
+        _signals(t + h, delay, W, hist, dt, wvals, dvals)
         z_out[integrator] += ((limit if cmode > 0 else -limit) - _row_value(row, z_out, wvals, dvals)) / row[integrator]
-    command_leaves = cmd[3] > 0.0 and _command_mode_rk4(mode, cmode, z_out, t + h, sys, cmd, law, p, W, hist, dt,
-                                                         work, wvals, dvals) != cmode
-    x0, v0 = _xv(z, sys[3], sys[4])
-    x1, v1 = _xv(z_out, sys[3], sys[4])
+    command_leaves = limit > 0.0 and _command_mode_rk4(mode, cmode, z_out, t + h, sys, cmd, law, p, W, hist, dt,
+                                                       work, wvals, dvals) != cmode
+    x0, v0 = _xv(z, c_x, c_v)
+    x1, v1 = _xv(z_out, c_x, c_v)
     theta_new, backlash_leaves = _backlash_after(law, p, mode, theta_b, x0, v0, x1, v1, h)
     return theta_new, command_leaves or backlash_leaves
 
@@ -332,6 +348,53 @@ def _diverged(i, z, n, Z, T, THETA, MODES, CMODES):
 
 
 @_jit
+def _free_steps(i, z, theta_b, mode, cmode, limit, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction,
+                delay, W, hist, dt, n_steps, d_rows, k, tmp, wvals, dvals, z_new, Z, T, THETA, MODES, CMODES):
+    """Sample ``i`` recorded, then, without a torque limit, the steps that stay in their modes, each sample recorded.
+
+    Returns ``(j, theta_b, ended)``: ``j`` the last sample recorded, ``z`` and
+    ``theta_b`` its state; ``ended`` if the run ends there (the last sample, or
+    diverged), else step ``j`` is left to the event path of :func:`run_rk4` (it
+    leaves its modes, or a limit is set).  The step is :func:`_rk4` in command mode 0
+    with :func:`_stage` written out: one call per run of such steps, and no array
+    held by an inlined helper across a call (numba would reference-count them).
+    """
+    n = z.shape[0]
+    f_level, f_eps, f_break, f_ws = friction
+    while True:
+        x, v = _xv(z, c_x, c_v)
+        torque = _torque(law, mode, x, v, p)
+        _record(i, z, n, theta_b, mode, cmode, torque, d_rows, Z, T, THETA, MODES, CMODES, hist)
+        if i == n_steps or _diverged(i, z, n, Z, T, THETA, MODES, CMODES):
+            return i, theta_b, True
+        if limit != 0.0:
+            return i, theta_b, False
+        t = i * dt
+        _copy_vector(z, tmp, n)
+        stage_t = t
+        for stage in range(4):
+            x_s, v_s = _xv(tmp, c_x, c_v)  # x, v: the step's start, for _backlash_after
+            torque = _torque(law, mode, x_s, v_s, p)
+            _signals(stage_t, delay, W, hist, dt, wvals, dvals)
+            _field(tmp, torque, _friction(tmp, f_row, f_level, f_eps, f_break, f_ws), wvals, dvals, a_mat, b_t, e_mat,
+                   e_d, e_f, k, stage)
+            if stage < 3:
+                ahead = dt if stage == 2 else 0.5 * dt
+                for j in range(n):
+                    tmp[j] = z[j] + ahead * k[stage, j]
+                stage_t = t + ahead
+        for j in range(n):
+            z_new[j] = z[j] + dt / 6.0 * (k[0, j] + 2.0 * k[1, j] + 2.0 * k[2, j] + k[3, j])
+        x1, v1 = _xv(z_new, c_x, c_v)
+        theta_end, changed = _backlash_after(law, p, mode, theta_b, x, v, x1, v1, dt)
+        if changed:
+            return i, theta_b, False
+        _copy_vector(z_new, z, n)
+        theta_b = theta_end
+        i += 1
+
+
+@_jit
 def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, CMODES):
     """RK4 run of ``n_steps`` steps ``dt`` from ``z0``, filling ``Z``, ``T``, ``THETA``, the modes; returns the event count.
 
@@ -359,21 +422,18 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
                                      cmd[4] >= 0)
     events = 0
     tmp = np.empty(n)
-    c_x, c_v = sys[3], sys[4]
-    for i in range(n_steps + 1):
-        x, v = _xv(z, c_x, c_v)
-        _record(i, z, n, theta_b, mode, cmode, _torque(law, mode, x, v, p), d_rows, Z, T, THETA, MODES, CMODES, hist)
-        if i == n_steps or _diverged(i, z, n, Z, T, THETA, MODES, CMODES):
+    # unpacked once: a tuple of arrays passed on, even to an inlined helper, is reference-counted member by member
+    a_mat, b_t, e_mat, c_x, c_v, _, e_d, delay, f_row, e_f, f_level, f_eps, f_break, f_ws = sys
+    friction = (f_level, f_eps, f_break, f_ws)
+    limit = cmd[3]
+    i = 0
+    while True:
+        i, theta_b, ended = _free_steps(i, z, theta_b, mode, cmode, limit, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d,
+                                        e_f, f_row, friction, delay, W, hist, dt, n_steps, d_rows, work, tmp, wvals,
+                                        dvals, z_new, Z, T, THETA, MODES, CMODES)
+        if ended:
             break
         t = i * dt
-        if cmd[3] == 0.0:  # the first try of _advance, here: no call that reference-counts the arrays
-            _rk4(z, t, dt, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp, wvals, dvals, z_new)
-            x1, v1 = _xv(z_new, c_x, c_v)
-            theta_end, changed = _backlash_after(law, p, mode, theta_b, x, v, x1, v1, dt)
-            if not changed:
-                _copy_vector(z_new, z, n)
-                theta_b = theta_end
-                continue
         remaining = dt
         for _ in range(_MAX_EVENTS_PER_STEP):
             theta_end, changed = _advance(z, theta_b, t, remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
@@ -397,7 +457,7 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
             h = hi * remaining
             theta_try, _ = _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp, wvals,
                                     dvals, z_try)
-            x, v = _xv(z_try, sys[3], sys[4])
+            x, v = _xv(z_try, c_x, c_v)
             if law == EXACT and mode == 0:
                 theta_try = p[2] if theta_try > 0.0 else -p[2]
             new_mode = _mode_of(law, p, mode, x, v, theta_try)
@@ -418,6 +478,7 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
             theta_b, _ = _advance(z, theta_b, t, remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp,
                                   wvals, dvals, z_new)
             _copy_vector(z_new, z, n)
+        i += 1
     return events
 
 
