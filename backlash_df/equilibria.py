@@ -47,7 +47,7 @@ import math
 import numpy as np
 
 from .disturbances import KINDS, MOTOR_SPEED, TWIST, Disturbance
-from .models import DAMPED_DEAD_ZONE, DEAD_ZONE, ELASTO_BACKLASH, EXACT, PHASE_PLANE, REVISED_DEAD_ZONE, RUBBER
+from .models import DAMPED_DEAD_ZONE, DEAD_ZONE, ELASTO_BACKLASH, RUBBER
 from .loops import drive_loop
 from .system import closed_loop_matrix, lti_linear_part, with_pade
 
@@ -164,17 +164,7 @@ def linear_stability(part, stiffness, damping, regime="contact", pade_order=PADE
 
 def contact_shaft(model):
     """``(k, c)`` of a law's contact mode, N m/rad and N m s/rad: the dead zone (24) contacts without damping."""
-    return model.stiffness, 0.0 if _law(model) == DEAD_ZONE else model.damping
-
-
-def _law(model):
-    """The law code whose modes the rests follow (the rubber law without rubber is the phase plane law, (40))."""
-    law = model.law
-    if law == RUBBER and model.rubber_thickness == 0.0:
-        law = PHASE_PLANE
-    if model.damping == 0.0 and law in (DAMPED_DEAD_ZONE, REVISED_DEAD_ZONE, PHASE_PLANE, EXACT):
-        law = DEAD_ZONE  # without damping these laws are the dead zone (24) (Remark 2 for the exact model)
-    return law
+    return model.stiffness, 0.0 if model.mode_law == DEAD_ZONE else model.damping
 
 
 # --------------------------------------------------------------------------- rests
@@ -332,7 +322,7 @@ def rest_points(part, model, inputs=None, pade_order=PADE_ORDER):
     if not np.all(np.abs(border @ solution - rhs) <= 1e-9 * scale + 1e-300):
         return (), "the loop has no state with every rate zero"
     (z0, z1), (t0, t1) = solution[:n].T, solution[n]
-    law = _law(model)
+    law = model.mode_law
     found, limited = [], []
     for side, theta, continuum in _rest_angles(model, law, t0, t1):
         z = z0 + theta * z1

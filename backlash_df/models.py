@@ -437,6 +437,18 @@ class BacklashModel:
         return LAW_CODES[self.name]
 
     @property
+    def mode_law(self):
+        """The law code whose modes the model follows: :attr:`law`, except that the rubber law without
+        rubber is the phase plane law (40), and that without damping the damped laws and the exact
+        model are the dead zone (24) (Remark 2 for the exact model)."""
+        law = self.law
+        if law == RUBBER and self.rubber_thickness == 0.0:
+            law = PHASE_PLANE
+        if self.damping == 0.0 and law in (DAMPED_DEAD_ZONE, REVISED_DEAD_ZONE, PHASE_PLANE, EXACT):
+            law = DEAD_ZONE
+        return law
+
+    @property
     def params(self):
         """``(k, c, alpha, beta)`` as a float64 array, the kernels' parameter vector."""
         return np.array([self.stiffness, self.damping, self.half_gap, self.rubber_thickness])

@@ -83,7 +83,6 @@ from .models import (
     EXACT,
     PHASE_PLANE,
     REVISED_DEAD_ZONE,
-    RUBBER,
     BacklashModel,
     theta_star,
 )
@@ -179,11 +178,7 @@ def _mirrored(function, law, k, c, alpha, x, v, tb):
 
 def _orbit_law(model, rig):
     """Law code the shooting runs for ``model``, or a one-line ``ValueError`` if it cannot."""
-    law = model.law
-    if law == RUBBER and model.rubber_thickness == 0.0:
-        law = PHASE_PLANE
-    if model.damping == 0.0 and law in (DAMPED_DEAD_ZONE, REVISED_DEAD_ZONE, PHASE_PLANE, EXACT):
-        law = DEAD_ZONE  # without damping every law is the dead-zone (24) (Remark 2 for the exact model)
+    law = model.mode_law
     if law not in (DEAD_ZONE, DAMPED_DEAD_ZONE, REVISED_DEAD_ZONE, PHASE_PLANE, EXACT):
         raise ValueError(
             f"periodic_orbit: the {model.name!r} law is not affine inside its modes; "
