@@ -300,19 +300,26 @@ def methods(loop):
 # --------------------------------------------------------------------------- the floor and the profile
 
 
+@numba.njit(cache=True, inline="always")
+def _stored(i, q, c_x, c_v, states):
+    """``q[:n]`` stored as row ``i`` of ``states``; returns (x, v) = (c_x . q, c_v . q), as the kernels' record."""
+    x = 0.0
+    v = 0.0
+    for j in range(c_x.size):
+        states[i, j] = q[j]
+        x += c_x[j] * q[j]
+        v += c_v[j] * q[j]
+    return x, v
+
+
 @numba.njit(cache=True)
 def floor_loop(phis, q0, law, p, c_x, c_v, n_steps, states, torque, modes):
     """The kernel's work per step without its event location: product, record, mode guard."""
-    n, size = c_x.size, q0.size
+    size = q0.size
     q, new = q0.copy(), np.empty(size)
     mode = 0
     for i in range(n_steps + 1):
-        x = 0.0
-        v = 0.0
-        for j in range(n):
-            states[i, j] = q[j]
-            x += c_x[j] * q[j]
-            v += c_v[j] * q[j]
+        x, v = _stored(i, q, c_x, c_v, states)
         torque[i] = mode_torque(law, mode, x, v, p[0], p[1], p[2], p[3])
         modes[i] = mode
         if i == n_steps:
@@ -355,12 +362,7 @@ def floor_rk4_loop(a_mat, b_t, z0, law, p, c_x, c_v, dt, n_steps, states, torque
     z, tmp, k = z0.copy(), np.empty(n), np.empty((4, n))
     mode = 0
     for i in range(n_steps + 1):
-        x = 0.0
-        v = 0.0
-        for j in range(n):
-            states[i, j] = z[j]
-            x += c_x[j] * z[j]
-            v += c_v[j] * z[j]
+        x, v = _stored(i, z, c_x, c_v, states)
         torque[i] = mode_torque(law, mode, x, v, p[0], p[1], p[2], p[3])
         theta[i] = 0.0
         modes[i] = mode
