@@ -233,6 +233,44 @@ def test_stages_that_disagree_name_the_effect_without_a_value():
     assert "constant 40 N m" in rigid.causes[1].describe()
 
 
+def test_a_held_load_as_large_as_the_commanded_torque_is_found():
+    """A constant load of 150 N m that the PI holds makes the recorded torque about -150 N m on average, with
+    peaks of 269 N m: the offset must be fitted whole (the truth inside its interval), not stopped at a bound
+    (it was once capped at half the peak, 134 N m with an interval that excluded 150)."""
+    rig = load_rig(RIG_FILE)
+    record = synthesize(rig, "torque_offset", size=150.0, seed=1, duration=4.0)
+    result = diagnose(record.measurements, rig, workers=2)
+    assert _keys(result) == {"torque_offset"}
+    cause = result.causes[0]
+    low, high = cause.parameters["torque_offset"].ci95
+    assert low <= 150.0 <= high and cause.determined and not cause.on_bound
+
+
+def test_a_cause_on_the_bound_of_its_range_is_named_without_a_value():
+    """A fit that ends on a bound of the range it allows gives a bound, not an estimate, with an interval that
+    means nothing: the cause is named, undetermined, and says why in the terminal's words, the sentence and the
+    JSON (``on_bound``)."""
+    from types import SimpleNamespace
+
+    from backlash_df.identify import FitParameter
+    from backlash_df.identify.diagnose import _causes
+
+    def extended(value):
+        parameter = FitParameter("torque_offset", value, 100.0, 0.0, -2464.0, 2464.0, "N m")
+        return SimpleNamespace(calibration=SimpleNamespace(effect_parameter=lambda key: parameter))
+
+    bounded, = _causes(extended(2464.0), [("torque_offset", 0.98)], "rigid_body")
+    inside, = _causes(extended(2000.0), [("torque_offset", 0.98)], "rigid_body")
+    assert bounded.on_bound and not bounded.determined and inside.determined and not inside.on_bound
+    assert bounded.summary() == ("torque_offset: not determined: on the bound of the fit's range, 2464 N m "
+                                 "(-2464 .. 2464)")
+    assert "bound, not an estimate" in bounded.describe() and "constant" not in bounded.describe()
+    assert "constant 2000 N m" in inside.describe() and "95 % CI 1804 .. 2196" in inside.summary()
+    entry = bounded.to_dict()
+    assert entry["on_bound"] is True and entry["determined"] is False
+    assert json.loads(json.dumps(inside.to_dict()))["on_bound"] is False
+
+
 def test_kuka_axis_with_gravity_is_said_to_be_explained_only_in_part():
     """Axis 2 of the same robot carries a pose-dependent gravity torque (and a counterbalance)
     that no catalogue effect expresses: whatever causes are named, the diagnosis must say they

@@ -60,11 +60,8 @@ def diagnose_command(data, rig_file, json_out, report_out, strict):
                f"{shaft.mode_frequency:.3g} Hz, resolved band {shaft.resolved_frequency:.3g} Hz)")
     for cause in result.causes:
         side = f" ({cause.side} side)" if cause.side and cause.structure == "two_mass" else ""
-        for name, parameter in cause.parameters.items():
-            low, high = parameter.ci95
-            value = f"{parameter.value:.4g}" if cause.determined else "not determined"
-            click.echo(f"  {cause.effect}{side}: {name} = {value} {parameter.unit} "
-                       f"(95 % CI {low:.4g} .. {high:.4g}), gain {100 * cause.gain:.1f} %")
+        for name in cause.parameters:
+            click.echo(f"  {cause.effect}{side}: {name} = {cause.value_text(name)}, gain {100 * cause.gain:.1f} %")
     if result.causes:
         click.echo(f"  (gain: {GAIN_DEFINITION})")
     for label, causes in (("two-mass", result.two_mass_causes), ("rigid-body", result.rigid_body.causes)):

@@ -62,7 +62,9 @@ its segments on the rigid body's state where no angles are recorded, is the
 cross-check: an effect both name whose 95 % intervals do not overlap is named
 without a value, and the diagnosis says why (:func:`stage_disagreements`).  Elsewhere
 the two-mass stage names the causes and the rigid-body stage is reported beside
-it (a rigid body cannot express the shaft there).
+it (a rigid body cannot express the shaft there).  A cause whose parameter ends
+on a bound of the range the fit allows is named without a value too
+(:attr:`Cause.on_bound`): the data ask for more than the range gives.
 """
 
 import dataclasses
@@ -248,8 +250,9 @@ class Cause:
     structure : str
         The model whose value it is: ``"two_mass"`` or ``"rigid_body"`` (module docs, "Two structures").
     determined : bool
-        False where the two structures disagree on its value beyond their 95 % intervals: the effect is
-        named, its value is not (:attr:`Diagnosis.disagreements`).
+        False where the two structures disagree on its value beyond their 95 % intervals
+        (:attr:`Diagnosis.disagreements`), or where its parameter ends on a bound of the range the fit allows
+        (:attr:`on_bound`): the effect is named, its value is not.
     """
 
     effect: str
@@ -264,35 +267,55 @@ class Cause:
         """Catalogue key: ``effect@side``, or ``effect`` without a side."""
         return self.effect + (f"@{self.side}" if self.side else "")
 
+    @property
+    def on_bound(self):
+        """True where the effect's parameter ends on a bound of the range the fit allows
+        (:attr:`.calibrate.FitParameter.on_bound`): the data ask for a value beyond it, so the value is a bound,
+        not an estimate, and its interval means nothing; such a cause is not :attr:`determined`."""
+        return any(p.on_bound for p in self.parameters.values())
+
     def to_dict(self):
         """The ``causes`` entry of the ``diagnose`` JSON: effect, side, gain, ``{name: {"value", "ci95", "unit"}}``,
-        structure, determined."""
+        structure, determined, on_bound."""
         return {"effect": self.effect, "side": self.side, "gain": self.gain,
                 "parameters": {name: {"value": p.value, "ci95": list(p.ci95), "unit": p.unit}
                                for name, p in self.parameters.items()},
-                "structure": self.structure, "determined": self.determined}
+                "structure": self.structure, "determined": self.determined, "on_bound": self.on_bound}
+
+    def value_text(self, name):
+        """Parameter ``name`` as printed: ``value unit (95 % CI low .. high)``; ``not determined`` for the value
+        where the cause is not :attr:`determined`, and the fit's range for the interval where it is
+        :attr:`on_bound`."""
+        p = self.parameters[name]
+        if self.on_bound:
+            return (f"not determined: on the bound of the fit's range, {p.value:.4g} {p.unit} "
+                    f"({p.lower:.4g} .. {p.upper:.4g})")
+        value = f"{p.value:.4g}" if self.determined else "not determined"
+        return f"{value} {p.unit} (95 % CI {p.ci95[0]:.4g} .. {p.ci95[1]:.4g})"
 
     def summary(self):
-        """``effect (side): value unit (low .. high)``, the side left out on the rigid body (one inertia) and the
-        value where it is not :attr:`determined`."""
-        parameter = self.parameters[self.effect]
-        low, high = parameter.ci95
+        """``effect (side): value unit (95 % CI low .. high)`` (:meth:`value_text`), the side left out on the rigid
+        body (one inertia)."""
         side = f" ({self.side} side)" if self.side and self.structure != "rigid_body" else ""
-        value = f"{parameter.value:.4g}" if self.determined else "not determined"
-        return f"{self.effect}{side}: {value} {parameter.unit} ({low:.4g} .. {high:.4g})"
+        return f"{self.effect}{side}: {self.value_text(self.effect)}"
 
     def describe(self):
-        """The cause in a sentence a person can act on (:meth:`.effects.Effect.describe`), or, where the two
-        structures disagree on its value, that the drive has it but the record does not determine its size."""
-        if not self.determined:
-            return (f"The drive has {self.effect.replace('_', ' ')}, but this record does not determine its size: "
-                    f"the rigid-body and the two-mass model disagree beyond their intervals (see the warnings).")
+        """The cause in a sentence a person can act on (:meth:`.effects.Effect.describe`), or, where its value
+        is not :attr:`determined`, that the drive has it but the record does not determine its size, and why."""
         parameter = self.parameters[self.effect]
+        name = self.effect.replace("_", " ")
+        if self.on_bound:
+            return (f"The drive has {name}, but this record does not determine its size: the fit ends on the bound "
+                    f"of the range it allows ({parameter.value:.4g} {parameter.unit}) and asks for a value beyond "
+                    f"it, so the value is a bound, not an estimate; the effect may stand in for something outside "
+                    f"the catalogue (see the warnings).")
+        if not self.determined:
+            return (f"The drive has {name}, but this record does not determine its size: "
+                    f"the rigid-body and the two-mass model disagree beyond their intervals (see the warnings).")
         return get_effect(self.key).describe(parameter.value, *parameter.ci95, rigid=self.structure == "rigid_body")
 
     def __repr__(self):
-        values = ", ".join(f"{name} = {f'{p.value:.4g}' if self.determined else 'not determined'} {p.unit} "
-                           f"(95 % CI {p.ci95[0]:.4g} .. {p.ci95[1]:.4g})" for name, p in self.parameters.items())
+        values = ", ".join(f"{name} = {self.value_text(name)}" for name in self.parameters)
         return f"<Cause {self.key} ({_STRUCTURE_NAMES[self.structure]}): {values}; gain {100 * self.gain:.1f} %>"
 
     def __getitem__(self, key):
@@ -958,7 +981,8 @@ def _causes(extended, order, structure):
     for key, gain in sorted(order, key=lambda item: -item[1]):
         effect = get_effect(key)
         parameter = extended.calibration.effect_parameter(key)
-        causes.append(Cause(effect.name, effect.side, {effect.parameter: parameter}, gain, structure))
+        causes.append(Cause(effect.name, effect.side, {effect.parameter: parameter}, gain, structure,
+                            determined=not parameter.on_bound))
     return causes
 
 
@@ -1225,7 +1249,8 @@ def _diagnose(measurements, rig, candidates, estimation_fraction, transient_frac
     answer = two_mass if shaft.resolved else rigid
     disagreements = [] if shaft.resolved else stage_disagreements(rigid, two_mass)
     undetermined = {disagreement["effect"] for disagreement in disagreements}
-    causes = [dataclasses.replace(cause, determined=cause.effect not in undetermined) for cause in answer.causes]
+    causes = [dataclasses.replace(cause, determined=cause.determined and cause.effect not in undetermined)
+              for cause in answer.causes]
     warnings = list(two_mass.warnings)
     if answer is rigid:
         warnings += [f"rigid-body model: {warning}" for warning in rigid.warnings]

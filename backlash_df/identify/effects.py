@@ -103,8 +103,8 @@ class Effect:
             return 0.0, torque_scale
         if self.name == "viscous_friction":
             return 0.0, torque_scale / speed_scale
-        if self.name == "torque_offset":
-            return -0.5 * torque_scale, 0.5 * torque_scale
+        if self.name == "torque_offset":  # a held constant load (gravity on a robot axis) needs about its size
+            return -torque_scale, torque_scale
         return 0.0, min(0.05, 0.1 * measurements.duration)  # actuator_delay
 
     def start(self, rig):
