@@ -250,17 +250,14 @@ def test_a_cause_on_the_bound_of_its_range_is_named_without_a_value():
     """A fit that ends on a bound of the range it allows gives a bound, not an estimate, with an interval that
     means nothing: the cause is named, undetermined, and says why in the terminal's words, the sentence and the
     JSON (``on_bound``)."""
-    from types import SimpleNamespace
-
     from backlash_df.identify import FitParameter
-    from backlash_df.identify.diagnose import _causes
 
-    def extended(value):
+    def cause(value):
         parameter = FitParameter("torque_offset", value, 100.0, 0.0, -2464.0, 2464.0, "N m")
-        return SimpleNamespace(calibration=SimpleNamespace(effect_parameter=lambda key: parameter))
+        return Cause("torque_offset", None, {"torque_offset": parameter}, 0.98, "rigid_body")
 
-    bounded, = _causes(extended(2464.0), [("torque_offset", 0.98)], "rigid_body")
-    inside, = _causes(extended(2000.0), [("torque_offset", 0.98)], "rigid_body")
+    bounded, inside = cause(2464.0), cause(2000.0)
+    assert dataclasses.replace(bounded, determined=True).determined is False
     assert bounded.on_bound and not bounded.determined and inside.determined and not inside.on_bound
     assert bounded.summary() == ("torque_offset: not determined: on the bound of the fit's range, 2464 N m "
                                  "(-2464 .. 2464)")

@@ -267,6 +267,10 @@ class Cause:
         """Catalogue key: ``effect@side``, or ``effect`` without a side."""
         return self.effect + (f"@{self.side}" if self.side else "")
 
+    def __post_init__(self):
+        if self.on_bound:  # a bound is not an estimate, whatever the caller says
+            object.__setattr__(self, "determined", False)
+
     @property
     def on_bound(self):
         """True where the effect's parameter ends on a bound of the range the fit allows
@@ -981,8 +985,7 @@ def _causes(extended, order, structure):
     for key, gain in sorted(order, key=lambda item: -item[1]):
         effect = get_effect(key)
         parameter = extended.calibration.effect_parameter(key)
-        causes.append(Cause(effect.name, effect.side, {effect.parameter: parameter}, gain, structure,
-                            determined=not parameter.on_bound))
+        causes.append(Cause(effect.name, effect.side, {effect.parameter: parameter}, gain, structure))
     return causes
 
 
