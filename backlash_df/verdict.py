@@ -134,7 +134,7 @@ class Probe:
                 "duration": float(self.duration)}
 
 
-def probe(rig, model, disturbance, rest=None, linear=None, t_end=10.0, max_t_end=160.0, role="ladder", dt=None):
+def probe(rig, model, disturbance, rest=None, linear=None, t_end=10.0, max_t_end=320.0, role="ladder", dt=None):
     """Simulate the loop from a rest disturbed by one disturbance, until it has decided.
 
     The run starts at ``t_end`` and doubles (from the start) up to ``max_t_end``
@@ -568,7 +568,7 @@ def _separatrix(rig, prediction, orbits, cycle):
     return max(below, key=lambda o: o.amplitude, default=None)
 
 
-def judge_loop(rig, prediction, linear=None, t_end=10.0, max_t_end=160.0, disturbances=None, exact=False,
+def judge_loop(rig, prediction, linear=None, t_end=10.0, max_t_end=320.0, disturbances=None, exact=False,
                refinement=1):
     """The verdict on a rig's loop with one torque law (module docs).
 

@@ -17,7 +17,7 @@ The law is the phase plane (23) throughout.
 
 * **Verdict** (:func:`backlash_df.verdict.judge_loop`): the rests, the DF cycles, the linear
   loop in contact and open, the probes from the rests.
-* **Truth**: long simulations (80 s, doubled up to 320 s until clear) from the rest, set up
+* **Truth**: long simulations (80 s, doubled up to 1280 s until clear) from the rest, set up
   here from the block diagram (speeds 0, the shaft on the flank carrying ``-T_l``, the
   integrator holding it), disturbed in ways the verdict does not use: kicks of the relative
   speed ``dtheta_d(0) = a w_n`` (motor and load speeds at ``+-a w_n / 2``, ``a = 1.1, 3, 10,
@@ -28,8 +28,10 @@ The law is the phase plane (23) throughout.
   ``|theta_d| > 1e3 alpha``); ``cycle`` if the envelope of ``|dtheta_d|`` over the last
   tenth of the run is at least 0.97 of that over 0.45 .. 0.55 of it and it switches
   (contact, release, the command's limit) there at least 4 times, as often as in the
-  middle (within a quarter, +-2); ``rest`` if that ratio is below 0.8 or the motion
-  has died to 1e-9 of its largest speed; otherwise the run is doubled, and at 320 s it is
+  middle (within a quarter, +-2); ``rest`` if that ratio is below 0.8 and the switches
+  thin out (none at the end, or fewer than three quarters of those in the middle: a
+  motion falling onto a cycle keeps switching as often), or the motion has died to 1e-9
+  of its largest speed; otherwise the run is doubled, and at 1280 s it is
   rest if nothing switched over its last fifth (the load coasting in the gap), else
   unsettled.  Classes: every run at rest -> ``no oscillation``; cycles only -> ``limit
   cycle``; rest and cycles -> ``bistable``; runs that diverge and none that cycles ->
@@ -57,6 +59,7 @@ from backlash_df.verdict import VERDICTS, judge_loop
 
 DAMPINGS = (1.0, 3.0, 10.0, 30.0)  # N m s/rad
 TRUTH_KICKS = (1.1, 3.0, 10.0, 40.0)  # a / alpha
+TRUTH_T_END = 1280.0  # s, the longest truth run: four times the verdict's longest probe
 CORPORA = {"loaded": (200, 2026), "drives": (200, 2027)}
 
 
@@ -137,7 +140,8 @@ def classify_run(run, alpha, final=False):
     if run.command_mode is not None:
         switching |= np.diff(run.command_mode) != 0
     switches_middle, switches_end = switching[in_middle[1:]].sum(), switching[in_end[1:]].sum()
-    if end <= 1e-9 * speed.max() or end < 0.8 * middle:
+    thinning = switches_end == 0 or switches_end < 0.75 * switches_middle
+    if end <= 1e-9 * speed.max() or (end < 0.8 * middle and thinning):
         return "rest"
     if end >= 0.97 * middle and switches_end >= 4 and abs(switches_end - switches_middle) <= 0.25 * switches_middle + 2:
         return "cycle"
@@ -151,9 +155,9 @@ def truth(rig):
     outcomes = Counter()
     for start in truth_starts(rig):
         t_end, outcome = 80.0, None
-        while outcome is None and t_end <= 320.0:
+        while outcome is None and t_end <= TRUTH_T_END:
             run = simulate(rig, "phase-plane", t_end=t_end, initial=start)
-            outcome = classify_run(run, rig.plant.half_gap, final=t_end == 320.0)
+            outcome = classify_run(run, rig.plant.half_gap, final=t_end == TRUTH_T_END)
             t_end *= 2.0
         outcomes[outcome or "unsettled"] += 1
     if outcomes["unsettled"]:

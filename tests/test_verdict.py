@@ -253,6 +253,26 @@ def test_predict_and_judge_loop_print_the_same_disturbances(tmp_path, name):
             for p in entry["probes"] if p["role"] == "ladder"] == list(standard_disturbances(rig))
 
 
+def test_a_motion_converging_slowly_onto_a_cycle_is_followed_until_it_arrives():
+    """A cascade whose largest kick (50 alpha w_n) still falls onto its cycle after 160 s: the verdict follows it
+    to 320 s and calls the cycle, as a 1280 s run shows it (the test's own rule: over the last two tenths the
+    peak relative speed is steady to 1 % and the gear keeps switching at the same rate)."""
+    rig = rig_from_dict({
+        "plant": {"motor_inertia": 0.485, "load_inertia": 5.49, "stiffness": 3022.0, "damping": 30.0,
+                  "half_gap": 0.0215},
+        "controller": {"kp": 14.29, "ti": 0.376, "feedback": "load", "speed_filter": 0.00686, "delay": 0.000236,
+                       "structure": "cascade", "kv": 20.17, "position_feedback": "load"}})
+    kick = max(standard_disturbances(rig), key=lambda d: (d.kind == "motor speed", d.value))  # 50 alpha w_n
+    assert probe(rig, "phase-plane", kick, max_t_end=160.0).outcome == "unsettled"
+    verdict = judge_loop(rig, predict_limit_cycles(rig, "phase-plane"))
+    assert verdict.verdict == "limit cycle" and all(p.outcome == "cycle" for p in verdict.probes)
+    run = simulate(rig, "phase-plane", t_end=1280.0, initial=kick.initial())
+    t, speed, switches = run.time, np.abs(run.dtheta_d), np.diff(run.mode) != 0
+    late, last = (t >= 0.8 * t[-1]) & (t < 0.9 * t[-1]), t >= 0.9 * t[-1]
+    assert speed[last].max() == pytest.approx(speed[late].max(), rel=0.01)
+    assert switches[last[1:]].sum() == pytest.approx(switches[late[1:]].sum(), abs=3) and switches[last[1:]].sum() > 100
+
+
 def test_probe_alone_gives_one_disturbance_outcome():
     rig = load_rig(EXAMPLES / "loaded_feedback.toml")
     calm = probe(rig, "phase-plane", Disturbance(TWIST, 0.01))

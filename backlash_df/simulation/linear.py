@@ -190,7 +190,7 @@ def _command_trace(system, time, states, w_grid):
 
 
 #: Most steps of one simulation: every sample is stored (about 80 bytes a step), and the
-#: bundled rigs need at most 2e6 (160 s at the default step of 1e-4 s).
+#: verdict and verification need at most 3.2e6 (320 s at the default step of 1e-4 s).
 MAX_STEPS = 20_000_000
 
 
