@@ -31,9 +31,9 @@ The law is the phase plane (23) throughout.
   middle (within a quarter, +-2); ``rest`` if that ratio is below 0.8 and the switches
   thin out (none at the end, or fewer than three quarters of those in the middle: a
   motion falling onto a cycle keeps switching as often), or the motion has died to 1e-9
-  of its largest speed; otherwise the run is doubled, and at 1280 s it is
-  rest if nothing switched over its last fifth (the load coasting in the gap), else
-  unsettled.  Classes: every run at rest -> ``no oscillation``; cycles only -> ``limit
+  of its largest speed; otherwise the run is doubled, and at 1280 s (or the longest run
+  ``MAX_STEPS`` allows at the rig's step) it is rest if nothing switched over its last
+  fifth (the load coasting in the gap), else unsettled.  Classes: every run at rest -> ``no oscillation``; cycles only -> ``limit
   cycle``; rest and cycles -> ``bistable``; runs that diverge and none that cycles ->
   ``unstable``; cycles and diverging runs -> ``limit cycle`` (the cycle caps small
   motions); any unsettled run -> ``undetermined``.
@@ -54,6 +54,7 @@ import numpy as np
 
 from backlash_df import rig_from_dict, simulate
 from backlash_df.limit_cycles import predict_limit_cycles, verify_limit_cycles
+from backlash_df.simulation import MAX_STEPS
 from backlash_df.sweeps import prediction_verdict
 from backlash_df.verdict import VERDICTS, judge_loop
 
@@ -155,9 +156,12 @@ def truth(rig):
     outcomes = Counter()
     for start in truth_starts(rig):
         t_end, outcome = 80.0, None
-        while outcome is None and t_end <= TRUTH_T_END:
+        while outcome is None:
             run = simulate(rig, "phase-plane", t_end=t_end, initial=start)
-            outcome = classify_run(run, rig.plant.half_gap, final=t_end == TRUTH_T_END)
+            final = 2.0 * t_end > TRUTH_T_END or 2.0 * t_end / (run.time[1] - run.time[0]) > MAX_STEPS
+            outcome = classify_run(run, rig.plant.half_gap, final=final)
+            if final:
+                break
             t_end *= 2.0
         outcomes[outcome or "unsettled"] += 1
     if outcomes["unsettled"]:

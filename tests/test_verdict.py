@@ -273,6 +273,22 @@ def test_a_motion_converging_slowly_onto_a_cycle_is_followed_until_it_arrives():
     assert switches[last[1:]].sum() == pytest.approx(switches[late[1:]].sum(), abs=3) and switches[last[1:]].sum() > 100
 
 
+def test_a_run_that_would_pass_the_step_limit_is_not_doubled(monkeypatch):
+    """A loop whose step is fine reaches MAX_STEPS before max_t_end: the motion stays undecided instead of the
+    next, longer run refusing to start."""
+    import backlash_df.simulation.linear as linear
+    import backlash_df.simulation.rig as rig_module
+
+    rig = load_rig(EXAMPLES / "motor_feedback.toml")
+    initial = {"theta_d": 3 * rig.plant.half_gap}
+    for module in (linear, rig_module):
+        monkeypatch.setattr(module, "MAX_STEPS", 60_000)  # 7.2 s at this rig's step of 1.2e-4 s
+    with pytest.raises(ValueError, match="more than 6e\\+04"):
+        simulate(rig, "phase-plane", t_end=10.0, initial=initial)
+    measured, run = simulated_limit_cycle(rig, "phase-plane", t_end=5.0, max_t_end=160.0, initial=initial)
+    assert not measured.settled and run.time[-1] == pytest.approx(5.0, abs=1e-3)
+
+
 def test_probe_alone_gives_one_disturbance_outcome():
     rig = load_rig(EXAMPLES / "loaded_feedback.toml")
     calm = probe(rig, "phase-plane", Disturbance(TWIST, 0.01))

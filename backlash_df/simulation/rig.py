@@ -6,7 +6,7 @@ from ..loops import drive_loop
 from ..models import BacklashModel
 from ..system import lti_linear_part
 from .cycles import measure_limit_cycle
-from .linear import default_step, simulate_linear, timed_inputs
+from .linear import MAX_STEPS, default_step, simulate_linear, timed_inputs
 
 __all__ = ["simulate_rig", "simulated_limit_cycle", "initial_state"]
 
@@ -97,8 +97,9 @@ def simulated_limit_cycle(rig, model=None, t_end=20.0, max_t_end=160.0, dt=None,
 
     Runs :func:`simulate_rig` for ``t_end`` and doubles it (re-running from the
     start, so a dead time's history stays exact) until :func:`measure_limit_cycle`
-    finds a steady state or ``max_t_end`` is passed.  A motion that dies out in two
-    successive runs (the second confirming the first) is rest.
+    finds a steady state, or the next run would pass ``max_t_end`` or
+    :data:`~.linear.MAX_STEPS` steps (a stiff loop's fine step).  A motion that
+    dies out in two successive runs (the second confirming the first) is rest.
 
     Parameters
     ----------
@@ -120,6 +121,7 @@ def simulated_limit_cycle(rig, model=None, t_end=20.0, max_t_end=160.0, dt=None,
     while True:
         result = simulate_rig(rig, model, t_end=t_end, dt=dt, **kwargs)
         measured = measure_limit_cycle(result, periods=periods, rtol=rtol, previous=measured)
-        if measured.settled or 2.0 * t_end > max_t_end:
+        longer = 2.0 * t_end / (result.time[1] - result.time[0])  # steps of the next run
+        if measured.settled or 2.0 * t_end > max_t_end or longer > MAX_STEPS:
             return measured, result
         t_end *= 2.0
