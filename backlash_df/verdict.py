@@ -31,9 +31,9 @@ and names one of
 ``limit cycle``
     every disturbance that leaves the rest's mode ends on a stable cycle;
 ``bistable``
-    a locally stable rest, or disturbances that settle, beside ones that end on
-    a stable cycle; the separating (unstable) cycle's amplitude is where the
-    hunting starts;
+    a locally stable rest, or disturbances that leave the rest's mode and
+    settle, beside ones that end on a stable cycle; the separating (unstable)
+    cycle's amplitude is where the hunting starts;
 ``unstable``
     the loop in contact is unstable and no stable cycle caps the growth, or the
     loop has no rest (a torque limit below the load);
@@ -96,6 +96,10 @@ class Probe:
         Simulated time of the run that decided, s.
     rest : Rest
         The rest it started from.
+    left_mode : bool
+        The run switched at least once (a contact, a release, the command's limit):
+        a motion that never did stays in the mode it started in, and at a marginal
+        rest (the gap of a free load) settles by construction.
     """
 
     disturbance: object
@@ -104,6 +108,7 @@ class Probe:
     scale: float = math.nan
     duration: float = math.nan
     rest: object = dataclasses.field(default=None, repr=False, compare=False)
+    left_mode: bool = True
 
     @property
     def outcome(self):
@@ -128,10 +133,11 @@ class Probe:
         return f"Probe({self.disturbance}{where}{end})"
 
     def to_dict(self):
-        """JSON entry: the disturbance ``{"kind", "value", "unit"}``, role, outcome, simulated cycle or null, measured word, s."""
+        """JSON entry: the disturbance ``{"kind", "value", "unit"}``, role, outcome, simulated cycle or null, measured
+        word, s, left_mode."""
         return {"disturbance": self.disturbance.to_dict(), "role": self.role, "outcome": self.outcome,
                 "simulated": self.measured.cycle_dict(), "measured": self.measured.verdict,
-                "duration": float(self.duration)}
+                "duration": float(self.duration), "left_mode": bool(self.left_mode)}
 
 
 def probe(rig, model, disturbance, rest=None, linear=None, t_end=10.0, max_t_end=320.0, role="ladder", dt=None):
@@ -185,7 +191,8 @@ def probe(rig, model, disturbance, rest=None, linear=None, t_end=10.0, max_t_end
         rest = rests[0]
     measured, result = simulated_limit_cycle(rig, model, t_end=t_end, max_t_end=max_t_end, dt=dt,
                                              initial=rest.initial(disturbance), linear=linear, theta_b0=rest.theta_b)
-    return Probe(disturbance, measured, role, _scale(rig, disturbance, linear), float(result.time[-1]), rest)
+    return Probe(disturbance, measured, role, _scale(rig, disturbance, linear), float(result.time[-1]), rest,
+                 left_mode=result.events > 0)
 
 
 def _scale(rig, disturbance, linear):
@@ -468,7 +475,7 @@ def _decide(prediction, contact, rests, probes, orbits=()):
     by = {kind: [p for p in probes if p.outcome == kind] for kind in ("rest", "cycle", "diverged", "unsettled")}
     cycles, diverged = by["cycle"], by["diverged"]
     # a probe that stays inside a marginal rest's mode (the gap of a free load) settles by construction
-    calm = [p for p in by["rest"] if p.role != "within reach" or p.rest.stable]
+    calm = [p for p in by["rest"] if p.left_mode or p.rest.stable]
     if by["unsettled"]:
         p = by["unsettled"][0]
         return "undetermined", (f"the motion from {_one(p.disturbance)} did not settle "
@@ -517,7 +524,7 @@ def _cycling(prediction, contact, rests, probes, orbits, calm):
     what = f"a stable cycle A = {cycle.amplitude:.4g} rad, w = {cycle.omega:.4g} rad/s (simulated; {agrees})"
     holding = _holding(rests, probes)
     if not holding and not calm:
-        inside = any(p.role == "within reach" and p.outcome == "rest" for p in probes)
+        inside = any(p.outcome == "rest" and not p.left_mode for p in probes)
         smallest = " and ".join(_one(d) for d in _smallest(cycles))
         return "limit cycle", (f"every disturbance tried ends on {what}, the smallest {smallest}"
                                + (" (smaller ones stay in the gap)" if inside else "") + others + runaway), fields

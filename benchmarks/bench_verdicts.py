@@ -33,10 +33,14 @@ The law is the phase plane (23) throughout.
   motion falling onto a cycle keeps switching as often), or the motion has died to 1e-9
   of its largest speed; otherwise the run is doubled, and at 1280 s (or the longest run
   ``MAX_STEPS`` allows at the rig's step) it is rest if nothing switched over its last
-  fifth (the load coasting in the gap), else unsettled.  Classes: every run at rest -> ``no oscillation``; cycles only -> ``limit
-  cycle``; rest and cycles -> ``bistable``; runs that diverge and none that cycles ->
-  ``unstable``; cycles and diverging runs -> ``limit cycle`` (the cycle caps small
-  motions); any unsettled run -> ``undetermined``.
+  fifth (the load coasting in the gap), else unsettled.  A cycle is called only on a
+  run of at least 640 s (a slow loop's long transient looks steady for a while), and a
+  rest whose run never switched, on an unloaded rig, is ``stayed`` (the motion never
+  left the gap of the free load, where it settles by construction: no evidence either
+  way, as for the verdict).  Classes: every run at rest -> ``no oscillation``; cycles
+  only -> ``limit cycle``; rest and cycles -> ``bistable``; runs that diverge and none
+  that cycles -> ``unstable``; cycles and diverging runs -> ``limit cycle`` (the cycle
+  caps small motions); any unsettled run -> ``undetermined``.
 * **Named alternative**: the DF alone (:func:`backlash_df.sweeps.prediction_verdict`).
 
 Printed: both confusion matrices (rows: truth, columns: verdict), the agreement rates, the
@@ -61,6 +65,7 @@ from backlash_df.verdict import VERDICTS, judge_loop
 DAMPINGS = (1.0, 3.0, 10.0, 30.0)  # N m s/rad
 TRUTH_KICKS = (1.1, 3.0, 10.0, 40.0)  # a / alpha
 TRUTH_T_END = 1280.0  # s, the longest truth run: four times the verdict's longest probe
+TRUTH_CYCLE_T_END = 640.0  # s, the shortest run on which the truth calls a cycle
 CORPORA = {"loaded": (200, 2026), "drives": (200, 2027)}
 
 
@@ -151,19 +156,29 @@ def classify_run(run, alpha, final=False):
     return None
 
 
+def truth_run(rig, start):
+    """``diverged``, ``cycle``, ``rest``, ``stayed`` or ``unsettled``: one truth start run until clear (module docs)."""
+    t_end = 80.0
+    while True:
+        run = simulate(rig, "phase-plane", t_end=t_end, initial=start)
+        final = 2.0 * t_end > TRUTH_T_END or 2.0 * t_end / (run.time[1] - run.time[0]) > MAX_STEPS
+        outcome = classify_run(run, rig.plant.half_gap, final=final)
+        if outcome == "cycle" and t_end < TRUTH_CYCLE_T_END and not final:
+            outcome = None  # a slow loop's long transient looks steady for a while: confirmed on a longer run
+        if outcome is not None or final:
+            break
+        t_end *= 2.0
+    switched = np.diff(run.mode) != 0
+    if run.command_mode is not None:
+        switched |= np.diff(run.command_mode) != 0
+    if outcome == "rest" and rig.load.torque == 0.0 and not switched.any():
+        return "stayed"  # never touched a flank: in the gap of a free load that settles by construction
+    return outcome or "unsettled"
+
+
 def truth(rig):
     """Class of what long simulations from the truth's starts show (module docs)."""
-    outcomes = Counter()
-    for start in truth_starts(rig):
-        t_end, outcome = 80.0, None
-        while outcome is None:
-            run = simulate(rig, "phase-plane", t_end=t_end, initial=start)
-            final = 2.0 * t_end > TRUTH_T_END or 2.0 * t_end / (run.time[1] - run.time[0]) > MAX_STEPS
-            outcome = classify_run(run, rig.plant.half_gap, final=final)
-            if final:
-                break
-            t_end *= 2.0
-        outcomes[outcome or "unsettled"] += 1
+    outcomes = Counter(truth_run(rig, start) for start in truth_starts(rig))
     if outcomes["unsettled"]:
         return "undetermined", outcomes
     if outcomes["cycle"]:

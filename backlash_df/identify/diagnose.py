@@ -262,14 +262,14 @@ class Cause:
     structure: str = "two_mass"
     determined: bool = True
 
+    def __post_init__(self):
+        if self.on_bound:  # a bound is not an estimate, whatever the caller says
+            object.__setattr__(self, "determined", False)
+
     @property
     def key(self):
         """Catalogue key: ``effect@side``, or ``effect`` without a side."""
         return self.effect + (f"@{self.side}" if self.side else "")
-
-    def __post_init__(self):
-        if self.on_bound:  # a bound is not an estimate, whatever the caller says
-            object.__setattr__(self, "determined", False)
 
     @property
     def on_bound(self):
