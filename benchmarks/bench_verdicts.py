@@ -34,7 +34,7 @@ The law is the phase plane (23) throughout.
   of its largest speed; otherwise the run is doubled, and at 1280 s (or the longest run
   ``MAX_STEPS`` allows at the rig's step) it is rest if nothing switched over its last
   fifth (the load coasting in the gap), else unsettled.  A cycle is called only on a
-  run of at least 640 s (a slow loop's long transient looks steady for a while), and a
+  run of at least 320 s (a slow loop's long transient looks steady for a while), and a
   rest whose run never switched, on an unloaded rig, is ``stayed`` (the motion never
   left the gap of the free load, where it settles by construction: no evidence either
   way, as for the verdict).  Classes: every run at rest -> ``no oscillation``; cycles
@@ -65,7 +65,7 @@ from backlash_df.verdict import VERDICTS, judge_loop
 DAMPINGS = (1.0, 3.0, 10.0, 30.0)  # N m s/rad
 TRUTH_KICKS = (1.1, 3.0, 10.0, 40.0)  # a / alpha
 TRUTH_T_END = 1280.0  # s, the longest truth run: four times the verdict's longest probe
-TRUTH_CYCLE_T_END = 640.0  # s, the shortest run on which the truth calls a cycle
+TRUTH_CYCLE_T_END = 320.0  # s, the shortest run on which the truth calls a cycle
 CORPORA = {"loaded": (200, 2026), "drives": (200, 2027)}
 
 
@@ -164,7 +164,9 @@ def truth_run(rig, start):
         final = 2.0 * t_end > TRUTH_T_END or 2.0 * t_end / (run.time[1] - run.time[0]) > MAX_STEPS
         outcome = classify_run(run, rig.plant.half_gap, final=final)
         if outcome == "cycle" and t_end < TRUTH_CYCLE_T_END and not final:
-            outcome = None  # a slow loop's long transient looks steady for a while: confirmed on a longer run
+            # a slow loop's long transient looks steady for a while: confirmed on a run of TRUTH_CYCLE_T_END
+            outcome, t_end = None, TRUTH_CYCLE_T_END
+            continue
         if outcome is not None or final:
             break
         t_end *= 2.0
