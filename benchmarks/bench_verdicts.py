@@ -134,6 +134,14 @@ def truth_starts(rig):
     return starts
 
 
+def _switching(run):
+    """Per step, whether the backlash or the command (a torque limit) changed mode."""
+    switching = np.diff(run.mode) != 0
+    if run.command_mode is not None:
+        switching |= np.diff(run.command_mode) != 0
+    return switching
+
+
 def classify_run(run, alpha, final=False):
     """``diverged``, ``cycle``, ``rest`` or ``None`` (not clear yet) for one long run (module docs)."""
     with np.errstate(invalid="ignore"):
@@ -142,9 +150,7 @@ def classify_run(run, alpha, final=False):
     t, speed = run.time, np.abs(run.dtheta_d)
     in_middle, in_end = (t >= 0.45 * t[-1]) & (t <= 0.55 * t[-1]), t >= 0.9 * t[-1]
     middle, end = speed[in_middle].max(), speed[in_end].max()
-    switching = np.diff(run.mode) != 0
-    if run.command_mode is not None:
-        switching |= np.diff(run.command_mode) != 0
+    switching = _switching(run)
     switches_middle, switches_end = switching[in_middle[1:]].sum(), switching[in_end[1:]].sum()
     thinning = switches_end == 0 or switches_end < 0.75 * switches_middle
     if end <= 1e-9 * speed.max() or (end < 0.8 * middle and thinning):
@@ -170,10 +176,7 @@ def truth_run(rig, start):
         if outcome is not None or final:
             break
         t_end *= 2.0
-    switched = np.diff(run.mode) != 0
-    if run.command_mode is not None:
-        switched |= np.diff(run.command_mode) != 0
-    if outcome == "rest" and rig.load.torque == 0.0 and not switched.any():
+    if outcome == "rest" and rig.load.torque == 0.0 and not _switching(run).any():
         return "stayed"  # never touched a flank: in the gap of a free load that settles by construction
     return outcome or "unsettled"
 
