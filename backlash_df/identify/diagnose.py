@@ -307,16 +307,15 @@ class Cause:
         """The cause in a sentence a person can act on (:meth:`.effects.Effect.describe`), or, where its value
         is not :attr:`determined`, that the drive has it but the record does not determine its size, and why."""
         parameter = self.parameters[self.effect]
-        name = self.effect.replace("_", " ")
-        if self.on_bound:
-            return (f"The drive has {name}, but this record does not determine its size: the fit ends on the bound "
-                    f"of the range it allows ({parameter.value:.4g} {parameter.unit}) and asks for a value beyond "
-                    f"it, so the value is a bound, not an estimate; the effect may stand in for something outside "
-                    f"the catalogue (see the warnings).")
-        if not self.determined:
-            return (f"The drive has {name}, but this record does not determine its size: "
-                    f"the rigid-body and the two-mass model disagree beyond their intervals (see the warnings).")
-        return get_effect(self.key).describe(parameter.value, *parameter.ci95, rigid=self.structure == "rigid_body")
+        if self.determined:
+            return get_effect(self.key).describe(parameter.value, *parameter.ci95,
+                                                 rigid=self.structure == "rigid_body")
+        why = (f"the fit ends on the bound of the range it allows ({parameter.value:.4g} {parameter.unit}) and asks "
+               f"for a value beyond it, so the value is a bound, not an estimate; the effect may stand in for "
+               f"something outside the catalogue" if self.on_bound
+               else "the rigid-body and the two-mass model disagree beyond their intervals")
+        return (f"The drive has {self.effect.replace('_', ' ')}, but this record does not determine its size: "
+                f"{why} (see the warnings).")
 
     def __repr__(self):
         values = ", ".join(f"{name} = {self.value_text(name)}" for name in self.parameters)
