@@ -27,7 +27,9 @@ works from the loop's rest points outward (:mod:`backlash_df.equilibria`):
 and names one of
 
 ``no oscillation``
-    every disturbance tried settles (the largest of each kind is stated);
+    every disturbance tried settles (the largest of each kind is stated), also
+    where the loop in contact is unstable: each motion then leaves contact
+    before it grows, and the reason says so;
 ``limit cycle``
     every disturbance that leaves the rest's mode ends on a stable cycle;
 ``bistable``
@@ -35,8 +37,9 @@ and names one of
     settle, beside ones that end on a stable cycle; the separating (unstable)
     cycle's amplitude is where the hunting starts;
 ``unstable``
-    the loop in contact is unstable and no stable cycle caps the growth, or the
-    loop has no rest (a torque limit below the load);
+    the loop in contact is unstable and no stable cycle caps the growth (a
+    disturbance diverges, or none leaves the rest's mode), or the loop has no
+    rest (a torque limit below the load);
 ``undetermined``
     a motion does not settle, or a loop stable in contact diverges.
 
@@ -481,7 +484,8 @@ def _decide(prediction, contact, rests, probes, orbits=()):
         return "undetermined", (f"the motion from {_one(p.disturbance)} did not settle "
                                 f"({p.measured.verdict} after {p.duration:.3g} s)"), {}
     runaway_in_contact = contact.status == "unstable"  # a marginal pole (a free integrator) is no runaway
-    if runaway_in_contact and not cycles:
+    # every motion that left the rest settling, none diverging: contact does not last long enough to grow
+    if runaway_in_contact and not cycles and (diverged or not calm):
         fields = {}
         if calm:
             amplitude, source = _separating(prediction, orbits, calm, diverged)
@@ -495,10 +499,13 @@ def _decide(prediction, contact, rests, probes, orbits=()):
     settles = _settling(probes)
     if not cycles:
         fields = {"settles_up_to": settles, "df_agrees": not prediction.stable_cycles}
+        contact_words = (f"; the loop in contact is {contact.describe()}, but every motion leaves contact before "
+                         "it grows" if runaway_in_contact else "")
         if prediction.stable_cycles:  # started on the DF's cycle (a probe of the ladder), the loop settled too
             return "no oscillation", (f"settles from every disturbance tried ({_list(settles, 'up to')}), a twist "
-                                      f"onto the DF's cycle too; DF UNRELIABLE here: {_df_words(prediction)}"), fields
-        return "no oscillation", f"settles from every disturbance tried ({_list(settles, 'up to')}); " \
+                                      f"onto the DF's cycle too{contact_words}; DF UNRELIABLE here: "
+                                      f"{_df_words(prediction)}"), fields
+        return "no oscillation", f"settles from every disturbance tried ({_list(settles, 'up to')}){contact_words}; " \
             f"{_df_words(prediction)}", fields
     return _cycling(prediction, contact, rests, probes, orbits, calm)
 

@@ -165,6 +165,32 @@ def test_a_capped_contact_loop_is_a_saturated_limit_cycle_and_unstable_without_t
     assert free.verdict == "unstable" and not free.saturated
 
 
+#: drives corpus rig #108, rounded (kv raised from 9.69 so that the contact loop is unstable): a cascade on
+#: the motor angle whose contact loop grows slowly at 292 rad/s (the filter, lag and dead time), torque-limited
+SLOW_RUNAWAY = {"plant": {"motor_inertia": 0.67, "load_inertia": 5.06, "stiffness": 5931.0, "damping": 3.0,
+                          "half_gap": 0.053},
+                "controller": {"feedback": "motor", "kp": 278.6, "ti": 0.832, "speed_filter": 0.0029,
+                               "torque_lag": 0.0026, "delay": 0.00069, "structure": "cascade", "kv": 12.0,
+                               "position_feedback": "motor", "torque_limit": 565.2}}
+
+
+def test_a_contact_loop_unstable_whose_motions_all_settle_is_no_oscillation():
+    rig = bd.rig_from_dict(SLOW_RUNAWAY)
+    verdict = bd.judge_loop(rig, bd.predict_limit_cycles(rig, "phase-plane"))
+    assert verdict.contact_loop.status == "unstable"
+    assert verdict.verdict == "no oscillation", verdict.reason
+    assert "leaves contact before it grows" in verdict.reason
+    assert all(p.outcome == "rest" for p in verdict.probes)
+    # disturbances the verdict does not use, run for 60 s: kicks of the relative speed (motor and load
+    # speeds opposite) of 3 and 40 alpha w_n; each motion dies out
+    w_n = math.sqrt(rig.plant.stiffness * (1.0 / rig.plant.motor_inertia + 1.0 / rig.plant.load_inertia))
+    for a in (3.0, 40.0):
+        kick = 0.5 * a * rig.plant.half_gap * w_n
+        run = bd.simulate(rig, "phase-plane", t_end=60.0, initial={"motor_speed": kick, "load_speed": -kick})
+        speed = np.abs(run.dtheta_d)
+        assert speed[run.time > 54.0].max() < 1e-3 * speed.max()
+
+
 def test_a_pi_given_as_an_lti_is_the_built_in_pi():
     rig = tuned(structure="cascade", kv=20.0)
     ctl = rig.controller
