@@ -505,8 +505,8 @@ def _decide(prediction, contact, rests, probes, orbits=()):
             return "no oscillation", (f"settles from every disturbance tried ({_list(settles, 'up to')}), a twist "
                                       f"onto the DF's cycle too{contact_words}; DF UNRELIABLE here: "
                                       f"{_df_words(prediction)}"), fields
-        return "no oscillation", f"settles from every disturbance tried ({_list(settles, 'up to')}){contact_words}; " \
-            f"{_df_words(prediction)}", fields
+        return "no oscillation", (f"settles from every disturbance tried ({_list(settles, 'up to')}){contact_words}; "
+                                  f"{_df_words(prediction)}"), fields
     return _cycling(prediction, contact, rests, probes, orbits, calm)
 
 
