@@ -100,9 +100,10 @@ class Probe:
     rest : Rest
         The rest it started from.
     left_mode : bool
-        The run switched at least once (a contact, a release, the command's limit):
-        a motion that never did stays in the mode it started in, and at a marginal
-        rest (the gap of a free load) settles by construction.
+        The backlash switched at least once (a contact or a release; the
+        command's limit not counted): a motion that never did stays in the mode
+        it started in, and at a marginal rest (the gap of a free load) settles by
+        construction, saturated command or not.
     """
 
     disturbance: object
@@ -195,7 +196,7 @@ def probe(rig, model, disturbance, rest=None, linear=None, t_end=10.0, max_t_end
     measured, result = simulated_limit_cycle(rig, model, t_end=t_end, max_t_end=max_t_end, dt=dt,
                                              initial=rest.initial(disturbance), linear=linear, theta_b0=rest.theta_b)
     return Probe(disturbance, measured, role, _scale(rig, disturbance, linear), float(result.time[-1]), rest,
-                 left_mode=result.events > 0)
+                 left_mode=result.backlash_switched)
 
 
 def _scale(rig, disturbance, linear):

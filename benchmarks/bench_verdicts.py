@@ -35,9 +35,9 @@ The law is the phase plane (23) throughout.
   ``MAX_STEPS`` allows at the rig's step) it is rest if nothing switched over its last
   fifth (the load coasting in the gap), else unsettled.  A cycle is called only on a
   run of at least 320 s (a slow loop's long transient looks steady for a while), and a
-  rest whose run never switched, on an unloaded rig, is ``stayed`` (the motion never
-  left the gap of the free load, where it settles by construction: no evidence either
-  way, as for the verdict).  Classes: every run at rest -> ``no oscillation``; cycles
+  rest whose backlash never switched (no contact; the command's limit does not count),
+  on an unloaded rig, is ``stayed`` (the motion never left the gap of the free load,
+  where it settles by construction: no evidence either way, as for the verdict).  Classes: every run at rest -> ``no oscillation``; cycles
   only -> ``limit cycle``; rest and cycles -> ``bistable``; runs that diverge and none
   that cycles -> ``unstable``; cycles and diverging runs -> ``limit cycle`` (the cycle
   caps small motions); any unsettled run -> ``undetermined``.
@@ -176,7 +176,7 @@ def truth_run(rig, start):
         if outcome is not None or final:
             break
         t_end *= 2.0
-    if outcome == "rest" and rig.load.torque == 0.0 and not _switching(run).any():
+    if outcome == "rest" and rig.load.torque == 0.0 and not np.any(np.diff(run.mode) != 0):
         return "stayed"  # never touched a flank: in the gap of a free load that settles by construction
     return outcome or "unsettled"
 

@@ -191,6 +191,26 @@ def test_a_contact_loop_unstable_whose_motions_all_settle_is_no_oscillation():
         assert speed[run.time > 54.0].max() < 1e-3 * speed.max()
 
 
+#: drives corpus rig #48, rounded: a torque-limited cascade on the load angle that hunts, capped by the limit
+CAPPED_CASCADE = {"plant": {"motor_inertia": 0.99, "load_inertia": 6.51, "stiffness": 2213.0, "damping": 3.0,
+                            "half_gap": 0.0696},
+                  "controller": {"feedback": "motor", "kp": 77.63, "ti": 0.11, "structure": "cascade", "kv": 23.9,
+                                 "position_feedback": "load", "torque_limit": 256.6}}
+
+
+def test_a_kick_that_saturates_the_command_inside_the_gap_is_no_evidence_of_calm():
+    rig = bd.rig_from_dict(CAPPED_CASCADE)
+    # a motor-speed kick the loop brakes inside the gap, the command on its limit on the way
+    run = bd.simulate(rig, "phase-plane", t_end=2.0, initial={"motor_speed": 4.0})
+    assert np.abs(run.theta_d).max() < rig.plant.half_gap and np.any(run.command_mode != 0)
+    assert run.events > 0 and not run.backlash_switched
+    verdict = bd.judge_loop(rig, bd.predict_limit_cycles(rig, "phase-plane"))
+    inside = [p for p in verdict.probes if p.outcome == "rest"]
+    assert inside and not any(p.left_mode for p in inside)
+    assert verdict.verdict == "limit cycle" and verdict.saturated, verdict.reason
+    assert "smaller ones stay in the gap" in verdict.reason
+
+
 def test_a_pi_given_as_an_lti_is_the_built_in_pi():
     rig = tuned(structure="cascade", kv=20.0)
     ctl = rig.controller

@@ -67,6 +67,17 @@ class SimulationResult:
     command_mode: np.ndarray | None = dataclasses.field(default=None, repr=False)
 
     @property
+    def backlash_switched(self):
+        """Whether the backlash changed mode (a contact or a release) during the run.
+
+        The command's switches (a torque limit) are not counted: a motion that
+        saturates the command inside the gap never left the gap.
+        """
+        if self.command_mode is None:
+            return self.events > 0  # every located event is the backlash's
+        return bool(np.any(np.diff(self.mode) != 0))
+
+    @property
     def saturated(self):
         """Share of the samples with the torque command on its limit (0 without a limit)."""
         return 0.0 if self.command_mode is None else float(np.mean(self.command_mode != 0))
