@@ -33,7 +33,9 @@ The law is the phase plane (23) throughout.
   motion falling onto a cycle keeps switching as often), or the motion has died to 1e-9
   of its largest speed; otherwise the run is doubled, and at 1280 s (or the longest run
   ``MAX_STEPS`` allows at the rig's step) it is rest if nothing switched over its last
-  fifth (the load coasting in the gap), else unsettled.  A cycle is called only on a
+  fifth (the load coasting in the gap), or if the envelope fell below 0.8 with fewer
+  than 4 switches in the middle tenth (too few for a cycle by the rule above: a load
+  bouncing ever slower across the gap), else unsettled.  A cycle is called only on a
   run of at least 320 s (a slow loop's long transient looks steady for a while), and a
   rest whose backlash never switched (no contact; the command's limit does not count),
   on an unloaded rig, is ``stayed`` (the motion never left the gap of the free load,
@@ -159,6 +161,8 @@ def classify_run(run, alpha, final=False):
         return "cycle"
     if final and not switching[t[1:] >= 0.8 * t[-1]].any():
         return "rest"  # the load coasts in the gap: no contact over the last fifth of the longest run
+    if final and end < 0.8 * middle and switches_middle < 4:
+        return "rest"  # a load bouncing ever slower across the gap: too few switches for a cycle by the rule above
     return None
 
 
