@@ -517,9 +517,12 @@ def _flow(matrix, directions, undelayed, rows):
     states = np.empty((samples + 1,) + directions.shape)
     states[0] = directions
     filled = 1
-    while filled < samples + 1:  # states[filled + j] = power^filled states[j]
-        count = min(filled, samples + 1 - filled)
-        states[filled:filled + count] = np.einsum("ik,skd->sid", power, states[:count])
-        power = power @ power
-        filled += count
-    return np.einsum("fi,sid->sfd", rows, states)
+    # a mode that grows (an unstable rest) overflows to inf and nan over the horizon: such a flow does
+    # not settle, and the reach reads it so (:func:`_reach`), without a warning to the user
+    with np.errstate(over="ignore", invalid="ignore"):
+        while filled < samples + 1:  # states[filled + j] = power^filled states[j]
+            count = min(filled, samples + 1 - filled)
+            states[filled:filled + count] = np.einsum("ik,skd->sid", power, states[:count])
+            power = power @ power
+            filled += count
+        return np.einsum("fi,sid->sfd", rows, states)

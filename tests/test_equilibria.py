@@ -9,6 +9,7 @@ the whole run, one 3 % beyond it leaves.
 
 import dataclasses
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -133,3 +134,18 @@ def test_without_a_load_the_only_rest_is_the_gap_with_its_edges():
     (rest,), note = loop_rests(rig, rig.make_model(LAW))
     assert note == "" and rest.continuum and rest.where == "in the gap" and rest.theta_d == 0.0
     assert rest.reach_of(TWIST).value == pytest.approx(rig.plant.half_gap, rel=1e-12)  # the continuum ends at the flank
+
+
+def test_a_rest_whose_loop_grows_fast_has_no_reach_and_warns_nothing():
+    # drives corpus rig #161, rounded: a high-gain, torque-limited speed loop whose gap mode grows at
+    # about 337 1/s; over the flow's horizon its matrix powers overflow, which reads as "does not settle"
+    rig = bd.rig_from_dict({
+        "plant": {"motor_inertia": 0.74, "load_inertia": 3.16, "stiffness": 4029.0, "damping": 3.0,
+                  "half_gap": 0.054},
+        "controller": {"feedback": "motor", "kp": 4341.0, "ti": 0.645, "speed_filter": 0.002,
+                       "torque_lag": 0.0019, "delay": 0.00043, "torque_limit": 488.4}})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no overflow warning reaches the user
+        (rest,), _ = loop_rests(rig, rig.make_model(LAW))
+    assert rest.stability.status == "unstable" and rest.stability.max_real > 300.0
+    assert all(d.value == 0.0 for d in rest.reach)
