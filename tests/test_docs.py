@@ -7,6 +7,7 @@ is run and must exit 0.  Both run in a temporary copy of the repository's
 as they do from the repository root, and files the commands write land in the copy.
 """
 
+import json
 import os
 import re
 import shlex
@@ -142,6 +143,56 @@ def test_backlash_df_commands_run(command, repo_copy):
     result = subprocess.run(argv, cwd=repo_copy, env=env, capture_output=True, text=True, timeout=600,
                             stdin=subprocess.DEVNULL)
     assert result.returncode == 0, f"{command!r} exited {result.returncode}:\n{result.stderr[-3000:]}"
+    if command in CONTRACT_DOCUMENTS:
+        _check_contract_document(command, repo_copy)
+
+
+def _contract_documents():
+    """Per command of a "### `X --json`" section of the contract page: (its first JSON excerpt, its table's keys)."""
+    text = (DOCS / "contract.md").read_text(encoding="utf-8").split("## JSON documents of the command line", 1)[1]
+    documents = {}
+    for section in re.split(r"^### ", text, flags=re.MULTILINE)[1:]:
+        section = re.split(r"^## ", section, flags=re.MULTILINE)[0]
+        blocks = {lang: [m["body"] for m in _FENCE.finditer(section) if m["lang"] == lang] for lang in ("bash", "json")}
+        if blocks["bash"] and blocks["json"]:
+            rows = dict(re.findall(r"^\| `([^`]+)` \|(.*)$", section, flags=re.MULTILINE))
+            documents[shell_commands(blocks["bash"][0])[0]] = (json.loads(blocks["json"][0]), rows)
+    return documents
+
+
+CONTRACT_DOCUMENTS = _contract_documents()
+
+
+def _key_paths(document, prefix=""):
+    """Every key of a JSON document as a path, ``a.b`` and ``a[].b`` for the entries of a list."""
+    paths = set()
+    if isinstance(document, dict):
+        for key, value in document.items():
+            path = f"{prefix}.{key}" if prefix else key
+            paths |= {path} | _key_paths(value, path)
+    elif isinstance(document, list):
+        for value in document:
+            paths |= _key_paths(value, prefix + "[]")
+    return paths
+
+
+def _check_contract_document(command, repo_copy):
+    """The contract page's excerpt holds only keys the command writes, and its table names every key written.
+
+    A key is named by its own row or by an ancestor's row whose meaning says ``keys as`` another
+    object's.  The diagnosis table names its parameters and signals by placeholders (``NAME``,
+    ``SPEED``): only its excerpt is checked.
+    """
+    excerpt, rows = CONTRACT_DOCUMENTS[command]
+    argv = shlex.split(command)
+    written = json.loads((repo_copy / argv[argv.index("--json" if "--json" in argv else "--out") + 1]).read_text())
+    keys = _key_paths(written)
+    assert not _key_paths(excerpt) - keys, f"the contract's excerpt of {command!r} shows keys it does not write"
+    if any("NAME" in row for row in rows):
+        return
+    by_reference = [row for row, meaning in rows.items() if "keys as" in meaning]
+    unnamed = {key for key in keys - set(rows) if not any(key.startswith(row + ".") for row in by_reference)}
+    assert not unnamed, f"the contract's table of {command!r} does not name the keys {sorted(unnamed)}"
 
 
 def _rig_cases():
