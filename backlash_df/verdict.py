@@ -31,7 +31,9 @@ and names one of
     where the loop in contact is unstable: each motion then leaves contact
     before it grows, and the reason says so;
 ``limit cycle``
-    every disturbance that leaves the rest's mode ends on a stable cycle;
+    every disturbance that leaves the rest's mode ends on a stable cycle (or
+    stops on an unstable rest, creeping onto it from a stable side: any
+    disturbance leaves it, and the reason says so);
 ``bistable``
     a locally stable rest, or disturbances that leave the rest's mode and
     settle, beside ones that end on a stable cycle; the separating (unstable)
@@ -474,12 +476,27 @@ def _holding(rests, probes):
             and all(p.outcome == "rest" for p in probes if p.rest is rest and p.role == "within reach")]
 
 
+def _calm(probe):
+    """Whether a probe that came to rest is evidence that the loop settles.
+
+    Not where it stays inside a marginal rest's mode (the gap of a free load settles by
+    construction), nor where its rest is unstable: a motion that creeps onto such a rest
+    from a stable side (a flank's edge, reached in contact) stops there only because the
+    simulation carries no disturbance to push it off.
+    """
+    return (probe.left_mode or probe.rest.stable) and probe.rest.stability.status != "unstable"
+
+
+def _fragile(probes):
+    """The probes that came to rest on an unstable rest (:func:`_calm`)."""
+    return [p for p in probes if p.outcome == "rest" and p.rest.stability.status == "unstable"]
+
+
 def _decide(prediction, contact, rests, probes, orbits=()):
     """(verdict, reason, fields) from the evidence (module docs)."""
     by = {kind: [p for p in probes if p.outcome == kind] for kind in ("rest", "cycle", "diverged", "unsettled")}
     cycles, diverged = by["cycle"], by["diverged"]
-    # a probe that stays inside a marginal rest's mode (the gap of a free load) settles by construction
-    calm = [p for p in by["rest"] if p.left_mode or p.rest.stable]
+    calm = [p for p in by["rest"] if _calm(p)]
     if by["unsettled"]:
         p = by["unsettled"][0]
         return "undetermined", (f"the motion from {_one(p.disturbance)} did not settle "
@@ -533,8 +550,15 @@ def _cycling(prediction, contact, rests, probes, orbits, calm):
     holding = _holding(rests, probes)
     if not holding and not calm:
         inside = any(p.outcome == "rest" and not p.left_mode for p in probes)
+        fragile = _fragile(probes)
         smallest = " and ".join(_one(d) for d in _smallest(cycles))
-        return "limit cycle", (f"every disturbance tried ends on {what}, the smallest {smallest}"
+        stopped = ""
+        if fragile:
+            rest = fragile[0].rest
+            stopped = (" and ".join(_one(p.disturbance) for p in fragile) + (" stops" if len(fragile) == 1 else " stop")
+                       + f" on the rest {rest.where}, which is {rest.stability.describe()}: any disturbance leaves "
+                       "it; every other disturbance tried")
+        return "limit cycle", ((stopped or "every disturbance tried") + f" ends on {what}, the smallest {smallest}"
                                + (" (smaller ones stay in the gap)" if inside else "") + others + runaway), fields
     amplitude, source = _separating(prediction, orbits, calm, cycles)
     settles = _settling(probes)

@@ -211,6 +211,34 @@ def test_a_kick_that_saturates_the_command_inside_the_gap_is_no_evidence_of_calm
     assert "smaller ones stay in the gap" in verdict.reason
 
 
+#: drives corpus rig #260, rounded: a torque-limited cascade on the motor angle, load speed measured, whose
+#: loop in the gap is unstable; in contact a slow real pole lets a large kick creep onto a flank's edge
+CREEPING_CASCADE = {"plant": {"motor_inertia": 0.2531, "load_inertia": 4.648, "stiffness": 2374.5, "damping": 10.0,
+                              "half_gap": 0.05834},
+                    "controller": {"feedback": "load", "kp": 85.4, "ti": 1.472, "speed_filter": 0.001827,
+                                   "torque_lag": 0.0004418, "structure": "cascade", "kv": 3.391,
+                                   "position_feedback": "motor", "torque_limit": 354.9}}
+
+
+def test_a_motion_that_stops_on_an_unstable_rest_is_no_evidence_of_calm():
+    rig = bd.rig_from_dict(CREEPING_CASCADE)
+    verdict = bd.judge_loop(rig, bd.predict_limit_cycles(rig, "phase-plane"))
+    (rest,) = verdict.rests
+    assert rest.stability.status == "unstable"
+    stopped = [p for p in verdict.probes if p.outcome == "rest"]
+    assert stopped and all(p.left_mode for p in stopped)
+    assert verdict.verdict == "limit cycle", verdict.reason
+    assert f"stops on the rest in the gap, which is {rest.stability.describe()}" in verdict.reason
+    # where that run stopped, a twist of alpha / 1000 toward the gap grows onto the verdict's cycle
+    probe = stopped[0]
+    run = bd.simulate(rig, "phase-plane", t_end=probe.duration, initial=rest.initial(probe.disturbance))
+    end = dict(zip(run.state_names, run.states[-1]))
+    assert abs(abs(end["theta_d"]) - rig.plant.half_gap) < 1e-6 * rig.plant.half_gap  # on a flank's edge
+    end["theta_d"] -= math.copysign(1e-3 * rig.plant.half_gap, end["theta_d"])
+    measured, _ = simulated_limit_cycle(rig, "phase-plane", t_end=20.0, max_t_end=80.0, initial=end)
+    assert measured.found and measured.amplitude == pytest.approx(verdict.cycle.amplitude, rel=0.01)
+
+
 def test_a_pi_given_as_an_lti_is_the_built_in_pi():
     rig = tuned(structure="cascade", kv=20.0)
     ctl = rig.controller
