@@ -117,6 +117,7 @@ _MAX_STEP = 0.25  # largest Newton change of an unknown, relative to its range o
 _FIRST_TRY = 8  # Newton iterations from a harmonic seed before relaxing it by simulation
 _RELAX_PERIODS = 40  # seed periods simulated to relax a seed
 _COLLAPSED = 1e-6  # an orbit whose peak is below this fraction of alpha has collapsed (rest)
+_SAMPLE_BUDGET = 300_000  # boundary samples one Newton solve may spend over all its period maps
 _LEVELS = 53  # dyadic rungs step 2^-j: events located to 2^-52 of a sample step
 _SIDES = (-1, 0, 1)  # backlash modes in the order of mode_matrices: left contact, free, right contact
 _ON_LIMIT = {0: (True, True), 1: (True, False), 2: (False, True), 3: (False, False)}  # exits on u = +-limit, by |c|
@@ -124,6 +125,10 @@ _ON_LIMIT = {0: (True, True), 1: (True, False), 2: (False, True), 3: (False, Fal
 
 class OrbitNotFound(ValueError):
     """Shooting found no periodic orbit; the message says why in one line."""
+
+
+class _BudgetSpent(OrbitNotFound):
+    """The period maps of one Newton solve used up ``_SAMPLE_BUDGET``."""
 
 
 # --------------------------------------------------------------------------- boundary functions
@@ -904,10 +909,25 @@ def _newton(loop, unknowns, tol, max_iter):
 
     A step changes no unknown by more than ``_MAX_STEP`` of its range over the orbit,
     and a trial that loses every contact (heading for rest in the gap) is refused;
-    then Armijo backtracking.
+    then Armijo backtracking.  The period maps of one solve may sample at most
+    ``_SAMPLE_BUDGET`` boundary checks: a slow orbit of a loop with fast dynamics
+    (a long period at a fine step) is given up with a one-line reason instead of
+    taking minutes.
     """
+    period = unknowns[-1]
+    per_map = period / loop.step_for(period) if period > 0.0 and math.isfinite(period) else 1.0
+    allowed = maps_left = max(int(_SAMPLE_BUDGET / per_map), 1)
+
+    def evaluate(trial, track=None):
+        nonlocal maps_left
+        if maps_left == 0:
+            raise _BudgetSpent(f"shooting gave up: {allowed} period maps of {per_map:.3g} "
+                                f"samples each (a {period:.3g} s period at the loop's fastest rate) did not converge")
+        maps_left -= 1
+        return loop.residual(trial, track)
+
     track = []
-    residual, jacobian, monodromy, events, segments = loop.residual(unknowns, track)
+    residual, jacobian, monodromy, events, segments = evaluate(unknowns, track)
     scale = _scales(loop, track, unknowns[-1])
     norm = np.abs(residual / scale).max()
     polished = False
@@ -924,8 +944,10 @@ def _newton(loop, unknowns, tol, max_iter):
         while True:
             trial = unknowns + damping * step
             try:
-                out = loop.residual(trial)
+                out = evaluate(trial)
                 trial_norm = np.abs(out[0] / scale).max() if _contacts(out[3]) or not _contacts(events) else math.inf
+            except _BudgetSpent:
+                raise
             except OrbitNotFound:
                 trial_norm = math.inf
             if trial_norm < (1.0 - 1e-4 * damping) * norm:

@@ -534,3 +534,18 @@ def test_no_cycle_and_bad_input_are_one_line_errors(load_rig, load_orbit):
     with pytest.raises(ValueError, match="unknowns must hold 5 states"):
         orbit_residual(load_rig, "phase-plane", np.zeros(3))
     assert isinstance(load_orbit, PeriodicOrbit)
+
+
+def test_a_solve_that_outgrows_its_sample_budget_gives_up_in_one_line(monkeypatch):
+    # drives corpus rig #262 (a cascade with a 0.5 ms dead time and a 5.5 s unstable DF cycle) spent over
+    # 40 minutes in the verdict's separatrix search: each Newton solve now has a budget of boundary samples
+    from backlash_df import orbits
+
+    rig = bd.rig_from_dict({"plant": {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0,
+                                      "damping": 3.0, "half_gap": 0.05},
+                            "controller": {"kp": 30.0, "ti": 0.5, "speed_filter": 0.002}})
+    assert orbits.periodic_orbit(rig, "phase-plane", seed=(0.166, 98.7)).stable  # within the default budget
+    monkeypatch.setattr(orbits, "_SAMPLE_BUDGET", 1)  # one period map per solve
+    with pytest.raises(orbits.OrbitNotFound, match="shooting gave up: 1 period maps") as error:
+        orbits.periodic_orbit(rig, "phase-plane", seed=(0.166, 98.7))
+    assert "\n" not in str(error.value)
