@@ -3,7 +3,13 @@
 ``tests/data/hb_reference.json`` was written by ``tests/record_hb_reference.py`` from the
 code before the balance was batched (each residual, Jacobian, Newton step and least-squares
 evaluation its own call); every cycle's amplitude, omega, Loeb value and residual and every
-near miss's amplitude, omega and distance must agree to 1e-10 relative.
+near miss's amplitude, omega and distance must agree to 1e-6 relative.
+
+The reference holds one machine's floating point.  The same commit (f2c5e8a) that passes
+at 1e-10 on the CI machine gives, on an AMD EPYC sandbox, Loeb values 2e-10 to 1.1e-9 and
+one near-tangent cycle's amplitude 7.8e-8 (relative) away from it: the last bits of the
+frequency response, amplified by an ill-conditioned balance.  1e-6 still fails for any
+change of method (another root, a cycle lost or gained, another near miss).
 """
 
 import json
@@ -19,7 +25,7 @@ sys.path.insert(0, str(HERE))
 from record_hb_reference import case_values  # noqa: E402
 
 REFERENCE = json.loads((HERE / "data" / "hb_reference.json").read_text())
-RTOL = 1e-10
+RTOL = 1e-6  # module docs: across machines, not across methods
 
 
 def _close(new, old, scale=None):
