@@ -484,12 +484,16 @@ def _calm(probe):
     from a stable side (a flank's edge, reached in contact) stops there only because the
     simulation carries no disturbance to push it off.
     """
-    return (probe.left_mode or probe.rest.stable) and probe.rest.stability.status != "unstable"
+    return (probe.left_mode or probe.rest.stable) and not _on_unstable_rest(probe)
+
+
+def _on_unstable_rest(probe):
+    return probe.rest.stability.status == "unstable"
 
 
 def _fragile(probes):
     """The probes that came to rest on an unstable rest (:func:`_calm`)."""
-    return [p for p in probes if p.outcome == "rest" and p.rest.stability.status == "unstable"]
+    return [p for p in probes if p.outcome == "rest" and _on_unstable_rest(p)]
 
 
 def _decide(prediction, contact, rests, probes, orbits=()):
