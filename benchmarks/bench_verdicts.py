@@ -1,7 +1,10 @@
 """Verdict corpora: ``predict``'s verdict against long simulations on seeded random rigs.
 
-Run: ``python benchmarks/bench_verdicts.py [CORPUS] [N_RIGS] [SEED]`` (two worker processes;
-``CORPUS`` defaults to ``loaded``).
+Run: ``python benchmarks/bench_verdicts.py [CORPUS] [N_RIGS] [SEED] [--record PATH]`` (two
+worker processes; ``CORPUS`` defaults to ``loaded``).  With ``--record``, each rig's record
+(its verdict, truth, reason, CPU times and the commit that made them) is appended to the
+JSON-lines file ``PATH`` as it finishes, and the rigs already there are not run again: an
+interrupted corpus goes on where it stopped, and the tables are printed from the whole record.
 ``CORPUS`` is one of
 
 * ``loaded`` (issue 22; default 200 rigs, seed 2026): PI speed loops, both feedbacks, a
@@ -35,7 +38,10 @@ The law is the phase plane (23) throughout.
   ``MAX_STEPS`` allows at the rig's step) it is rest if nothing switched over its last
   fifth (the load coasting in the gap), or if the envelope fell below 0.8 with fewer
   than 4 switches in the middle tenth (too few for a cycle by the rule above: a load
-  bouncing ever slower across the gap), else unsettled.  A cycle is called only on a
+  bouncing ever slower across the gap), else unsettled; while the drive turns as one body (the
+  larger of ``|w_m|``, ``|w_l|`` over the last tenth more than 10 times ``|dtheta_d|`` there
+  and not round-off: a position loop slewing on its torque limit) the run is rest only if the
+  drive's speed falls so with no switch over its second half (one linear mode), else not clear.  A cycle is called only on a
   run of at least 320 s (a slow loop's long transient looks steady for a while), and a
   rest whose backlash never switched (no contact; the command's limit does not count),
   on an unloaded rig, is ``stayed`` (the motion never left the gap of the free load,
@@ -50,11 +56,14 @@ capped loops unstable in contact, the rigs where the verdict and the truth diffe
 CPU time per rig of verdict and truth.
 """
 
+import json
 import math
+import subprocess
 import sys
 import time
 from collections import Counter
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
 
 import numpy as np
 
@@ -69,6 +78,7 @@ TRUTH_KICKS = (1.1, 3.0, 10.0, 40.0)  # a / alpha
 TRUTH_T_END = 1280.0  # s, the longest truth run: four times the verdict's longest probe
 TRUTH_CYCLE_T_END = 320.0  # s, the shortest run on which the truth calls a cycle
 CORPORA = {"loaded": (200, 2026), "drives": (200, 2027)}
+COMMIT = None  # set in main (git describe): each record names the code that made it
 
 
 def random_rig(rng, corpus, index):
@@ -153,6 +163,11 @@ def classify_run(run, alpha, final=False):
     in_middle, in_end = (t >= 0.45 * t[-1]) & (t <= 0.55 * t[-1]), t >= 0.9 * t[-1]
     middle, end = speed[in_middle].max(), speed[in_end].max()
     switching = _switching(run)
+    drive = np.maximum(np.abs(run.state("motor_speed")), np.abs(run.state("load_speed")))
+    if drive[in_end].max() > 10.0 * end and drive[in_end].max() > 1e-9 * drive.max():
+        # motor and load turn together (a slew on the torque limit): the shaft's speed says nothing
+        one_mode = not switching[t[1:] >= 0.5 * t[-1]].any() and drive[in_end].max() < 0.8 * drive[in_middle].max()
+        return "rest" if one_mode else None
     switches_middle, switches_end = switching[in_middle[1:]].sum(), switching[in_end[1:]].sum()
     thinning = switches_end == 0 or switches_end < 0.75 * switches_middle
     if end <= 1e-9 * speed.max() or (end < 0.8 * middle and thinning):
@@ -196,7 +211,7 @@ def truth(rig):
 
 
 def one(job):
-    """Verdict, DF-only verdict and truth of rig ``index`` of a corpus, with CPU times."""
+    """Verdict, DF-only verdict and truth of rig ``index`` of a corpus, with CPU times: one record (a dict)."""
     corpus, seed, index = job
     rig = random_rig(np.random.default_rng([seed, index]), corpus, index)
     start = time.process_time()
@@ -207,7 +222,35 @@ def one(job):
     start = time.process_time()
     true, outcomes = truth(rig)
     t_truth = time.process_time() - start
-    return index, rig, verdict, df_only, true, dict(outcomes), t_verdict, t_truth
+    return {"corpus": corpus, "seed": seed, "index": index, "commit": COMMIT, "kind": _kind(rig),
+            "rig": describe(rig), "truth": true, "outcomes": dict(outcomes), "verdict": verdict.verdict,
+            "reason": verdict.reason, "df_alone": df_only, "contact_stable": bool(verdict.contact_loop.stable),
+            "capped": bool(rig.controller.torque_limit > 0.0 and verdict.contact_loop.status == "unstable"
+                           and verdict.verdict != "unstable"),
+            "saturated": bool(verdict.saturated), "t_verdict": t_verdict, "t_truth": t_truth}
+
+
+def _commit():
+    """The checkout's commit (``+`` if it has uncommitted changes), or ``unknown``."""
+    run = subprocess.run(["git", "describe", "--always", "--dirty=+"], capture_output=True, text=True,
+                         cwd=Path(__file__).resolve().parent, check=False)
+    return run.stdout.strip() or "unknown"
+
+
+def read_record(path, corpus, seed):
+    """The records of ``corpus`` and ``seed`` already in the JSON-lines file ``path``, by index (empty if none)."""
+    if path is None or not path.exists():
+        return {}
+    records = {}
+    for number, line in enumerate(path.read_text().splitlines(), 1):
+        try:
+            record = json.loads(line)
+        except json.JSONDecodeError:  # a line cut short by an interrupted run: that rig is run again
+            print(f"{path}:{number}: not a whole record, ignored", file=sys.stderr)
+            continue
+        if record.get("corpus") == corpus and record.get("seed") == seed:
+            records[record["index"]] = record
+    return records
 
 
 def confusion(pairs):
@@ -238,24 +281,48 @@ def _kind(rig):
                                                 ("limited", c.torque_limit > 0.0)) if present) or "speed loop"
 
 
-def main(corpus="loaded", n_rigs=None, seed=None):
+def _line(r):
+    return (f"#{r['index']:3d} {r['kind']:24s} truth {r['truth']:14s} verdict {r['verdict']:14s} DF alone "
+            f"{r['df_alone']:14s} {r['t_verdict']:5.1f} s / {r['t_truth']:5.1f} s {r['outcomes']}")
+
+
+def run_corpus(corpus, seed, n_rigs, record=None):
+    """The records of rigs ``0 .. n_rigs - 1``: those in ``record`` kept, the others run on two workers.
+
+    Each new record is printed and appended to ``record`` (JSON lines) as it comes, so an
+    interrupted run loses only the rigs in flight; run again, it does only the rest.
+    """
+    done = {i: r for i, r in read_record(record, corpus, seed).items() if i < n_rigs}
+    if done:
+        commits = Counter(r["commit"] for r in done.values())
+        print(f"{len(done)} rigs from {record} (commits: "
+              + ", ".join(f"{c} {n}" for c, n in sorted(commits.items())) + ")", flush=True)
+    with ProcessPoolExecutor(2) as pool:
+        jobs = [pool.submit(one, (corpus, seed, i)) for i in range(n_rigs) if i not in done]
+        for job in as_completed(jobs):
+            result = job.result()
+            print(_line(result), flush=True)
+            if record is not None:
+                with record.open("a") as out:
+                    out.write(json.dumps(result) + "\n")
+            done[result["index"]] = result
+    return [done[i] for i in range(n_rigs)]
+
+
+def main(corpus="loaded", n_rigs=None, seed=None, record=None):
+    global COMMIT
+    COMMIT = _commit()
     default_rigs, default_seed = CORPORA[corpus]
     n_rigs, seed = n_rigs or default_rigs, default_seed if seed is None else seed
     start = time.perf_counter()
-    results = []
-    with ProcessPoolExecutor(2) as pool:
-        for result in pool.map(one, [(corpus, seed, i) for i in range(n_rigs)]):
-            index, rig, verdict, df, true, outcomes, t_verdict, t_truth = result
-            print(f"#{index:3d} {_kind(rig):24s} truth {true:14s} verdict {verdict.verdict:14s} DF alone {df:14s} "
-                  f"{t_verdict:5.1f} s / {t_truth:5.1f} s {outcomes}", flush=True)
-            results.append(result)
+    results = run_corpus(corpus, seed, n_rigs, record)
     wall = time.perf_counter() - start
-    said = [(true, verdict.verdict) for _, _, verdict, _, true, _, _, _ in results]
-    alone = [(true, df) for _, _, _, df, true, _, _, _ in results]
-    kinds = Counter(_kind(r[1]) for r in results)
-    print(f"\ncorpus {corpus!r}: {n_rigs} random rigs (seed {seed}), phase plane law; "
-          f"truth from {min(len(truth_starts(r[1])) for r in results)}-"
-          f"{max(len(truth_starts(r[1])) for r in results)} long simulations per rig")
+    said = [(r["truth"], r["verdict"]) for r in results]
+    alone = [(r["truth"], r["df_alone"]) for r in results]
+    kinds = Counter(r["kind"] for r in results)
+    commits = Counter(r["commit"] for r in results)
+    print(f"\ncorpus {corpus!r}: {n_rigs} random rigs (seed {seed}), phase plane law; verdicts and truths from "
+          + ", ".join(f"{c} ({n} rigs)" for c, n in sorted(commits.items())))
     print("rigs: " + ", ".join(f"{n} {kind}" for kind, n in sorted(kinds.items())) + "\n")
     print("verdict (rests + DF + linear loop + probes):")
     print(confusion(said))
@@ -269,30 +336,43 @@ def main(corpus="loaded", n_rigs=None, seed=None):
     print(f"verdict where it commits (not undetermined): {sum(t == v for t, v in determined)}/{len(determined)} = "
           f"{sum(t == v for t, v in determined) / max(len(determined), 1):.1%}")
     for kind in sorted(kinds):
-        pairs = [(t, v.verdict) for _, r, v, _, t, _, _, _ in results if _kind(r) == kind]
+        pairs = [(r["truth"], r["verdict"]) for r in results if r["kind"] == kind]
         print(f"  {kind}: {sum(t == v for t, v in pairs)}/{len(pairs)} agree")
-    unstable = [(t, verdict.verdict) for _, _, verdict, _, t, _, _, _ in results if not verdict.contact_loop.stable]
-    print(f"contact loop unstable: {len(unstable)} rigs, called unstable: {sum(v == 'unstable' for _, v in unstable)}, "
-          f"truth unstable: {sum(t == 'unstable' for t, _ in unstable)}")
-    capped = [(t, verdict) for _, rig, verdict, _, t, _, _, _ in results
-              if rig.controller.torque_limit > 0.0 and verdict.contact_loop.status == "unstable"
-              and verdict.verdict != "unstable"]
-    if any(rig.controller.torque_limit > 0.0 for _, rig, *_ in results):
+    unstable = [r for r in results if not r["contact_stable"]]
+    print(f"contact loop unstable: {len(unstable)} rigs, called unstable: "
+          f"{sum(r['verdict'] == 'unstable' for r in unstable)}, truth unstable: "
+          f"{sum(r['truth'] == 'unstable' for r in unstable)}")
+    capped = [r for r in results if r["capped"]]
+    if any("limited" in r["kind"] for r in results):
         print(f"capped (torque limit, contact loop unstable, not called unstable): {len(capped)} rigs, called limit "
-              f"cycle: {sum(v.verdict == 'limit cycle' for _, v in capped)} (saturated: "
-              f"{sum(v.saturated for _, v in capped)}), truth limit cycle: {sum(t == 'limit cycle' for t, _ in capped)}")
-    t_verdict = np.array([r[6] for r in results])
-    t_truth = np.array([r[7] for r in results])
+              f"cycle: {sum(r['verdict'] == 'limit cycle' for r in capped)} (saturated: "
+              f"{sum(r['saturated'] for r in capped)}), truth limit cycle: "
+              f"{sum(r['truth'] == 'limit cycle' for r in capped)}")
+    t_verdict = np.array([r["t_verdict"] for r in results])
+    t_truth = np.array([r["t_truth"] for r in results])
     print(f"CPU time per rig: verdict median {np.median(t_verdict):.2f} s (max {t_verdict.max():.1f}), "
-          f"truth median {np.median(t_truth):.2f} s (max {t_truth.max():.1f}); wall {wall:.0f} s on 2 workers")
+          f"truth median {np.median(t_truth):.2f} s (max {t_truth.max():.1f}); wall {wall:.0f} s on 2 workers"
+          + (" (this run; rigs from the record took theirs earlier)" if record is not None else ""))
     print("\nrigs where the verdict differs from the truth:")
-    for index, rig, verdict, df, true, outcomes, _, _ in results:
-        if verdict.verdict != true:
-            print(f"  #{index:3d} truth {true} {outcomes}; said {verdict.verdict} (DF alone: {df}) -- {describe(rig)}\n"
-                  f"        {verdict.reason}")
+    for r in results:
+        if r["verdict"] != r["truth"]:
+            print(f"  #{r['index']:3d} truth {r['truth']} {r['outcomes']}; said {r['verdict']} (DF alone: "
+                  f"{r['df_alone']}) -- {r['rig']}\n        {r['reason']}")
+
+
+def _arguments(args):
+    """``[CORPUS] [N_RIGS] [SEED] [--record PATH]`` (run_all.py passes N_RIGS alone)."""
+    record = None
+    if "--record" in args:
+        at = args.index("--record")
+        if at + 1 >= len(args):
+            sys.exit("bench_verdicts.py: --record needs a path (a JSON-lines file, created if missing)")
+        record = Path(args.pop(at + 1))
+        args.pop(at)
+    corpus = args.pop(0) if args and args[0] in CORPORA else "loaded"
+    n_rigs, seed = ([int(arg) for arg in args[:2]] + [None, None])[:2]
+    return corpus, n_rigs, seed, record
 
 
 if __name__ == "__main__":
-    args = sys.argv[1:]
-    corpus = args.pop(0) if args and args[0] in CORPORA else "loaded"  # run_all.py passes N_RIGS alone
-    main(corpus, *(int(arg) for arg in args[:2]))
+    main(*_arguments(sys.argv[1:]))

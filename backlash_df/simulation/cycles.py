@@ -118,6 +118,7 @@ TREND_WINDOWS = 8
 #: Words of a motion that dies out without a steady state yet: a second, longer run confirms them as rest.
 DYING = ("decaying", "drifting in the gap")
 _ROUNDOFF = 1e-9  # a relative speed this far below the record's largest is round-off: rest
+_SLEW_RATIO = 10.0  # a drive this many times faster than the shaft's relative speed turns as one body
 
 
 def _windows(time, count):
@@ -183,6 +184,13 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
       with switches that do not thin out (a slowly settling cycle), rises, or
       neither; not settled.
 
+    None of the rests and dying motions holds while the whole drive turns, motor
+    and load together many times faster than the shaft's relative speed
+    (:func:`_slewing`; a position loop slewing on its torque limit while theta_d
+    rests on a flank): unless the relative speed has fallen over the second half
+    without a switch (one linear mode), the motion is then ``"converging"``,
+    ``"growing"`` or ``"irregular"`` by the drive's own speed envelope.
+
     Parameters
     ----------
     result : SimulationResult
@@ -211,7 +219,8 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
     envelope, switches = motion_trend(result)
     # the command on its limit in the second half: the drive may accelerate while theta_d stands still
     limited = result.command_mode is not None and bool(np.any(result.command_mode[time >= 0.5 * time[-1]]))
-    if envelope[-1] <= _ROUNDOFF * np.abs(result.dtheta_d).max() and not limited:
+    drive = _slewing(result)
+    if envelope[-1] <= _ROUNDOFF * np.abs(result.dtheta_d).max() and not limited and drive is None:
         return _none("no limit cycle", True)
     free_tail = np.all(result.mode[time >= time[-1] * (1.0 - window)] == 0)
     measured = _steady_cycle(result, periods, rtol)
@@ -220,20 +229,32 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
     if measured is not None:
         return measured
     half = TREND_WINDOWS // 2
-    falling = envelope[-1] < envelope[half] < envelope[0]
-    if _bounces_die(result):
+    falling = _falling(envelope)
+    if _bounces_die(result) and drive is None:
         word = "decaying"
     elif free_tail and not limited:
         word = "drifting in the gap"
     elif falling and not switches.any() and not limited:
         return _none("no limit cycle", True)  # one linear mode over the second half, decaying to its rest
+    elif drive is not None:  # the drive turns as one body: its own speed gives the trend
+        return _none(_trend(drive), False)
     elif falling and switches[half:].sum() <= 0.85 * switches[:half].sum():
         word = "decaying"
     else:
-        word = "converging" if falling else "growing" if envelope[-1] > envelope[0] else "irregular"
+        word = _trend(envelope)
     if word in DYING and previous is not None and previous.verdict in DYING:
         return _none("no limit cycle", True)
     return _none(word, False)
+
+
+def _falling(envelope):
+    half = envelope.size // 2
+    return bool(envelope[-1] < envelope[half] < envelope[0])
+
+
+def _trend(envelope):
+    """``"converging"``, ``"growing"`` or ``"irregular"``: an unsettled motion's envelope falls, rises, or neither."""
+    return "converging" if _falling(envelope) else "growing" if envelope[-1] > envelope[0] else "irregular"
 
 
 def free_flights(result):
@@ -255,6 +276,27 @@ def free_flights(result):
     speeds = np.array([np.median(speed[a:b]) for a, b in flights])
     crossed = np.array([result.mode[a - 1] * result.mode[b] < 0 for a, b in flights], dtype=bool)
     return speeds, crossed
+
+
+def _slewing(result, ratio=_SLEW_RATIO):
+    """The drive's speed envelope (:func:`motion_trend`'s windows) if the whole drive moves, else None.
+
+    The drive moves where the larger of ``|w_m|`` and ``|w_l|`` (rad/s) over the
+    last window is more than ``ratio`` times the relative speed's envelope there,
+    and not round-off of its own largest: motor and load turn together, in contact
+    (a position loop slewing on its torque limit), while the shaft's relative speed
+    stands still.  Such a motion is no rest, and the relative speed says nothing of
+    its trend.  None where the states hold no motor and load speed (a user's linear
+    part).
+    """
+    if not {"motor_speed", "load_speed"} <= set(result.state_names):
+        return None
+    speed = np.maximum(np.abs(result.state("motor_speed")), np.abs(result.state("load_speed")))
+    windows = _windows(result.time, TREND_WINDOWS)
+    drive = np.array([speed[a:b].max() for a, b in windows])
+    a, b = windows[-1]
+    shaft = np.abs(result.dtheta_d[a:b]).max()
+    return drive if drive[-1] > ratio * shaft and drive[-1] > _ROUNDOFF * speed.max() else None
 
 
 def _bounces_die(result, loss=0.8):
