@@ -571,7 +571,7 @@ def _start(rig, parameter, model, values, seed):
             cycle = seeds[0] if seeds else None
             kick = cycle.amplitude * cycle.omega if cycle is not None else 2.0 * tuned.plant.half_gap * 100.0
             measured, _ = simulated_limit_cycle(tuned, model, t_end=10.0, max_t_end=40.0, kick=kick)
-            seeds += [measured] if measured.found else []
+            seeds += [measured] if measured.periodic else []
         for candidate in seeds:
             try:
                 return BranchPoint(float(value), periodic_orbit(tuned, model, candidate))

@@ -1055,7 +1055,8 @@ def _simulated_cells(simulated):
         return {}
     if not simulated.found:
         return {"A sim (rad)": simulated.verdict}
-    return {"A sim (rad)": f"{simulated.amplitude:.5g}", "w sim (rad/s)": f"{simulated.omega:.5g}"}
+    irregular = "" if simulated.periodic else " (no period: dominant harmonic)"
+    return {"A sim (rad)": f"{simulated.amplitude:.5g}{irregular}", "w sim (rad/s)": f"{simulated.omega:.5g}"}
 
 
 def prediction_sections(predictions, rig_text="", notes=None):

@@ -834,8 +834,8 @@ def _seed_unknowns(loop, seed):
     if isinstance(seed, SimulationResult):
         return _simulation_seed(loop, seed)
     if isinstance(seed, MeasuredCycle):
-        if not seed.found:
-            raise ValueError(f"seed: the simulation measured no limit cycle ({seed.verdict})")
+        if not seed.periodic:
+            raise ValueError(f"seed: the simulation measured no periodic cycle ({seed.verdict})")
         seed = (seed.amplitude, seed.omega, seed.bias)
     elif hasattr(seed, "amplitude") and hasattr(seed, "omega"):
         seed = (seed.amplitude, seed.omega, getattr(seed, "bias", 0.0))

@@ -545,12 +545,19 @@ def _cycling(prediction, contact, rests, probes, orbits, calm):
     runaway = (f"; {_list(_smallest(diverged), 'from')} diverge (contact loop {contact.describe()})"
                if diverged else "")
     if cycle.saturated:
-        runaway += (f"; the torque command is on its limit {100 * cycle.saturation:.0f} % of the cycle"
+        runaway += (f"; the torque command is on its limit {100 * cycle.saturation:.0f} % of the "
+                    + ("cycle" if cycle.periodic else "time")
                     + (f" and caps the growth of the loop in contact, {contact.describe()}"
                        if runaway_in_contact else ""))
-    distinct = [p.measured for p in cycles if abs(p.measured.amplitude / cycle.amplitude - 1.0) > _SAME_CYCLE]
-    others = f"; another cycle at A = {distinct[0].amplitude:.4g} rad" if distinct else ""
-    what = f"a stable cycle A = {cycle.amplitude:.4g} rad, w = {cycle.omega:.4g} rad/s (simulated; {agrees})"
+    # a sustained oscillation's dominant harmonic wanders from run to run: only a periodic one is another cycle
+    distinct = [p.measured for p in cycles if p.measured.periodic != cycle.periodic
+                or (cycle.periodic and abs(p.measured.amplitude / cycle.amplitude - 1.0) > _SAME_CYCLE)]
+    others = (f"; another cycle at A = {distinct[0].amplitude:.4g} rad"
+              + ("" if distinct[0].periodic else " (without a period)") if distinct else "")
+    what = (f"a stable cycle A = {cycle.amplitude:.4g} rad, w = {cycle.omega:.4g} rad/s (simulated; {agrees})"
+            if cycle.periodic else
+            f"a sustained oscillation without a period, its dominant harmonic A = {cycle.amplitude:.4g} rad, "
+            f"w = {cycle.omega:.4g} rad/s (simulated over {cycle.periods} of its periods; {agrees})")
     holding = _holding(rests, probes)
     if not holding and not calm:
         inside = any(p.outcome == "rest" and not p.left_mode for p in probes)
@@ -586,7 +593,7 @@ def _cycling(prediction, contact, rests, probes, orbits, calm):
 def _exact(rig, prediction, probes, t_end, max_t_end, dt=None, near_misses=1):
     """Exact orbits seeded by the DF cycles and the first simulated cycle, and a note if there are none."""
     seed = None
-    cycling = [p for p in probes if p.measured.found]
+    cycling = [p for p in probes if p.measured.periodic]
     if cycling:  # the run again, for a state on the cycle
         first = cycling[0]
         _, seed = simulated_limit_cycle(rig, prediction.model, t_end=t_end, max_t_end=max_t_end, dt=dt,

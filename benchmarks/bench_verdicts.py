@@ -5,6 +5,8 @@ worker processes; ``CORPUS`` defaults to ``loaded``).  With ``--record``, each r
 (its verdict, truth, reason, CPU times and the commit that made them) is appended to the
 JSON-lines file ``PATH`` as it finishes, and the rigs already there are not run again: an
 interrupted corpus goes on where it stopped, and the tables are printed from the whole record.
+``--truths-from OLD`` takes the truths of the rigs in the record file ``OLD`` instead of
+running them (after a change of the verdict alone); the table names both commits.
 ``CORPUS`` is one of
 
 * ``loaded`` (issue 22; default 200 rigs, seed 2026): PI speed loops, both feedbacks, a
@@ -211,18 +213,27 @@ def truth(rig):
 
 
 def one(job):
-    """Verdict, DF-only verdict and truth of rig ``index`` of a corpus, with CPU times: one record (a dict)."""
-    corpus, seed, index = job
+    """Verdict, DF-only verdict and truth of rig ``index`` of a corpus, with CPU times: one record (a dict).
+
+    ``known``, a record of the same rig, gives the truth (its ``truth``, ``outcomes``,
+    ``t_truth`` and ``truth_commit``) instead of running it again.
+    """
+    corpus, seed, index, known = job
     rig = random_rig(np.random.default_rng([seed, index]), corpus, index)
     start = time.process_time()
     prediction = verify_limit_cycles(rig, predict_limit_cycles(rig, "phase-plane"))
     verdict = judge_loop(rig, prediction)
     t_verdict = time.process_time() - start
     df_only = prediction_verdict(rig, prediction)
-    start = time.process_time()
-    true, outcomes = truth(rig)
-    t_truth = time.process_time() - start
-    return {"corpus": corpus, "seed": seed, "index": index, "commit": COMMIT, "kind": _kind(rig),
+    if known is None:
+        start = time.process_time()
+        true, outcomes = truth(rig)
+        t_truth, truth_commit = time.process_time() - start, COMMIT
+    else:
+        true, outcomes, t_truth = known["truth"], known["outcomes"], known["t_truth"]
+        truth_commit = known.get("truth_commit", known["commit"])
+    return {"corpus": corpus, "seed": seed, "index": index, "commit": COMMIT, "truth_commit": truth_commit,
+            "kind": _kind(rig),
             "rig": describe(rig), "truth": true, "outcomes": dict(outcomes), "verdict": verdict.verdict,
             "reason": verdict.reason, "df_alone": df_only, "contact_stable": bool(verdict.contact_loop.stable),
             "capped": bool(rig.controller.torque_limit > 0.0 and verdict.contact_loop.status == "unstable"
@@ -286,19 +297,22 @@ def _line(r):
             f"{r['df_alone']:14s} {r['t_verdict']:5.1f} s / {r['t_truth']:5.1f} s {r['outcomes']}")
 
 
-def run_corpus(corpus, seed, n_rigs, record=None):
+def run_corpus(corpus, seed, n_rigs, record=None, truths=None):
     """The records of rigs ``0 .. n_rigs - 1``: those in ``record`` kept, the others run on two workers.
 
     Each new record is printed and appended to ``record`` (JSON lines) as it comes, so an
-    interrupted run loses only the rigs in flight; run again, it does only the rest.
+    interrupted run loses only the rigs in flight; run again, it does only the rest.  The
+    records of ``truths`` (another record file) give their rigs' truths, which are then
+    not run again: for a change of the verdict alone.
     """
     done = {i: r for i, r in read_record(record, corpus, seed).items() if i < n_rigs}
+    known = read_record(truths, corpus, seed)
     if done:
         commits = Counter(r["commit"] for r in done.values())
         print(f"{len(done)} rigs from {record} (commits: "
               + ", ".join(f"{c} {n}" for c, n in sorted(commits.items())) + ")", flush=True)
     with ProcessPoolExecutor(2) as pool:
-        jobs = [pool.submit(one, (corpus, seed, i)) for i in range(n_rigs) if i not in done]
+        jobs = [pool.submit(one, (corpus, seed, i, known.get(i))) for i in range(n_rigs) if i not in done]
         for job in as_completed(jobs):
             result = job.result()
             print(_line(result), flush=True)
@@ -309,20 +323,22 @@ def run_corpus(corpus, seed, n_rigs, record=None):
     return [done[i] for i in range(n_rigs)]
 
 
-def main(corpus="loaded", n_rigs=None, seed=None, record=None):
+def main(corpus="loaded", n_rigs=None, seed=None, record=None, truths=None):
     global COMMIT
     COMMIT = _commit()
     default_rigs, default_seed = CORPORA[corpus]
     n_rigs, seed = n_rigs or default_rigs, default_seed if seed is None else seed
     start = time.perf_counter()
-    results = run_corpus(corpus, seed, n_rigs, record)
+    results = run_corpus(corpus, seed, n_rigs, record, truths)
     wall = time.perf_counter() - start
     said = [(r["truth"], r["verdict"]) for r in results]
     alone = [(r["truth"], r["df_alone"]) for r in results]
     kinds = Counter(r["kind"] for r in results)
     commits = Counter(r["commit"] for r in results)
-    print(f"\ncorpus {corpus!r}: {n_rigs} random rigs (seed {seed}), phase plane law; verdicts and truths from "
-          + ", ".join(f"{c} ({n} rigs)" for c, n in sorted(commits.items())))
+    truth_commits = Counter(r.get("truth_commit", r["commit"]) for r in results)
+    print(f"\ncorpus {corpus!r}: {n_rigs} random rigs (seed {seed}), phase plane law; verdicts from "
+          + ", ".join(f"{c} ({n} rigs)" for c, n in sorted(commits.items())) + "; truths from "
+          + ", ".join(f"{c} ({n} rigs)" for c, n in sorted(truth_commits.items())))
     print("rigs: " + ", ".join(f"{n} {kind}" for kind, n in sorted(kinds.items())) + "\n")
     print("verdict (rests + DF + linear loop + probes):")
     print(confusion(said))
@@ -361,17 +377,18 @@ def main(corpus="loaded", n_rigs=None, seed=None, record=None):
 
 
 def _arguments(args):
-    """``[CORPUS] [N_RIGS] [SEED] [--record PATH]`` (run_all.py passes N_RIGS alone)."""
-    record = None
-    if "--record" in args:
-        at = args.index("--record")
-        if at + 1 >= len(args):
-            sys.exit("bench_verdicts.py: --record needs a path (a JSON-lines file, created if missing)")
-        record = Path(args.pop(at + 1))
-        args.pop(at)
+    """``[CORPUS] [N_RIGS] [SEED] [--record PATH] [--truths-from PATH]`` (run_all.py passes N_RIGS alone)."""
+    paths = {}
+    for option in ("--record", "--truths-from"):
+        if option in args:
+            at = args.index(option)
+            if at + 1 >= len(args):
+                sys.exit(f"bench_verdicts.py: {option} needs a path (a JSON-lines record file)")
+            paths[option] = Path(args.pop(at + 1))
+            args.pop(at)
     corpus = args.pop(0) if args and args[0] in CORPORA else "loaded"
     n_rigs, seed = ([int(arg) for arg in args[:2]] + [None, None])[:2]
-    return corpus, n_rigs, seed, record
+    return corpus, n_rigs, seed, paths.get("--record"), paths.get("--truths-from")
 
 
 if __name__ == "__main__":

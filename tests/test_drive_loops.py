@@ -17,11 +17,12 @@ import control as ct
 import numba
 import numpy as np
 import pytest
+import scipy.signal
 from click.testing import CliRunner
 
 import backlash_df as bd
 from backlash_df.cli import main
-from backlash_df.simulation import simulate_rig, simulated_limit_cycle
+from backlash_df.simulation import simulate_rig, simulated_limit_cycle, upward_crossings
 from backlash_df.system import command_channels
 from conftest import PLANT_TOML, example_rig
 
@@ -355,3 +356,32 @@ def test_a_drive_slewing_on_its_torque_limit_is_no_rest():
     (cycle,) = bd.predict_limit_cycles(rig, "phase-plane").stable_cycles
     # the DF's stable cycle, within what the first harmonic gets right here (0.098 simulated, 0.109 rad by the DF)
     assert measured.found and measured.amplitude == pytest.approx(cycle.amplitude, rel=0.15)
+
+
+# drives #100, rounded: a slow limited cascade that hunts for good without a period (quasi-periodic or chaotic)
+HUNTING_WITHOUT_PERIOD = {"plant": {"motor_inertia": 0.8115, "load_inertia": 6.930, "stiffness": 7473.0,
+                                    "damping": 3.0, "half_gap": 0.03227},
+                          "controller": {"feedback": "load", "kp": 8.514, "ti": 0.6194, "delay": 0.0003594,
+                                         "structure": "cascade", "kv": 16.18, "position_feedback": "motor",
+                                         "torque_limit": 131.6}}
+
+
+def test_a_hunt_without_a_period_is_a_sustained_oscillation():
+    rig = bd.rig_from_dict(HUNTING_WITHOUT_PERIOD)
+    measured, run = simulated_limit_cycle(rig, "phase-plane", t_end=10.0, max_t_end=320.0, initial={"theta_d": 0.0968})
+    assert measured.found and not measured.periodic and measured.verdict == "sustained oscillation"
+    assert measured.cycle_dict()["periodic"] is False
+    half = run.time >= 0.5 * run.time[-1]
+    x = run.theta_d[half] - run.theta_d[half].mean()
+    intervals = np.diff(upward_crossings(run.time[half], x))
+    assert np.ptp(intervals) > 0.01 * intervals.mean()  # no period: a cycle's would agree to 1e-3
+    grid = np.linspace(run.time[half][0], run.time[-1], 2**16)
+    freq, power = scipy.signal.periodogram(np.interp(grid, run.time, run.theta_d), fs=1.0 / (grid[1] - grid[0]))
+    assert measured.omega == pytest.approx(2.0 * np.pi * freq[np.argmax(power)], rel=0.02)  # its dominant harmonic
+    longer = bd.simulate(rig, "phase-plane", t_end=640.0, initial={"theta_d": 0.0968})
+    rms = [np.sqrt(np.mean(longer.dtheta_d[(longer.time >= a) & (longer.time < b)] ** 2))
+           for a, b in ((320.0, 480.0), (480.0, 640.0))]
+    assert rms[1] == pytest.approx(rms[0], rel=0.1)  # and it holds its level, twice as long again
+    verdict = bd.judge_loop(rig, bd.predict_limit_cycles(rig, "phase-plane"))
+    assert verdict.verdict == "limit cycle", verdict.reason
+    assert "a sustained oscillation without a period" in verdict.reason

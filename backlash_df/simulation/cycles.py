@@ -31,10 +31,13 @@ class MeasuredCycle:
         True if a steady state was reached (a periodic cycle, or rest), or the run
         diverged (longer runs cannot change that).
     verdict : str
-        ``"limit cycle"``, ``"no limit cycle"`` (rest), ``"decaying"`` or ``"drifting in the
-        gap"`` (dying out, to be confirmed by a longer run), ``"converging"``, ``"growing"``
-        or ``"irregular"`` (not settled), or ``"diverged"`` (overflow, NaN, or theta_d
-        beyond the bound of :func:`measure_limit_cycle`).
+        ``"limit cycle"`` (periodic), ``"sustained oscillation"`` (an oscillation that holds
+        its level without a period; ``amplitude``, ``omega`` and ``bias`` are those of its
+        dominant harmonic), ``"no limit cycle"`` (rest), ``"decaying"`` or ``"drifting in
+        the gap"`` (dying out, to be confirmed by a longer run), ``"oscillating"`` (holding
+        its level, to be confirmed likewise), ``"converging"``, ``"growing"`` or
+        ``"irregular"`` (not settled), or ``"diverged"`` (overflow, NaN, or theta_d beyond
+        the bound of :func:`measure_limit_cycle`).
     periods : int
         Number of periods averaged.
     saturation : float
@@ -65,8 +68,17 @@ class MeasuredCycle:
         if not self.found:
             return self.verdict
         limit = "" if math.isnan(self.saturation) else f", command on its limit {100 * self.saturation:.0f} % of the time"
+        if not self.periodic:
+            return (f"sustained oscillation without a period: dominant harmonic A = {self.amplitude:.4g} rad, "
+                    f"w = {self.omega:.4g} rad/s (peak {self.peak:.4g} rad, bias {self.bias:.3g} rad, "
+                    f"{self.periods} of its periods{limit})")
         return (f"limit cycle: A = {self.amplitude:.4g} rad, w = {self.omega:.4g} rad/s "
                 f"(peak {self.peak:.4g} rad, bias {self.bias:.3g} rad, {self.periods} periods averaged{limit})")
+
+    @property
+    def periodic(self):
+        """True for a periodic cycle; False for a sustained oscillation without a period, or none."""
+        return self.found and self.verdict == "limit cycle"
 
     def to_dict(self):
         """JSON-ready: verdict, settled, and the cycle (rad, rad/s; null where none was found)."""
@@ -80,13 +92,15 @@ class MeasuredCycle:
         return self.found and self.saturation > 0.0
 
     def cycle_dict(self):
-        """``{"amplitude", "omega"}`` (rad, rad/s) as in the ``predict`` JSON's ``simulated``, or ``None``.
+        """``{"amplitude", "omega", "periodic"}`` (rad, rad/s) as in the ``predict`` JSON's ``simulated``, or ``None``.
 
-        With a torque limit also ``saturation``, the share of the cycle with the command on its limit.
+        ``periodic`` is false for a sustained oscillation without a period (its dominant
+        harmonic's amplitude and frequency).  With a torque limit also ``saturation``,
+        the share of the cycle with the command on its limit.
         """
         if not self.found:
             return None
-        out = {"amplitude": float(self.amplitude), "omega": float(self.omega)}
+        out = {"amplitude": float(self.amplitude), "omega": float(self.omega), "periodic": self.periodic}
         if not math.isnan(self.saturation):
             out["saturation"] = float(self.saturation)
         return out
@@ -118,6 +132,8 @@ TREND_WINDOWS = 8
 #: Words of a motion that dies out without a steady state yet: a second, longer run confirms them as rest.
 DYING = ("decaying", "drifting in the gap")
 _ROUNDOFF = 1e-9  # a relative speed this far below the record's largest is round-off: rest
+_LEVEL = 0.1  # an oscillation holding its level: the RMS of its second half's halves within 10 % ...
+_SWING = 0.05  # ... and its swing within 5 % of the shorter run's
 _SLEW_RATIO = 10.0  # a drive this many times faster than the shaft's relative speed turns as one body
 
 
@@ -180,6 +196,12 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
       gap** (``"drifting in the gap"``): no contact in the last ``window`` of the
       record.  Neither is settled: ``previous``, the measurement of a shorter run
       from the same start that said either, confirms it as rest;
+    * **holding its level** (``"oscillating"``): no period, but the envelope and
+      the switch counts hold over the second half (:func:`_holds_level`): a
+      quasi-periodic or chaotic hunt, or a slow drift onto a cycle.  Not settled:
+      the shorter run of ``previous`` saying so with the same swing
+      confirms it as ``"sustained oscillation"`` (``found``, with the dominant
+      harmonic's amplitude and frequency; :attr:`MeasuredCycle.periodic` false);
     * ``"converging"``, ``"growing"`` or ``"irregular"``: the envelope falls
       with switches that do not thin out (a slowly settling cycle), rises, or
       neither; not settled.
@@ -230,6 +252,8 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
         return measured
     half = TREND_WINDOWS // 2
     falling = _falling(envelope)
+    if drive is None and _holds_level(result, switches):  # before the flights: a chaotic hunt has slow ones too
+        return _oscillation(result, previous)
     if _bounces_die(result) and drive is None:
         word = "decaying"
     elif free_tail and not limited:
@@ -245,6 +269,56 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
     if word in DYING and previous is not None and previous.verdict in DYING:
         return _none("no limit cycle", True)
     return _none(word, False)
+
+
+def _holds_level(result, switches):
+    """True if the second half's motion neither grows nor dies: an oscillation holding its level.
+
+    In :func:`motion_trend`'s windows: every one switches 4 times or more; the root
+    mean square of the relative speed over the last half of them is within
+    :data:`_LEVEL` of the first half's, as are their switch counts; no
+    window's RMS is 30 % above another's.  (The RMS, not the largest speed: a
+    chaotic hunt's peaks wander by several per cent from window to window.)
+    """
+    windows = _windows(result.time, switches.size)
+    rms = np.array([np.sqrt(np.mean(result.dtheta_d[a:b] ** 2)) for a, b in windows])
+    half = switches.size // 2
+    return bool(switches.min() >= 4 and rms.max() <= 1.3 * rms.min()
+                and abs(np.sqrt(np.mean(rms[half:] ** 2) / np.mean(rms[:half] ** 2)) - 1.0) <= _LEVEL
+                and abs(switches[half:].sum() / switches[:half].sum() - 1.0) <= _LEVEL)
+
+
+def _oscillation(result, previous):
+    """An oscillation that holds its level but has no period: ``"oscillating"``, or confirmed ``"sustained oscillation"``.
+
+    Its dominant harmonic over the record's second half (theta_d resampled on a
+    uniform grid, Hann window, the spectrum's largest peak refined by a parabola
+    through its log magnitudes) gives ``amplitude``, ``omega`` and ``bias``; ``peak``
+    is half theta_d's swing there.  It is confirmed (settled, ``found``) where
+    ``previous``, the shorter run from the same start, said ``"oscillating"`` with a
+    swing (``peak``) within :data:`_SWING` of this one's (the swing holds where the
+    dominant harmonic of a chaotic hunt wanders by several per cent).
+    """
+    time = result.time
+    grid = np.linspace(0.5 * time[-1], time[-1], 2**16)
+    x = np.interp(grid, time, result.theta_d)
+    bias = float(x.mean())
+    window = np.hanning(grid.size)
+    spectrum = np.abs(np.fft.rfft((x - bias) * window))
+    k = int(np.argmax(spectrum[1:-1])) + 1
+    a, b, c = np.log(spectrum[k - 1:k + 2] + 1e-300)
+    shift = 0.5 * (a - c) / (a - 2.0 * b + c) if a - 2.0 * b + c < 0.0 else 0.0
+    span = grid[-1] - grid[0]
+    omega = 2.0 * math.pi * (k + shift) * (grid.size - 1) / grid.size / span
+    amplitude = 2.0 * spectrum[k] / window.sum()
+    saturation = math.nan
+    if result.command_mode is not None:
+        saturation = float(np.mean(result.command_mode[time >= 0.5 * time[-1]] != 0))
+    peak = float(np.ptp(x)) / 2.0
+    confirmed = previous is not None and previous.verdict == "oscillating" and abs(peak / previous.peak - 1.0) <= _SWING
+    return MeasuredCycle(confirmed, float(amplitude), peak, float(omega), bias, confirmed,
+                         "sustained oscillation" if confirmed else "oscillating", int(omega * span / (2.0 * math.pi)),
+                         saturation)
 
 
 def _falling(envelope):
