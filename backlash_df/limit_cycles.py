@@ -112,15 +112,15 @@ class LimitCycle:
 
     @property
     def amplitude_error(self):
-        """Relative error of the predicted amplitude against simulation (NaN if none)."""
-        if self.simulated is None or not self.simulated.found:
+        """Relative error of the predicted amplitude against simulation (NaN if none, or no period)."""
+        if self.simulated is None or not self.simulated.periodic:
             return math.nan
         return self.amplitude / self.simulated.amplitude - 1.0
 
     @property
     def omega_error(self):
-        """Relative error of the predicted frequency against simulation (NaN if none)."""
-        if self.simulated is None or not self.simulated.found:
+        """Relative error of the predicted frequency against simulation (NaN if none, or no period)."""
+        if self.simulated is None or not self.simulated.periodic:
             return math.nan
         return self.omega / self.simulated.omega - 1.0
 

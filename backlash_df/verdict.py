@@ -705,7 +705,8 @@ def verdict_rows(verdicts):
     for verdict in verdicts:
         start = "" if verdict.disturbance_to_start is None else (
             f"{verdict.disturbance_to_start:.4g} ({verdict.disturbance_source})")
-        limit = f"saturated {100 * verdict.cycle.saturation:.0f} % of the cycle" if verdict.saturated else ""
+        limit = (f"saturated {100 * verdict.cycle.saturation:.0f} % of the "
+                 + ("cycle" if verdict.cycle.periodic else "time") if verdict.saturated else "")
         rest = "none" if verdict.rest_note else "; ".join(
             f"{r.where.removeprefix('on the ')} {r.theta_d:.4g} rad, {r.stability.status}"
             for r in verdict.rests if r.side != 0)
