@@ -31,9 +31,11 @@ and names one of
     where the loop in contact is unstable: each motion then leaves contact
     before it grows, and the reason says so;
 ``limit cycle``
-    every disturbance that leaves the rest's mode ends on a stable cycle (or
-    stops on an unstable rest, creeping onto it from a stable side: any
-    disturbance leaves it, and the reason says so);
+    every disturbance that leaves the rest's mode ends on a stable cycle, or on
+    a sustained oscillation without a period (a quasi-periodic or chaotic hunt;
+    the reason gives its dominant harmonic), or stops on an unstable rest
+    (creeping onto it from a stable side: any disturbance leaves it, and the
+    reason says so);
 ``bistable``
     a locally stable rest, or disturbances that leave the rest's mode and
     settle, beside ones that end on a stable cycle; the separating (unstable)
