@@ -554,8 +554,8 @@ def _cycling(prediction, contact, rests, probes, orbits, calm):
     # a sustained oscillation's dominant harmonic wanders from run to run: only a periodic one is another cycle
     distinct = [p.measured for p in cycles if p.measured.periodic != cycle.periodic
                 or (cycle.periodic and abs(p.measured.amplitude / cycle.amplitude - 1.0) > _SAME_CYCLE)]
-    others = (f"; another cycle at A = {distinct[0].amplitude:.4g} rad"
-              + ("" if distinct[0].periodic else " (without a period)") if distinct else "")
+    others = ((f"; another cycle at A = {distinct[0].amplitude:.4g} rad"
+               + ("" if distinct[0].periodic else " (without a period)")) if distinct else "")
     what = (f"a stable cycle A = {cycle.amplitude:.4g} rad, w = {cycle.omega:.4g} rad/s (simulated; {agrees})"
             if cycle.periodic else
             f"a sustained oscillation without a period, its dominant harmonic A = {cycle.amplitude:.4g} rad, "
@@ -707,8 +707,8 @@ def verdict_rows(verdicts):
     for verdict in verdicts:
         start = "" if verdict.disturbance_to_start is None else (
             f"{verdict.disturbance_to_start:.4g} ({verdict.disturbance_source})")
-        limit = (f"saturated {100 * verdict.cycle.saturation:.0f} % of the "
-                 + ("cycle" if verdict.cycle.periodic else "time") if verdict.saturated else "")
+        limit = ((f"saturated {100 * verdict.cycle.saturation:.0f} % of the "
+                  + ("cycle" if verdict.cycle.periodic else "time")) if verdict.saturated else "")
         rest = "none" if verdict.rest_note else "; ".join(
             f"{r.where.removeprefix('on the ')} {r.theta_d:.4g} rad, {r.stability.status}"
             for r in verdict.rests if r.side != 0)

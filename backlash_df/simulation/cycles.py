@@ -157,13 +157,17 @@ def motion_trend(result, count=TREND_WINDOWS):
     switches : ndarray of int, shape (count,)
     """
     windows = _windows(result.time, count)
-    speed = np.abs(result.dtheta_d)
     changes = np.diff(result.mode) != 0
     if result.command_mode is not None:
         changes |= np.diff(result.command_mode) != 0
-    envelope = np.array([speed[a:b].max() for a, b in windows])
+    envelope = _per_window(windows, np.abs(result.dtheta_d), np.max)
     switches = np.array([int(changes[max(a - 1, 0):b - 1].sum()) for a, b in windows])
     return envelope, switches
+
+
+def _per_window(windows, values, reduce):
+    """``reduce`` (``np.max``, say) of ``values`` over each window of :func:`_windows`."""
+    return np.array([reduce(values[a:b]) for a, b in windows])
 
 
 def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, previous=None):
@@ -241,7 +245,7 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
     envelope, switches = motion_trend(result)
     # the command on its limit in the second half: the drive may accelerate while theta_d stands still
     limited = result.command_mode is not None and bool(np.any(result.command_mode[time >= 0.5 * time[-1]]))
-    drive = _slewing(result)
+    drive = _slewing(result, envelope)
     if envelope[-1] <= _ROUNDOFF * np.abs(result.dtheta_d).max() and not limited and drive is None:
         return _none("no limit cycle", True)
     free_tail = np.all(result.mode[time >= time[-1] * (1.0 - window)] == 0)
@@ -280,8 +284,7 @@ def _holds_level(result, switches):
     window's RMS is 30 % above another's.  (The RMS, not the largest speed: a
     chaotic hunt's peaks wander by several per cent from window to window.)
     """
-    windows = _windows(result.time, switches.size)
-    rms = np.array([np.sqrt(np.mean(result.dtheta_d[a:b] ** 2)) for a, b in windows])
+    rms = np.sqrt(_per_window(_windows(result.time, switches.size), result.dtheta_d**2, np.mean))
     half = switches.size // 2
     return bool(switches.min() >= 4 and rms.max() <= 1.3 * rms.min()
                 and abs(np.sqrt(np.mean(rms[half:] ** 2) / np.mean(rms[:half] ** 2)) - 1.0) <= _LEVEL
@@ -352,11 +355,12 @@ def free_flights(result):
     return speeds, crossed
 
 
-def _slewing(result, ratio=_SLEW_RATIO):
+def _slewing(result, envelope):
     """The drive's speed envelope (:func:`motion_trend`'s windows) if the whole drive moves, else None.
 
     The drive moves where the larger of ``|w_m|`` and ``|w_l|`` (rad/s) over the
-    last window is more than ``ratio`` times the relative speed's envelope there,
+    last window is more than :data:`_SLEW_RATIO` times the relative speed's
+    ``envelope`` (:func:`motion_trend`) there,
     and not round-off of its own largest: motor and load turn together, in contact
     (a position loop slewing on its torque limit), while the shaft's relative speed
     stands still.  Such a motion is no rest, and the relative speed says nothing of
@@ -366,11 +370,8 @@ def _slewing(result, ratio=_SLEW_RATIO):
     if not {"motor_speed", "load_speed"} <= set(result.state_names):
         return None
     speed = np.maximum(np.abs(result.state("motor_speed")), np.abs(result.state("load_speed")))
-    windows = _windows(result.time, TREND_WINDOWS)
-    drive = np.array([speed[a:b].max() for a, b in windows])
-    a, b = windows[-1]
-    shaft = np.abs(result.dtheta_d[a:b]).max()
-    return drive if drive[-1] > ratio * shaft and drive[-1] > _ROUNDOFF * speed.max() else None
+    drive = _per_window(_windows(result.time, envelope.size), speed, np.max)
+    return drive if drive[-1] > _SLEW_RATIO * envelope[-1] and drive[-1] > _ROUNDOFF * speed.max() else None
 
 
 def _bounces_die(result, loss=0.8):
