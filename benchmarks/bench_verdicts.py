@@ -80,7 +80,6 @@ TRUTH_KICKS = (1.1, 3.0, 10.0, 40.0)  # a / alpha
 TRUTH_T_END = 1280.0  # s, the longest truth run: four times the verdict's longest probe
 TRUTH_CYCLE_T_END = 320.0  # s, the shortest run on which the truth calls a cycle
 CORPORA = {"loaded": (200, 2026), "drives": (200, 2027)}
-COMMIT = None  # set in main (git describe): each record names the code that made it
 
 
 def random_rig(rng, corpus, index):
@@ -216,9 +215,10 @@ def one(job):
     """Verdict, DF-only verdict and truth of rig ``index`` of a corpus, with CPU times: one record (a dict).
 
     ``known``, a record of the same rig, gives the truth (its ``truth``, ``outcomes``,
-    ``t_truth`` and ``truth_commit``) instead of running it again.
+    ``t_truth`` and ``truth_commit``) instead of running it again; ``commit`` names the code
+    that made the record.
     """
-    corpus, seed, index, known = job
+    corpus, seed, index, known, commit = job
     rig = random_rig(np.random.default_rng([seed, index]), corpus, index)
     start = time.process_time()
     prediction = verify_limit_cycles(rig, predict_limit_cycles(rig, "phase-plane"))
@@ -228,13 +228,12 @@ def one(job):
     if known is None:
         start = time.process_time()
         true, outcomes = truth(rig)
-        t_truth, truth_commit = time.process_time() - start, COMMIT
+        t_truth, truth_commit = time.process_time() - start, commit
     else:
         true, outcomes, t_truth = known["truth"], known["outcomes"], known["t_truth"]
         truth_commit = known.get("truth_commit", known["commit"])
-    return {"corpus": corpus, "seed": seed, "index": index, "commit": COMMIT, "truth_commit": truth_commit,
-            "kind": _kind(rig),
-            "rig": describe(rig), "truth": true, "outcomes": dict(outcomes), "verdict": verdict.verdict,
+    return {"corpus": corpus, "seed": seed, "index": index, "commit": commit, "truth_commit": truth_commit,
+            "kind": _kind(rig), "rig": describe(rig), "truth": true, "outcomes": dict(outcomes), "verdict": verdict.verdict,
             "reason": verdict.reason, "df_alone": df_only, "contact_stable": bool(verdict.contact_loop.stable),
             "capped": bool(rig.controller.torque_limit > 0.0 and verdict.contact_loop.status == "unstable"
                            and verdict.verdict != "unstable"),
@@ -305,6 +304,7 @@ def run_corpus(corpus, seed, n_rigs, record=None, truths=None):
     records of ``truths`` (another record file) give their rigs' truths, which are then
     not run again: for a change of the verdict alone.
     """
+    commit = _commit()
     done = {i: r for i, r in read_record(record, corpus, seed).items() if i < n_rigs}
     known = read_record(truths, corpus, seed)
     if done:
@@ -312,7 +312,7 @@ def run_corpus(corpus, seed, n_rigs, record=None, truths=None):
         print(f"{len(done)} rigs from {record} (commits: "
               + ", ".join(f"{c} {n}" for c, n in sorted(commits.items())) + ")", flush=True)
     with ProcessPoolExecutor(2) as pool:
-        jobs = [pool.submit(one, (corpus, seed, i, known.get(i))) for i in range(n_rigs) if i not in done]
+        jobs = [pool.submit(one, (corpus, seed, i, known.get(i), commit)) for i in range(n_rigs) if i not in done]
         for job in as_completed(jobs):
             result = job.result()
             print(_line(result), flush=True)
@@ -324,8 +324,6 @@ def run_corpus(corpus, seed, n_rigs, record=None, truths=None):
 
 
 def main(corpus="loaded", n_rigs=None, seed=None, record=None, truths=None):
-    global COMMIT
-    COMMIT = _commit()
     default_rigs, default_seed = CORPORA[corpus]
     n_rigs, seed = n_rigs or default_rigs, default_seed if seed is None else seed
     start = time.perf_counter()
