@@ -241,6 +241,9 @@ def _build_docs(out):
     assert result.returncode == 0, result.stderr[-3000:]
 
 
+_ON_ONE_WORKER = pytest.mark.xdist_group("built-docs")  # one worker builds and reads; the other is not left waiting on the lock
+
+
 @pytest.fixture(scope="module")
 def built_docs(tmp_path_factory):
     """The HTML documentation: CI's build if it is newer than the sources of this check, else one
@@ -269,6 +272,7 @@ _REMOTE = re.compile(r"""<(?:script|link|img|iframe)\b[^>]*\b(?:src|href)\s*=\s*
                      re.IGNORECASE)
 
 
+@_ON_ONE_WORKER
 def test_built_pages_load_nothing_from_the_network(built_docs):
     """Offline reading: no page loads a script, stylesheet or image from another host."""
     pages = sorted(built_docs.rglob("*.html"))
@@ -283,6 +287,7 @@ def test_built_pages_load_nothing_from_the_network(built_docs):
     assert remote == {}
 
 
+@_ON_ONE_WORKER
 def test_math_is_rendered_by_the_bundled_mathjax(built_docs):
     """The theory page (TeX in $...$) loads MathJax from _static, and the files are there, fonts included."""
     theory = (built_docs / "theory.html").read_text(encoding="utf-8")
@@ -293,6 +298,7 @@ def test_math_is_rendered_by_the_bundled_mathjax(built_docs):
     assert list((mathjax / "output" / "chtml" / "fonts" / "woff-v2").glob("*.woff"))
 
 
+@_ON_ONE_WORKER
 def test_theory_math_renders_offline_in_a_browser(built_docs, tmp_path):
     """Headless chromium with every network request sent to a dead proxy: MathJax typesets the
     theory page's equations, the paper's tagged ones included, and none is an error."""
