@@ -7,6 +7,9 @@ JSON-lines file ``PATH`` as it finishes, and the rigs already there are not run 
 interrupted corpus goes on where it stopped, and the tables are printed from the whole record.
 ``--truths-from OLD`` takes the truths of the rigs in the record file ``OLD`` instead of
 running them (after a change of the verdict alone); the table names both commits.
+``--first K`` runs and tabulates rigs ``K .. N_RIGS - 1`` alone (the same rigs as in the
+whole corpus: each rig's draws depend on its index only), to finish a corpus whose record
+is lost.
 ``CORPUS`` is one of
 
 * ``loaded`` (issue 22; default 200 rigs, seed 2026): PI speed loops, both feedbacks, a
@@ -296,8 +299,8 @@ def _line(r):
             f"{r['df_alone']:14s} {r['t_verdict']:5.1f} s / {r['t_truth']:5.1f} s {r['outcomes']}")
 
 
-def run_corpus(corpus, seed, n_rigs, record=None, truths=None):
-    """The records of rigs ``0 .. n_rigs - 1``: those in ``record`` kept, the others run on two workers.
+def run_corpus(corpus, seed, n_rigs, record=None, truths=None, first=0):
+    """The records of rigs ``first .. n_rigs - 1``: those in ``record`` kept, the others run on two workers.
 
     Each new record is printed and appended to ``record`` (JSON lines) as it comes, so an
     interrupted run loses only the rigs in flight; run again, it does only the rest.  The
@@ -305,14 +308,14 @@ def run_corpus(corpus, seed, n_rigs, record=None, truths=None):
     not run again: for a change of the verdict alone.
     """
     commit = _commit()
-    done = {i: r for i, r in read_record(record, corpus, seed).items() if i < n_rigs}
+    done = {i: r for i, r in read_record(record, corpus, seed).items() if first <= i < n_rigs}
     known = read_record(truths, corpus, seed)
     if done:
         commits = Counter(r["commit"] for r in done.values())
         print(f"{len(done)} rigs from {record} (commits: "
               + ", ".join(f"{c} {n}" for c, n in sorted(commits.items())) + ")", flush=True)
     with ProcessPoolExecutor(2) as pool:
-        jobs = [pool.submit(one, (corpus, seed, i, known.get(i), commit)) for i in range(n_rigs) if i not in done]
+        jobs = [pool.submit(one, (corpus, seed, i, known.get(i), commit)) for i in range(first, n_rigs) if i not in done]
         for job in as_completed(jobs):
             result = job.result()
             print(_line(result), flush=True)
@@ -320,21 +323,22 @@ def run_corpus(corpus, seed, n_rigs, record=None, truths=None):
                 with record.open("a") as out:
                     out.write(json.dumps(result) + "\n")
             done[result["index"]] = result
-    return [done[i] for i in range(n_rigs)]
+    return [done[i] for i in range(first, n_rigs)]
 
 
-def main(corpus="loaded", n_rigs=None, seed=None, record=None, truths=None):
+def main(corpus="loaded", n_rigs=None, seed=None, record=None, truths=None, first=0):
     default_rigs, default_seed = CORPORA[corpus]
     n_rigs, seed = n_rigs or default_rigs, default_seed if seed is None else seed
     start = time.perf_counter()
-    results = run_corpus(corpus, seed, n_rigs, record, truths)
+    results = run_corpus(corpus, seed, n_rigs, record, truths, first)
     wall = time.perf_counter() - start
     said = [(r["truth"], r["verdict"]) for r in results]
     alone = [(r["truth"], r["df_alone"]) for r in results]
     kinds = Counter(r["kind"] for r in results)
     commits = Counter(r["commit"] for r in results)
     truth_commits = Counter(r.get("truth_commit", r["commit"]) for r in results)
-    print(f"\ncorpus {corpus!r}: {n_rigs} random rigs (seed {seed}), phase plane law; verdicts from "
+    print(f"\ncorpus {corpus!r}: {len(results)} random rigs (#{first}..#{n_rigs - 1}, seed {seed}), phase plane law; "
+          "verdicts from "
           + ", ".join(f"{c} ({n} rigs)" for c, n in sorted(commits.items())) + "; truths from "
           + ", ".join(f"{c} ({n} rigs)" for c, n in sorted(truth_commits.items())))
     print("rigs: " + ", ".join(f"{n} {kind}" for kind, n in sorted(kinds.items())) + "\n")
@@ -345,8 +349,8 @@ def main(corpus="loaded", n_rigs=None, seed=None, record=None, truths=None):
     agree = sum(t == v for t, v in said)
     agree_df = sum(t == v for t, v in alone)
     determined = [(t, v) for t, v in said if v != "undetermined"]
-    print(f"\nagreement: verdict {agree}/{n_rigs} = {agree / n_rigs:.1%}; DF alone {agree_df}/{n_rigs} = "
-          f"{agree_df / n_rigs:.1%}")
+    n = len(results)
+    print(f"\nagreement: verdict {agree}/{n} = {agree / n:.1%}; DF alone {agree_df}/{n} = {agree_df / n:.1%}")
     print(f"verdict where it commits (not undetermined): {sum(t == v for t, v in determined)}/{len(determined)} = "
           f"{sum(t == v for t, v in determined) / max(len(determined), 1):.1%}")
     for kind in sorted(kinds):
@@ -375,7 +379,8 @@ def main(corpus="loaded", n_rigs=None, seed=None, record=None, truths=None):
 
 
 def _arguments(args):
-    """``[CORPUS] [N_RIGS] [SEED] [--record PATH] [--truths-from PATH]`` (run_all.py passes N_RIGS alone)."""
+    """``[CORPUS] [N_RIGS] [SEED] [--record PATH] [--truths-from PATH] [--first K]`` (run_all.py passes N_RIGS
+    alone)."""
     paths = {}
     for option in ("--record", "--truths-from"):
         if option in args:
@@ -384,9 +389,16 @@ def _arguments(args):
                 sys.exit(f"bench_verdicts.py: {option} needs a path (a JSON-lines record file)")
             paths[option] = Path(args.pop(at + 1))
             args.pop(at)
+    first = 0
+    if "--first" in args:
+        at = args.index("--first")
+        if at + 1 >= len(args) or not args[at + 1].isdigit():
+            sys.exit("bench_verdicts.py: --first needs a rig index (a whole number)")
+        first = int(args.pop(at + 1))
+        args.pop(at)
     corpus = args.pop(0) if args and args[0] in CORPORA else "loaded"
     n_rigs, seed = ([int(arg) for arg in args[:2]] + [None, None])[:2]
-    return corpus, n_rigs, seed, paths.get("--record"), paths.get("--truths-from")
+    return corpus, n_rigs, seed, paths.get("--record"), paths.get("--truths-from"), first
 
 
 if __name__ == "__main__":
