@@ -25,7 +25,8 @@ The law is the phase plane (23) throughout.
 
 * **Verdict** (:func:`backlash_df.verdict.judge_loop`): the rests, the DF cycles, the linear
   loop in contact and open, the probes from the rests.
-* **Truth**: long simulations (80 s, doubled up to 1280 s until clear) from the rest, set up
+* **Truth**: long simulations (80 s, doubled up to 1280 s until clear; all of them capped at the
+  longest run ``MAX_STEPS`` allows at a very stiff rig's step) from the rest, set up
   here from the block diagram (speeds 0, the shaft on the flank carrying ``-T_l``, the
   integrator holding it), disturbed in ways the verdict does not use: kicks of the relative
   speed ``dtheta_d(0) = a w_n`` (motor and load speeds at ``+-a w_n / 2``, ``a = 1.1, 3, 10,
@@ -74,7 +75,8 @@ import numpy as np
 
 from backlash_df import rig_from_dict, simulate
 from backlash_df.limit_cycles import predict_limit_cycles, verify_limit_cycles
-from backlash_df.simulation import MAX_STEPS
+from backlash_df.loops import drive_loop
+from backlash_df.simulation import MAX_STEPS, default_step
 from backlash_df.sweeps import prediction_verdict
 from backlash_df.verdict import VERDICTS, judge_loop
 
@@ -187,14 +189,15 @@ def classify_run(run, alpha, final=False):
 
 def truth_run(rig, start):
     """``diverged``, ``cycle``, ``rest``, ``stayed`` or ``unsettled``: one truth start run until clear (module docs)."""
-    t_end = 80.0
+    longest = min(TRUTH_T_END, MAX_STEPS * default_step(drive_loop(rig).linear_part(), rig.make_model("phase-plane")))
+    t_end = min(80.0, longest)  # a very stiff rig's step allows less than 80 s
     while True:
         run = simulate(rig, "phase-plane", t_end=t_end, initial=start)
-        final = 2.0 * t_end > TRUTH_T_END or 2.0 * t_end / (run.time[1] - run.time[0]) > MAX_STEPS
+        final = 2.0 * t_end > longest
         outcome = classify_run(run, rig.plant.half_gap, final=final)
         if outcome == "cycle" and t_end < TRUTH_CYCLE_T_END and not final:
             # a slow loop's long transient looks steady for a while: confirmed on a run of TRUTH_CYCLE_T_END
-            outcome, t_end = None, TRUTH_CYCLE_T_END
+            outcome, t_end = None, min(TRUTH_CYCLE_T_END, longest)
             continue
         if outcome is not None or final:
             break
