@@ -1,6 +1,7 @@
 """Verdict corpora: ``predict``'s verdict against long simulations on seeded random rigs.
 
-Run: ``python benchmarks/bench_verdicts.py [CORPUS] [N_RIGS] [SEED] [--record PATH]`` (two
+Run: ``python benchmarks/bench_verdicts.py [CORPUS] [N_RIGS] [SEED] [--record PATH] [--truths-from OLD]
+[--first K]`` (two
 worker processes; ``CORPUS`` defaults to ``loaded``).  With ``--record``, each rig's record
 (its verdict, truth, reason, CPU times and the commit that made them) is appended to the
 JSON-lines file ``PATH`` as it finishes, and the rigs already there are not run again: an
@@ -381,25 +382,37 @@ def main(corpus="loaded", n_rigs=None, seed=None, record=None, truths=None, firs
                   f"{r['df_alone']}) -- {r['rig']}\n        {r['reason']}")
 
 
+def _usage_error(message):
+    """One line on stderr and exit code 2, as the package's command line does."""
+    print(f"bench_verdicts.py: {message}", file=sys.stderr)
+    sys.exit(2)
+
+
 def _arguments(args):
     """``[CORPUS] [N_RIGS] [SEED] [--record PATH] [--truths-from PATH] [--first K]`` (run_all.py passes N_RIGS
     alone)."""
+    if {"-h", "--help"} & set(args):
+        print(__doc__.split("``CORPUS`` is one of", 1)[0].strip())
+        sys.exit(0)
     paths = {}
     for option in ("--record", "--truths-from"):
         if option in args:
             at = args.index(option)
             if at + 1 >= len(args):
-                sys.exit(f"bench_verdicts.py: {option} needs a path (a JSON-lines record file)")
+                _usage_error(f"{option} needs a path (a JSON-lines record file)")
             paths[option] = Path(args.pop(at + 1))
             args.pop(at)
     first = 0
     if "--first" in args:
         at = args.index("--first")
         if at + 1 >= len(args) or not args[at + 1].isdigit():
-            sys.exit("bench_verdicts.py: --first needs a rig index (a whole number)")
+            _usage_error("--first needs a rig index (a whole number)")
         first = int(args.pop(at + 1))
         args.pop(at)
     corpus = args.pop(0) if args and args[0] in CORPORA else "loaded"
+    if not all(arg.isdigit() for arg in args[:2]) or len(args) > 2:
+        _usage_error(f"unexpected arguments {' '.join(args)!r}; usage: [CORPUS] [N_RIGS] [SEED] "
+                 "[--record PATH] [--truths-from PATH] [--first K], CORPUS one of " + ", ".join(CORPORA))
     n_rigs, seed = ([int(arg) for arg in args[:2]] + [None, None])[:2]
     return corpus, n_rigs, seed, paths.get("--record"), paths.get("--truths-from"), first
 
