@@ -63,6 +63,7 @@ capped loops unstable in contact, the rigs where the verdict and the truth diffe
 CPU time per rig of verdict and truth.
 """
 
+import argparse
 import json
 import math
 import subprocess
@@ -188,9 +189,14 @@ def classify_run(run, alpha, final=False):
     return None
 
 
-def truth_run(rig, start):
-    """``diverged``, ``cycle``, ``rest``, ``stayed`` or ``unsettled``: one truth start run until clear (module docs)."""
-    longest = min(TRUTH_T_END, MAX_STEPS * default_step(drive_loop(rig).linear_part(), rig.make_model("phase-plane")))
+def longest_truth_run(rig):
+    """The truth's longest run, s: ``TRUTH_T_END``, or less where ``MAX_STEPS`` of the rig's step are less."""
+    return min(TRUTH_T_END, MAX_STEPS * default_step(drive_loop(rig).linear_part(), rig.make_model("phase-plane")))
+
+
+def truth_run(rig, start, longest):
+    """``diverged``, ``cycle``, ``rest``, ``stayed`` or ``unsettled``: one truth start run until clear (module docs),
+    no run longer than ``longest`` (s, :func:`longest_truth_run`)."""
     t_end = min(80.0, longest)  # a very stiff rig's step allows less than 80 s
     while True:
         run = simulate(rig, "phase-plane", t_end=t_end, initial=start)
@@ -210,7 +216,8 @@ def truth_run(rig, start):
 
 def truth(rig):
     """Class of what long simulations from the truth's starts show (module docs)."""
-    outcomes = Counter(truth_run(rig, start) for start in truth_starts(rig))
+    longest = longest_truth_run(rig)
+    outcomes = Counter(truth_run(rig, start, longest) for start in truth_starts(rig))
     if outcomes["unsettled"]:
         return "undetermined", outcomes
     if outcomes["cycle"]:
@@ -382,39 +389,27 @@ def main(corpus="loaded", n_rigs=None, seed=None, record=None, truths=None, firs
                   f"{r['df_alone']}) -- {r['rig']}\n        {r['reason']}")
 
 
-def _usage_error(message):
-    """One line on stderr and exit code 2, as the package's command line does."""
-    print(f"bench_verdicts.py: {message}", file=sys.stderr)
-    sys.exit(2)
-
-
 def _arguments(args):
-    """``[CORPUS] [N_RIGS] [SEED] [--record PATH] [--truths-from PATH] [--first K]`` (run_all.py passes N_RIGS
-    alone)."""
-    if {"-h", "--help"} & set(args):
-        print(__doc__.split("``CORPUS`` is one of", 1)[0].strip())
-        sys.exit(0)
-    paths = {}
-    for option in ("--record", "--truths-from"):
-        if option in args:
-            at = args.index(option)
-            if at + 1 >= len(args):
-                _usage_error(f"{option} needs a path (a JSON-lines record file)")
-            paths[option] = Path(args.pop(at + 1))
-            args.pop(at)
-    first = 0
-    if "--first" in args:
-        at = args.index("--first")
-        if at + 1 >= len(args) or not args[at + 1].isdigit():
-            _usage_error("--first needs a rig index (a whole number)")
-        first = int(args.pop(at + 1))
-        args.pop(at)
-    corpus = args.pop(0) if args and args[0] in CORPORA else "loaded"
-    if not all(arg.isdigit() for arg in args[:2]) or len(args) > 2:
-        _usage_error(f"unexpected arguments {' '.join(args)!r}; usage: [CORPUS] [N_RIGS] [SEED] "
-                 "[--record PATH] [--truths-from PATH] [--first K], CORPUS one of " + ", ".join(CORPORA))
-    n_rigs, seed = ([int(arg) for arg in args[:2]] + [None, None])[:2]
-    return corpus, n_rigs, seed, paths.get("--record"), paths.get("--truths-from"), first
+    """``[CORPUS] [N_RIGS] [SEED] [--record PATH] [--truths-from OLD] [--first K]`` (run_all.py passes N_RIGS
+    alone); a bad argument is argparse's usage and one error line, exit code 2."""
+    parser = argparse.ArgumentParser(prog="bench_verdicts.py", formatter_class=argparse.RawDescriptionHelpFormatter,
+                                     description=__doc__.split("``CORPUS`` is one of", 1)[0].strip())
+    parser.add_argument("values", nargs="*", metavar="[CORPUS] [N_RIGS] [SEED]",
+                        help=f"CORPUS one of {', '.join(CORPORA)} (default loaded); N_RIGS and SEED whole numbers "
+                             "(default: the corpus's)")
+    parser.add_argument("--record", type=Path, metavar="PATH", help="JSON-lines record: appended to, and resumed from")
+    parser.add_argument("--truths-from", type=Path, metavar="OLD", help="a record whose truths are taken")
+    parser.add_argument("--first", type=int, default=0, metavar="K", help="run and tabulate rigs K.. alone")
+    options = parser.parse_intermixed_args(args)
+    values = list(options.values)
+    corpus = values.pop(0) if values and values[0] in CORPORA else "loaded"
+    if len(values) > 2 or not all(value.isdigit() for value in values):
+        parser.error(f"unexpected arguments {' '.join(options.values)!r}: [CORPUS] [N_RIGS] [SEED], CORPUS one of "
+                     + ", ".join(CORPORA))
+    if options.first < 0:
+        parser.error(f"--first must be a rig index >= 0, got {options.first}")
+    n_rigs, seed = ([int(value) for value in values] + [None, None])[:2]
+    return corpus, n_rigs, seed, options.record, options.truths_from, options.first
 
 
 if __name__ == "__main__":
