@@ -20,7 +20,9 @@ works from the loop's rest points outward (:mod:`backlash_df.equilibria`):
   (just out of the rest's mode), the standard set of the rig (twists 1.5, 3,
   8, -20 alpha; kicks 2, 10, 50 alpha omega_n) and a twist onto each stable DF
   cycle, each run until a steady state, a confirmed decay, an overflow or a blow-up
-  (:func:`~backlash_df.simulation.measure_limit_cycle`);
+  (:func:`~backlash_df.simulation.measure_limit_cycle`); an oscillation that
+  holds its level is confirmed by a longer run from the same start or by another
+  probe's at the same swing (:func:`~backlash_df.simulation.confirm_across_starts`);
 * for a bistable loop, the **separating orbit**: the exact unstable periodic
   orbit by shooting (:mod:`backlash_df.orbits`) between rest and hunting;
 
@@ -67,7 +69,7 @@ from .models import BacklashModel
 from .orbits import exact_orbits, periodic_orbit
 from .plotting import ResultPlot, axes_or_new, legend_beside, log_scale
 from .report import roundoff_zero, signed_percent, text_table
-from .simulation import default_step, simulated_limit_cycle
+from .simulation import confirm_across_starts, default_step, simulated_limit_cycle
 from .system import lti_linear_part
 
 __all__ = ["VERDICTS", "LinearStability", "Probe", "LoopVerdict", "linear_stability", "probe", "ladder",
@@ -661,8 +663,9 @@ def judge_loop(rig, prediction, linear=None, t_end=10.0, max_t_end=320.0, distur
         return LoopVerdict(prediction.model, "unstable", f"the loop has no rest: {rest_note}", contact, opened, (),
                            rest_note=rest_note, prediction=prediction)
     dt = None if refinement == 1 else default_step(part, model) / refinement
-    probes = tuple(probe(rig, model, disturbance, rest, user_linear, t_end, max_t_end, role, dt)
-                   for disturbance, rest, role in ladder(rig, rests, disturbances, user_linear, prediction))
+    probes = _confirmed_across_starts([probe(rig, model, disturbance, rest, user_linear, t_end, max_t_end, role, dt)
+                                       for disturbance, rest, role in ladder(rig, rests, disturbances, user_linear,
+                                                                             prediction)])
     orbits, note = (_exact(rig, prediction, probes, t_end, max_t_end, dt, refinement) if exact and user_linear is None
                     else ((), ""))
     verdict, reason, fields = _decide(prediction, contact, rests, probes, orbits)
@@ -673,6 +676,12 @@ def judge_loop(rig, prediction, linear=None, t_end=10.0, max_t_end=320.0, distur
             verdict, reason, fields = _decide(prediction, contact, rests, probes, orbits + (separatrix,))
     return LoopVerdict(prediction.model, verdict, reason, contact, opened, probes, orbits=orbits, orbit_note=note,
                        rests=rests, rest_note=rest_note, separatrix=separatrix, prediction=prediction, **fields)
+
+
+def _confirmed_across_starts(probes):
+    """The probes, an oscillation that held its level confirmed by another probe's at its swing (:func:`confirm_across_starts`)."""
+    measured = confirm_across_starts([p.measured for p in probes])
+    return tuple(dataclasses.replace(p, measured=m) for p, m in zip(probes, measured))
 
 
 def judge(rig, prediction, **kwargs):

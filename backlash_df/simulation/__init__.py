@@ -47,7 +47,7 @@ Two kernels share these rules:
   by the exponential step :func:`~backlash_df.models.exact_step`.
 """
 
-from .cycles import MeasuredCycle, measure_limit_cycle, upward_crossings
+from .cycles import MeasuredCycle, confirm_across_starts, measure_limit_cycle, upward_crossings
 from .linear import MAX_STEPS, SimulationResult, default_step, simulate_linear, simulate_two_mass
 from .rig import initial_state, simulate_rig, simulated_limit_cycle
 
@@ -59,6 +59,7 @@ __all__ = [
     "MAX_STEPS",
     "MeasuredCycle",
     "measure_limit_cycle",
+    "confirm_across_starts",
     "upward_crossings",
     "simulate_rig",
     "simulated_limit_cycle",

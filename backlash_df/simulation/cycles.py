@@ -7,8 +7,8 @@ import numpy as np
 
 from .._json import json_ready
 
-__all__ = ["MeasuredCycle", "measure_limit_cycle", "motion_trend", "free_flights", "upward_crossings", "DYING",
-           "TREND_WINDOWS"]
+__all__ = ["MeasuredCycle", "measure_limit_cycle", "confirm_across_starts", "motion_trend", "free_flights",
+           "upward_crossings", "DYING", "TREND_WINDOWS"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -157,12 +157,18 @@ def motion_trend(result, count=TREND_WINDOWS):
     switches : ndarray of int, shape (count,)
     """
     windows = _windows(result.time, count)
-    changes = np.diff(result.mode) != 0
-    if result.command_mode is not None:
-        changes |= np.diff(result.command_mode) != 0
+    changes = _changes(result)
     envelope = _per_window(windows, np.abs(result.dtheta_d), np.max)
     switches = np.array([int(changes[max(a - 1, 0):b - 1].sum()) for a, b in windows])
     return envelope, switches
+
+
+def _changes(result):
+    """Per sample interval: whether the backlash's mode (or the torque command's, where it has a limit) changed."""
+    changes = np.diff(result.mode) != 0
+    if result.command_mode is not None:
+        changes |= np.diff(result.command_mode) != 0
+    return changes
 
 
 def _per_window(windows, values, reduce):
@@ -196,7 +202,9 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
       as when a free load bounces between the flanks ever more slowly (its speed
       decays like 1/t in time: theta_d sweeps the gap for as long as one
       simulates); or, in contact, the envelope falls and the switches thin out
-      (15 % fewer in the last quarter than in the one before); **drifting in the
+      (15 % fewer in the last quarter than in the one before, or at most 1.5
+      times as many in the last octave of time as in the one before, where a
+      cycle has twice as many: :func:`_slowing`); **drifting in the
       gap** (``"drifting in the gap"``): no contact in the last ``window`` of the
       record.  Neither is settled: ``previous``, the measurement of a shorter run
       from the same start that said either, confirms it as rest;
@@ -266,13 +274,30 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
         return _none("no limit cycle", True)  # one linear mode over the second half, decaying to its rest
     elif drive is not None:  # the drive turns as one body: its own speed gives the trend
         return _none(_trend(drive), False)
-    elif falling and switches[half:].sum() <= 0.85 * switches[:half].sum():
+    elif falling and (switches[half:].sum() <= 0.85 * switches[:half].sum() or _slowing(result)):
         word = "decaying"
     else:
         word = _trend(envelope)
     if word in DYING and previous is not None and previous.verdict in DYING:
         return _none("no limit cycle", True)
     return _none(word, False)
+
+
+def _slowing(result, least=4, ratio=1.5):
+    """True if the switches thin out in time: as many per octave of time, not per second.
+
+    The record's last octave ``[T/2, T]`` holds at most ``ratio`` times the switches
+    (:func:`motion_trend`) of the octave before, ``[T/4, T/2]``, and that one
+    ``least`` or more.  A motion that dies like a power of time (a load nudged off a
+    flank ever more slowly, its relative speed falling by a factor per doubling of
+    time) switches about equally often in every octave, whatever the run's length;
+    a cycle, or a motion settling onto one, switches at its constant rate, twice as
+    often in the longer octave.
+    """
+    time, changes = result.time[1:], _changes(result)
+    last = int(changes[time >= 0.5 * time[-1]].sum())
+    before = int(changes[(time >= 0.25 * time[-1]) & (time < 0.5 * time[-1])].sum())
+    return before >= least and last <= ratio * before
 
 
 def _holds_level(result, switches):
@@ -322,6 +347,33 @@ def _oscillation(result, previous):
     return MeasuredCycle(confirmed, float(amplitude), peak, float(omega), bias, confirmed,
                          "sustained oscillation" if confirmed else "oscillating", int(omega * span / (2.0 * math.pi)),
                          saturation)
+
+
+def confirm_across_starts(measured):
+    """The measurements of runs from different starts, each ``"oscillating"`` one confirmed by another at its swing.
+
+    Two runs from different starts that each hold their level with swings
+    (``peak``, rad) within :data:`_SWING` of each other are on one sustained
+    oscillation, as two runs from one start are (:func:`measure_limit_cycle`'s
+    ``previous``).  A chaotic hunt's runs from one start can call it ``"irregular"``
+    in one run and ``"oscillating"`` in the next as their windows catch its bursts;
+    across starts it confirms itself.  Other measurements are returned as they are.
+
+    Parameters
+    ----------
+    measured : sequence of MeasuredCycle
+
+    Returns
+    -------
+    list of MeasuredCycle
+    """
+    holding = [m for m in measured if m.verdict in ("oscillating", "sustained oscillation")]
+
+    def confirmed(m):
+        return any(o is not m and abs(m.peak / o.peak - 1.0) <= _SWING for o in holding)
+
+    return [dataclasses.replace(m, found=True, settled=True, verdict="sustained oscillation")
+            if m.verdict == "oscillating" and confirmed(m) else m for m in measured]
 
 
 def _falling(envelope):
