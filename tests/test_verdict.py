@@ -13,6 +13,7 @@ import dataclasses
 import json
 import math
 import warnings
+from itertools import pairwise
 
 import control as ct
 import numpy as np
@@ -446,6 +447,26 @@ def test_a_motion_dying_like_one_over_t_switching_as_often_in_every_octave_is_re
     assert all(0.4 < later / earlier < 0.6 for earlier, later in zip(peaks, peaks[1:])), peaks
     assert min(switches) >= 6 and max(switches) <= 10, switches
     assert run.command_mode is None or not np.any(run.command_mode[run.time >= 10.0])
+
+
+def test_a_motion_falling_onto_a_cycle_from_a_larger_slower_swing_is_not_dying():
+    # bench_verdicts 'drives' #19: after a twist of -20 alpha the swing falls fast and its switches come ever more
+    # often as it nears the cycle (1.4x per octave at first); a rule comparing the last octave with the one before
+    # alone called it decaying at 10 s and 20 s, so rest, and the loop bistable (the 1280 s truth: a cycle from
+    # every start)
+    rig = rig_from_dict({
+        "plant": {"motor_inertia": 0.5995580412558663, "load_inertia": 9.096137135813706,
+                  "stiffness": 2245.3870352024446, "damping": 1.0, "half_gap": 0.053880484692900465},
+        "controller": {"feedback": "load", "kp": 3.793168930419897, "ti": 1.432335869602877,
+                       "speed_filter": 0.00391602831786399, "torque_lag": 0.00033687156812836947},
+        "model": {"backlash": "phase-plane"}})
+    hunting = probe(rig, "phase-plane", Disturbance(TWIST, -20.0 * rig.plant.half_gap))
+    assert hunting.outcome == "cycle" and hunting.measured.periodic
+    # independently: the run's switches per octave of time grow towards the cycle's doubling
+    run = simulate(rig, "phase-plane", t_end=20.0, initial={"theta_d": hunting.disturbance.value})
+    switches = [np.count_nonzero(np.diff(run.mode)[(run.time[1:] >= a) & (run.time[1:] < 2.0 * a)])
+                for a in (2.5, 5.0, 10.0)]
+    assert all(1.3 < later / earlier < 2.0 for earlier, later in pairwise(switches)), switches
 
 
 def test_a_contact_oscillation_settling_onto_a_cycle_at_its_own_rate_is_not_dying():

@@ -202,9 +202,9 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
       as when a free load bounces between the flanks ever more slowly (its speed
       decays like 1/t in time: theta_d sweeps the gap for as long as one
       simulates); or, in contact, the envelope falls and the switches thin out
-      (15 % fewer in the last quarter than in the one before, or at most 1.5
-      times as many in the last octave of time as in the one before, where a
-      cycle has twice as many: :func:`_slowing`); **drifting in the
+      (15 % fewer in the last quarter than in the one before, or about as many
+      in each of the last three octaves of time, where a cycle has twice as many
+      in each as in the one before: :func:`_slowing`); **drifting in the
       gap** (``"drifting in the gap"``): no contact in the last ``window`` of the
       record.  Neither is settled: ``previous``, the measurement of a shorter run
       from the same start that said either, confirms it as rest;
@@ -286,18 +286,20 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
 def _slowing(result, least=4, ratio=1.5):
     """True if the switches thin out in time: as many per octave of time, not per second.
 
-    The record's last octave ``[T/2, T]`` holds at most ``ratio`` times the switches
-    (:func:`motion_trend`) of the octave before, ``[T/4, T/2]``, and that one
-    ``least`` or more.  A motion that dies like a power of time (a load nudged off a
-    flank ever more slowly, its relative speed falling by a factor per doubling of
-    time) switches about equally often in every octave, whatever the run's length;
-    a cycle, or a motion settling onto one, switches at its constant rate, twice as
-    often in the longer octave.
+    Of the record's last three octaves of time, ``[T/8, T/4]``, ``[T/4, T/2]`` and
+    ``[T/2, T]``, the first holds ``least`` switches (:func:`motion_trend`) or more
+    and each later one at most ``ratio`` times as many.  A motion that dies like a
+    power of time (a load nudged off a flank ever more slowly, its relative speed
+    halving with every doubling of time) switches about equally often in every
+    octave, whatever the run's length; a cycle switches at its constant rate, four
+    times as often in the last octave as in the first, and a motion approaching one
+    from a larger, slower swing two to four times as often.
     """
     time, changes = result.time[1:], _changes(result)
-    last = int(changes[time >= 0.5 * time[-1]].sum())
-    before = int(changes[(time >= 0.25 * time[-1]) & (time < 0.5 * time[-1])].sum())
-    return before >= least and last <= ratio * before
+    counts = [int(changes[(time >= low * time[-1]) & (time < 2.0 * low * time[-1])].sum())
+              for low in (0.125, 0.25)]
+    counts.append(int(changes[time >= 0.5 * time[-1]].sum()))
+    return counts[0] >= least and max(counts[1:]) <= ratio * counts[0]
 
 
 def _holds_level(result, switches):
