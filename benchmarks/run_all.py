@@ -115,12 +115,14 @@ def spread(name, runs):
         if any(values is None or len(values) != len(series[0]) for values in series):
             print(f"  {key if len(key) <= 90 else key[:62] + ' ... ' + key[-23:]:90s} not printed in every run")
             continue
-        for position in range(len(series[0])):
+        count = len(series[0])
+        for position in range(count):
             values = [values[position] for values in series]
             ratio = max(values) / min(values) if min(values) > 0 else float("inf")
             stable &= ratio <= LIMIT
             flag = "" if ratio <= LIMIT else "   <-- unstable"
-            shown = key if len(key) <= 90 else f"{key[:62]} ... {key[-23:]}"
+            which = f" (ratio {position + 1} of {count})" if count > 1 else ""  # a line printing several
+            shown = (key if len(key) + len(which) <= 90 else f"{key[:62 - len(which)]} ... {key[-23:]}") + which
             print(f"  {shown:90s} {' / '.join(f'{v:.2g}' for v in values):>24s}   spread {ratio:.2g}{flag}")
     return stable
 
