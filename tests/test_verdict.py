@@ -22,7 +22,7 @@ from click.testing import CliRunner
 
 from backlash_df import load_rig, make_model, rig_from_dict, simulate
 from backlash_df.cli import main
-from backlash_df.disturbances import KINDS, TWIST, Disturbance, standard_disturbances
+from backlash_df.disturbances import KINDS, MOTOR_SPEED, TWIST, Disturbance, standard_disturbances
 from backlash_df.limit_cycles import predict_limit_cycles, verify_limit_cycles
 from backlash_df.loops import drive_loop
 from backlash_df.simulation import (MeasuredCycle, SimulationResult, confirm_across_starts, measure_limit_cycle,
@@ -467,6 +467,30 @@ def test_a_motion_falling_onto_a_cycle_from_a_larger_slower_swing_is_not_dying()
     switches = [np.count_nonzero(np.diff(run.mode)[(run.time[1:] >= a) & (run.time[1:] < 2.0 * a)])
                 for a in (2.5, 5.0, 10.0)]
     assert all(1.3 < later / earlier < 2.0 for earlier, later in pairwise(switches)), switches
+
+
+def test_a_hard_kick_collapsing_onto_a_cycle_is_not_a_power_law_decay():
+    # bench_verdicts 'drives' #344, a torque-limited cascade: after a motor-speed kick of 50 alpha omega_n the
+    # relative speed's peak falls to a third per octave of time (54, 17, 6.4 rad/s over 5-10, 10-20, 20-40 s) with
+    # hundreds of switches in each octave, then holds at the cycle's level; counting switches alone called it a
+    # power-law decay at 40 s, so rest, and the loop bistable (the 1280 s truth: a cycle from every start)
+    rig = rig_from_dict({
+        "plant": {"motor_inertia": 0.7885389697280629, "load_inertia": 7.71799172078175,
+                  "stiffness": 4543.830694957801, "damping": 1.0, "half_gap": 0.06593284419897615},
+        "controller": {"feedback": "load", "kp": 6.155229678860785, "ti": 1.4099053995538193,
+                       "torque_lag": 0.0021958526171083027, "structure": "cascade", "kv": 7.7052147586253765,
+                       "position_feedback": "load", "torque_limit": 684.2062909671787},
+        "model": {"backlash": "phase-plane"}})
+    kick = Disturbance(MOTOR_SPEED, 262.7)
+    hunting = probe(rig, "phase-plane", kick)
+    assert hunting.outcome == "cycle", (hunting.outcome, hunting.duration)
+    # independently: from 200 s on, as many switches in every 20 s at the same peak
+    run = simulate(rig, "phase-plane", t_end=320.0, initial={"motor_speed": kick.value})
+    windows = [(run.time[1:] >= a) & (run.time[1:] < a + 20.0) for a in (200.0, 250.0, 300.0)]
+    switches = [np.count_nonzero(np.diff(run.mode)[k]) for k in windows]
+    peaks = [np.abs(run.dtheta_d[1:][k]).max() for k in windows]
+    assert max(switches) - min(switches) <= 2 and min(switches) > 600, switches
+    assert max(peaks) / min(peaks) < 1.01, peaks
 
 
 def test_a_contact_oscillation_settling_onto_a_cycle_at_its_own_rate_is_not_dying():

@@ -1,6 +1,7 @@
 """Limit cycles measured in time simulations: amplitude, frequency, or why there is none."""
 
 import dataclasses
+import itertools
 import math
 
 import numpy as np
@@ -283,23 +284,29 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
     return _none(word, False)
 
 
-def _slowing(result, least=4, ratio=1.5):
-    """True if the switches thin out in time: as many per octave of time, not per second.
+def _slowing(result, least=4, ratio=1.5, falls=(0.35, 0.8)):
+    """True if the motion dies like a power of time: as many switches per octave of time, not per second.
 
     Of the record's last three octaves of time, ``[T/8, T/4]``, ``[T/4, T/2]`` and
     ``[T/2, T]``, the first holds ``least`` switches (:func:`motion_trend`) or more
-    and each later one at most ``ratio`` times as many.  A motion that dies like a
-    power of time (a load nudged off a flank ever more slowly, its relative speed
-    halving with every doubling of time) switches about equally often in every
-    octave, whatever the run's length; a cycle switches at its constant rate, four
-    times as often in the last octave as in the first, and a motion approaching one
-    from a larger, slower swing two to four times as often.
+    and each later one at most ``ratio`` times as many, and the peak relative speed
+    of each later octave is ``falls[0]`` to ``falls[1]`` times the one before (a
+    speed falling like ``t**-p``, ``p`` about 0.3 to 1.5).  A motion that dies so (a
+    load nudged off a flank ever more slowly, its relative speed halving with every
+    doubling of time) switches about equally often in every octave, whatever the
+    run's length; a cycle switches at its constant rate, four times as often in the
+    last octave as in the first, and a motion approaching one from a larger, slower
+    swing two to four times as often.  A hard kick's swing collapsing onto a cycle
+    can switch about as often in three octaves, but its peak falls faster, to a
+    third or less per octave.
     """
-    time, changes = result.time[1:], _changes(result)
-    counts = [int(changes[(time >= low * time[-1]) & (time < 2.0 * low * time[-1])].sum())
-              for low in (0.125, 0.25)]
-    counts.append(int(changes[time >= 0.5 * time[-1]].sum()))
-    return counts[0] >= least and max(counts[1:]) <= ratio * counts[0]
+    time, changes, speed = result.time[1:], _changes(result), np.abs(result.dtheta_d[1:])
+    octaves = [(time >= low * time[-1]) & (time < 2.0 * low * time[-1]) for low in (0.125, 0.25)]
+    octaves.append(time >= 0.5 * time[-1])
+    counts = [int(changes[octave].sum()) for octave in octaves]
+    peaks = [speed[octave].max(initial=0.0) for octave in octaves]
+    power_law = all(falls[0] * earlier <= later <= falls[1] * earlier for earlier, later in itertools.pairwise(peaks))
+    return counts[0] >= least and max(counts[1:]) <= ratio * counts[0] and power_law
 
 
 def _holds_level(result, switches):
