@@ -203,7 +203,8 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
       as when a free load bounces between the flanks ever more slowly (its speed
       decays like 1/t in time: theta_d sweeps the gap for as long as one
       simulates); or, in contact, the envelope falls and the switches thin out
-      (15 % fewer in the last quarter than in the one before, or about as many
+      (15 % fewer in the last quarter than in the one before, the envelope
+      still at its lowest at the end: :func:`_still_falling`; or about as many
       in each of the last three octaves of time, where a cycle has twice as many
       in each as in the one before: :func:`_slowing`); **drifting in the
       gap** (``"drifting in the gap"``): no contact in the last ``window`` of the
@@ -275,7 +276,8 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
         return _none("no limit cycle", True)  # one linear mode over the second half, decaying to its rest
     elif drive is not None:  # the drive turns as one body: its own speed gives the trend
         return _none(_trend(drive), False)
-    elif falling and (switches[half:].sum() <= 0.85 * switches[:half].sum() or _slowing(result)):
+    elif falling and ((switches[half:].sum() <= 0.85 * switches[:half].sum() and _still_falling(envelope))
+                      or _slowing(result)):
         word = "decaying"
     else:
         word = _trend(envelope)
@@ -383,6 +385,15 @@ def confirm_across_starts(measured):
 
     return [dataclasses.replace(m, found=True, settled=True, verdict="sustained oscillation")
             if m.verdict == "oscillating" and confirmed(m) else m for m in measured]
+
+
+def _still_falling(envelope):
+    """True if the last window of :func:`motion_trend`'s envelope is the lowest of the record's last quarter.
+
+    A dying motion is still falling at the end; a hard kick's swing that has
+    collapsed onto a cycle levels off there while its switches thin out.
+    """
+    return bool(envelope[-1] <= envelope[envelope.size // 2:-1].min())
 
 
 def _falling(envelope):
