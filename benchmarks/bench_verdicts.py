@@ -41,9 +41,7 @@ The law is the phase plane (23) throughout.
   middle (within a quarter, +-2); ``rest`` if that ratio is below 0.8 and the switches
   thin out (none at the end, or fewer than three quarters of those in the middle: a
   motion falling onto a cycle keeps switching as often), or the motion has died to 1e-9
-  of its largest speed (a rest by the envelope alone holds only if the doubled run
-  says rest too: a motion falling onto a cycle of a lower level looks like rest for a
-  while); otherwise the run is doubled, and at 1280 s (or the longest run
+  of its largest speed; otherwise the run is doubled, and at 1280 s (or the longest run
   ``MAX_STEPS`` allows at the rig's step) it is rest if nothing switched over its last
   fifth (the load coasting in the gap), or if the envelope fell below 0.8 with fewer
   than 4 switches in the middle tenth (too few for a cycle by the rule above: a load
@@ -191,13 +189,6 @@ def classify_run(run, alpha, final=False):
     return None
 
 
-def _died(run):
-    """True if the relative speed over the run's last tenth has died to 1e-9 of its largest: rest, needing no
-    confirmation."""
-    speed = np.abs(run.dtheta_d)
-    return bool(speed[run.time >= 0.9 * run.time[-1]].max() <= 1e-9 * speed.max())
-
-
 def longest_truth_run(rig):
     """The truth's longest run, s: ``TRUTH_T_END``, or less where ``MAX_STEPS`` of the rig's step are less."""
     return min(TRUTH_T_END, MAX_STEPS * default_step(drive_loop(rig).linear_part(), rig.make_model("phase-plane")))
@@ -207,7 +198,6 @@ def truth_run(rig, start, longest):
     """``diverged``, ``cycle``, ``rest``, ``stayed`` or ``unsettled``: one truth start run until clear (module docs),
     no run longer than ``longest`` (s, :func:`longest_truth_run`)."""
     t_end = min(80.0, longest)  # a very stiff rig's step allows less than 80 s
-    resting = False  # the run before said rest
     while True:
         run = simulate(rig, "phase-plane", t_end=t_end, initial=start)
         final = 2.0 * t_end > longest
@@ -216,12 +206,6 @@ def truth_run(rig, start, longest):
             # a slow loop's long transient looks steady for a while: confirmed on a run of TRUTH_CYCLE_T_END
             outcome, t_end = None, min(TRUTH_CYCLE_T_END, longest)
             continue
-        if outcome == "rest" and not (resting or final or _died(run)):
-            # a motion falling onto a cycle of a lower level looks like rest for a while: confirmed on a run twice
-            # as long ('loaded' #130: rest at 80 s, a steady cycle from 160 s on)
-            resting, outcome = True, None
-        else:
-            resting = False
         if outcome is not None or final:
             break
         t_end *= 2.0
