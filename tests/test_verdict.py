@@ -403,15 +403,19 @@ def test_the_ladder_starts_a_run_on_each_stable_cycle_of_the_df():
                             for p in on_cycle)
 
 
+
+def _corpus_rig(plant, controller):
+    """A rig of the benchmark corpora (``benchmarks/bench_verdicts.py``): the values drawn there, the phase plane law."""
+    return rig_from_dict({"plant": plant, "controller": controller, "model": {"backlash": "phase-plane"}})
+
 def test_a_load_brushing_a_flank_between_ever_slower_crossings_dies():
     # bench_verdicts 'loaded' #34: motor feedback, a free load; after a twist of 1.5 alpha the load crosses the gap
     # ever slower and between crossings brushes the flank it reached and leaves it again (a flight that does not
     # cross); those flights once hid the decay and the run was "irregular after 160 s", the verdict undetermined
-    rig = rig_from_dict({
-        "plant": {"motor_inertia": 0.7289562110952206, "load_inertia": 2.164186160470221,
-                  "stiffness": 2611.425605493332, "damping": 3.0, "half_gap": 0.040747565225811605},
-        "controller": {"feedback": "motor", "kp": 25.203580300701265, "ti": 0.1452052028795715},
-        "model": {"backlash": "phase-plane"}})
+    rig = _corpus_rig(
+        plant={"motor_inertia": 0.7289562110952206, "load_inertia": 2.164186160470221,
+               "stiffness": 2611.425605493332, "damping": 3.0, "half_gap": 0.040747565225811605},
+        controller={"feedback": "motor", "kp": 25.203580300701265, "ti": 0.1452052028795715})
     twist = Disturbance(TWIST, 1.5 * rig.plant.half_gap)
     assert probe(rig, "phase-plane", twist).outcome == "rest"
     # independently: over a run of 160 s the relative speed's peak never rises from one 40 s window to the next
@@ -429,13 +433,12 @@ def test_a_motion_dying_like_one_over_t_switching_as_often_in_every_octave_is_re
     # every doubling of time and the backlash switches 8 times in each octave (10-20 s, 20-40 s, ...), so its
     # switches never thin out within one run's second half; its runs were "decaying" and "converging" by turns and
     # the verdict "undetermined after 320 s" (the benchmark's 1280 s truth: rest from every start)
-    rig = rig_from_dict({
-        "plant": {"motor_inertia": 0.9677635289536735, "load_inertia": 6.211651571841481,
-                  "stiffness": 6543.406671706736, "damping": 10.0, "half_gap": 0.0289864478449107},
-        "controller": {"feedback": "motor", "kp": 2071.7574455605345, "ti": 0.13091474814021975,
-                       "speed_filter": 0.007351013279490774, "delay": 0.0002445440967986098,
-                       "torque_limit": 226.89805235053242},
-        "model": {"backlash": "phase-plane"}})
+    rig = _corpus_rig(
+        plant={"motor_inertia": 0.9677635289536735, "load_inertia": 6.211651571841481,
+               "stiffness": 6543.406671706736, "damping": 10.0, "half_gap": 0.0289864478449107},
+        controller={"feedback": "motor", "kp": 2071.7574455605345, "ti": 0.13091474814021975,
+                    "speed_filter": 0.007351013279490774, "delay": 0.0002445440967986098,
+                    "torque_limit": 226.89805235053242})
     twist = Disturbance(TWIST, 1.5 * rig.plant.half_gap)
     calm = probe(rig, "phase-plane", twist)
     assert calm.outcome == "rest" and calm.duration < 100.0
@@ -454,12 +457,11 @@ def test_a_motion_falling_onto_a_cycle_from_a_larger_slower_swing_is_not_dying()
     # often as it nears the cycle (1.4x per octave at first); a rule comparing the last octave with the one before
     # alone called it decaying at 10 s and 20 s, so rest, and the loop bistable (the 1280 s truth: a cycle from
     # every start)
-    rig = rig_from_dict({
-        "plant": {"motor_inertia": 0.5995580412558663, "load_inertia": 9.096137135813706,
-                  "stiffness": 2245.3870352024446, "damping": 1.0, "half_gap": 0.053880484692900465},
-        "controller": {"feedback": "load", "kp": 3.793168930419897, "ti": 1.432335869602877,
-                       "speed_filter": 0.00391602831786399, "torque_lag": 0.00033687156812836947},
-        "model": {"backlash": "phase-plane"}})
+    rig = _corpus_rig(
+        plant={"motor_inertia": 0.5995580412558663, "load_inertia": 9.096137135813706,
+               "stiffness": 2245.3870352024446, "damping": 1.0, "half_gap": 0.053880484692900465},
+        controller={"feedback": "load", "kp": 3.793168930419897, "ti": 1.432335869602877,
+                    "speed_filter": 0.00391602831786399, "torque_lag": 0.00033687156812836947})
     hunting = probe(rig, "phase-plane", Disturbance(TWIST, -20.0 * rig.plant.half_gap))
     assert hunting.outcome == "cycle" and hunting.measured.periodic
     # independently: the run's switches per octave of time grow towards the cycle's doubling
@@ -474,13 +476,12 @@ def test_a_hard_kick_collapsing_onto_a_cycle_is_not_a_power_law_decay():
     # relative speed's peak falls to a third per octave of time (54, 17, 6.4 rad/s over 5-10, 10-20, 20-40 s) with
     # hundreds of switches in each octave, then holds at the cycle's level; counting switches alone called it a
     # power-law decay at 40 s, so rest, and the loop bistable (the 1280 s truth: a cycle from every start)
-    rig = rig_from_dict({
-        "plant": {"motor_inertia": 0.7885389697280629, "load_inertia": 7.71799172078175,
-                  "stiffness": 4543.830694957801, "damping": 1.0, "half_gap": 0.06593284419897615},
-        "controller": {"feedback": "load", "kp": 6.155229678860785, "ti": 1.4099053995538193,
-                       "torque_lag": 0.0021958526171083027, "structure": "cascade", "kv": 7.7052147586253765,
-                       "position_feedback": "load", "torque_limit": 684.2062909671787},
-        "model": {"backlash": "phase-plane"}})
+    rig = _corpus_rig(
+        plant={"motor_inertia": 0.7885389697280629, "load_inertia": 7.71799172078175,
+               "stiffness": 4543.830694957801, "damping": 1.0, "half_gap": 0.06593284419897615},
+        controller={"feedback": "load", "kp": 6.155229678860785, "ti": 1.4099053995538193,
+                    "torque_lag": 0.0021958526171083027, "structure": "cascade", "kv": 7.7052147586253765,
+                    "position_feedback": "load", "torque_limit": 684.2062909671787})
     kick = Disturbance(MOTOR_SPEED, 262.7)
     hunting = probe(rig, "phase-plane", kick)
     assert hunting.outcome == "cycle", (hunting.outcome, hunting.duration)
@@ -498,13 +499,12 @@ def test_a_kick_whose_switches_thin_while_its_swing_levels_off_is_not_dying():
     # the flights across the gap slow down (decaying at 10 s) and the switches thin out over 10-20 s while the swing
     # already levels off at the cycle's; the two runs confirmed each other as rest and the loop was bistable (the
     # 1280 s truth: a cycle from every start)
-    rig = rig_from_dict({
-        "plant": {"motor_inertia": 0.7768020205396564, "load_inertia": 4.269869109652838,
-                  "stiffness": 9068.190728552061, "damping": 10.0, "half_gap": 0.06858001212468932},
-        "controller": {"feedback": "load", "kp": 3.8213163975614677, "ti": 0.33436597606049306,
-                       "speed_filter": 0.00521060161317429, "torque_lag": 0.0021398144460197032,
-                       "delay": 0.0005747606626971706},
-        "model": {"backlash": "phase-plane"}})
+    rig = _corpus_rig(
+        plant={"motor_inertia": 0.7768020205396564, "load_inertia": 4.269869109652838,
+               "stiffness": 9068.190728552061, "damping": 10.0, "half_gap": 0.06858001212468932},
+        controller={"feedback": "load", "kp": 3.8213163975614677, "ti": 0.33436597606049306,
+                    "speed_filter": 0.00521060161317429, "torque_lag": 0.0021398144460197032,
+                    "delay": 0.0005747606626971706})
     kick = Disturbance(MOTOR_SPEED, 402.8)
     hunting = probe(rig, "phase-plane", kick)
     assert hunting.outcome == "cycle", (hunting.outcome, hunting.duration)
