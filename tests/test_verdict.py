@@ -402,11 +402,17 @@ def test_the_ladder_starts_a_run_on_each_stable_cycle_of_the_df():
     assert on_cycle and all(p.outcome == "cycle" and p.amplitude == pytest.approx(verdict.cycle.amplitude, rel=1e-3)
                             for p in on_cycle)
 
-
-
 def _corpus_rig(plant, controller):
     """A rig of the benchmark corpora (``benchmarks/bench_verdicts.py``): the values drawn there, the phase plane law."""
     return rig_from_dict({"plant": plant, "controller": controller, "model": {"backlash": "phase-plane"}})
+
+
+def _switches_and_peaks(run, windows):
+    """Backlash switches and peak ``|dtheta_d|`` (rad/s) of a run in each ``(start, end)`` window of time (s)."""
+    time, switched, speed = run.time[1:], np.diff(run.mode) != 0, np.abs(run.dtheta_d[1:])
+    inside = [(time >= start) & (time < end) for start, end in windows]
+    return [int(np.count_nonzero(switched[k])) for k in inside], [speed[k].max() for k in inside]
+
 
 def test_a_load_brushing_a_flank_between_ever_slower_crossings_dies():
     # bench_verdicts 'loaded' #34: motor feedback, a free load; after a twist of 1.5 alpha the load crosses the gap
@@ -444,9 +450,7 @@ def test_a_motion_dying_like_one_over_t_switching_as_often_in_every_octave_is_re
     assert calm.outcome == "rest" and calm.duration < 100.0
     # independently: a power law, no floor
     run = simulate(rig, "phase-plane", t_end=160.0, initial={"theta_d": twist.value})
-    octaves = [(run.time[1:] >= a) & (run.time[1:] < 2.0 * a) for a in (10.0, 20.0, 40.0, 80.0)]
-    peaks = [np.abs(run.dtheta_d[1:][k]).max() for k in octaves]
-    switches = [np.count_nonzero(np.diff(run.mode)[k]) for k in octaves]
+    switches, peaks = _switches_and_peaks(run, [(a, 2.0 * a) for a in (10.0, 20.0, 40.0, 80.0)])
     assert all(0.4 < later / earlier < 0.6 for earlier, later in zip(peaks, peaks[1:])), peaks
     assert min(switches) >= 6 and max(switches) <= 10, switches
     assert run.command_mode is None or not np.any(run.command_mode[run.time >= 10.0])
@@ -466,8 +470,7 @@ def test_a_motion_falling_onto_a_cycle_from_a_larger_slower_swing_is_not_dying()
     assert hunting.outcome == "cycle" and hunting.measured.periodic
     # independently: the run's switches per octave of time grow towards the cycle's doubling
     run = simulate(rig, "phase-plane", t_end=20.0, initial={"theta_d": hunting.disturbance.value})
-    switches = [np.count_nonzero(np.diff(run.mode)[(run.time[1:] >= a) & (run.time[1:] < 2.0 * a)])
-                for a in (2.5, 5.0, 10.0)]
+    switches, _ = _switches_and_peaks(run, [(a, 2.0 * a) for a in (2.5, 5.0, 10.0)])
     assert all(1.3 < later / earlier < 2.0 for earlier, later in pairwise(switches)), switches
 
 
@@ -487,9 +490,7 @@ def test_a_hard_kick_collapsing_onto_a_cycle_is_not_a_power_law_decay():
     assert hunting.outcome == "cycle", (hunting.outcome, hunting.duration)
     # independently: from 200 s on, as many switches in every 20 s at the same peak
     run = simulate(rig, "phase-plane", t_end=320.0, initial={"motor_speed": kick.value})
-    windows = [(run.time[1:] >= a) & (run.time[1:] < a + 20.0) for a in (200.0, 250.0, 300.0)]
-    switches = [np.count_nonzero(np.diff(run.mode)[k]) for k in windows]
-    peaks = [np.abs(run.dtheta_d[1:][k]).max() for k in windows]
+    switches, peaks = _switches_and_peaks(run, [(a, a + 20.0) for a in (200.0, 250.0, 300.0)])
     assert max(switches) - min(switches) <= 2 and min(switches) > 600, switches
     assert max(peaks) / min(peaks) < 1.01, peaks
 
@@ -510,9 +511,7 @@ def test_a_kick_whose_switches_thin_while_its_swing_levels_off_is_not_dying():
     assert hunting.outcome == "cycle", (hunting.outcome, hunting.duration)
     # independently: from 30 s on, as many switches in every 10 s at the same peak
     run = simulate(rig, "phase-plane", t_end=160.0, initial={"motor_speed": kick.value})
-    windows = [(run.time[1:] >= a) & (run.time[1:] < a + 10.0) for a in (30.0, 90.0, 150.0)]
-    switches = [np.count_nonzero(np.diff(run.mode)[k]) for k in windows]
-    peaks = [np.abs(run.dtheta_d[1:][k]).max() for k in windows]
+    switches, peaks = _switches_and_peaks(run, [(a, a + 10.0) for a in (30.0, 90.0, 150.0)])
     assert max(switches) - min(switches) <= 3 and min(switches) >= 60, switches
     assert max(peaks) / min(peaks) < 1.01, peaks
 
