@@ -1,13 +1,14 @@
 """Verdict corpora: ``predict``'s verdict against long simulations on seeded random rigs.
 
 Run: ``python benchmarks/bench_verdicts.py [CORPUS] [N_RIGS] [SEED] [--record PATH] [--truths-from OLD]
-[--first K]`` (two
+[--verdicts-from OLD] [--first K]`` (two
 worker processes; ``CORPUS`` defaults to ``loaded``).  With ``--record``, each rig's record
 (its verdict, truth, reason, CPU times and the commit that made them) is appended to the
 JSON-lines file ``PATH`` as it finishes, and the rigs already there are not run again: an
 interrupted corpus goes on where it stopped, and the tables are printed from the whole record.
 ``--truths-from OLD`` takes the truths of the rigs in the record file ``OLD`` instead of
-running them (after a change of the verdict alone); the table names both commits.
+running them (after a change of the verdict alone); the table names both commits;
+``--verdicts-from OLD`` likewise takes the verdicts (after a change of the truth alone).
 ``--first K`` runs and tabulates rigs ``K .. N_RIGS - 1`` alone (the same rigs as in the
 whole corpus: each rig's draws depend on its index only), to finish a corpus whose record
 is lost.
@@ -26,7 +27,7 @@ The law is the phase plane (23) throughout.
 
 * **Verdict** (:func:`backlash_df.verdict.judge_loop`): the rests, the DF cycles, the linear
   loop in contact and open, the probes from the rests.
-* **Truth**: long simulations (80 s, doubled up to 1280 s until clear; all of them capped at the
+* **Truth**: long simulations (80 s, doubled up to 1280 s until clear, then continued; all of them capped at the
   longest run ``MAX_STEPS`` allows at a very stiff rig's step) from the rest, set up
   here from the block diagram (speeds 0, the shaft on the flank carrying ``-T_l``, the
   integrator holding it), disturbed in ways the verdict does not use: kicks of the relative
@@ -45,7 +46,10 @@ The law is the phase plane (23) throughout.
   ``MAX_STEPS`` allows at the rig's step) it is rest if nothing switched over its last
   fifth (the load coasting in the gap), or if the envelope fell below 0.8 with fewer
   than 4 switches in the middle tenth (too few for a cycle by the rule above: a load
-  bouncing ever slower across the gap), else unsettled; while the drive turns as one body (the
+  bouncing ever slower across the gap); a run still unclear there is continued from its
+  end state by up to ``TRUTH_CONTINUATIONS`` = 3 runs of that length, each classified by
+  the same rules (a rest growing from round-off onto a cycle, a position loop slewing back
+  on its limit), else unsettled; while the drive turns as one body (the
   larger of ``|w_m|``, ``|w_l|`` over the last tenth more than 10 times ``|dtheta_d|`` there
   and not round-off: a position loop slewing on its torque limit) the run is rest only if the
   drive's speed falls so with no switch over its second half (one linear mode), else not clear.  A cycle is called only on a
@@ -86,6 +90,7 @@ DAMPINGS = (1.0, 3.0, 10.0, 30.0)  # N m s/rad
 TRUTH_KICKS = (1.1, 3.0, 10.0, 40.0)  # a / alpha
 TRUTH_T_END = 1280.0  # s, the longest truth run: four times the verdict's longest probe
 TRUTH_CYCLE_T_END = 320.0  # s, the shortest run on which the truth calls a cycle
+TRUTH_CONTINUATIONS = 3  # runs of the longest length that continue a run still unclear at its end
 CORPORA = {"loaded": (200, 2026), "drives": (200, 2027)}
 
 
@@ -196,11 +201,12 @@ def longest_truth_run(rig):
 
 def truth_run(rig, start, longest):
     """``diverged``, ``cycle``, ``rest``, ``stayed`` or ``unsettled``: one truth start run until clear (module docs),
-    no run longer than ``longest`` (s, :func:`longest_truth_run`)."""
+    no run longer than ``longest`` (s, :func:`longest_truth_run`); a run still unclear at ``longest`` is continued
+    from its end state, up to ``TRUTH_CONTINUATIONS`` more runs of ``longest``."""
     t_end = min(80.0, longest)  # a very stiff rig's step allows less than 80 s
     while True:
         run = simulate(rig, "phase-plane", t_end=t_end, initial=start)
-        final = 2.0 * t_end > longest
+        final = t_end >= longest
         outcome = classify_run(run, rig.plant.half_gap, final=final)
         if outcome == "cycle" and t_end < TRUTH_CYCLE_T_END and not final:
             # a slow loop's long transient looks steady for a while: confirmed on a run of TRUTH_CYCLE_T_END
@@ -208,8 +214,16 @@ def truth_run(rig, start, longest):
             continue
         if outcome is not None or final:
             break
-        t_end *= 2.0
-    if outcome == "rest" and rig.load.torque == 0.0 and not np.any(np.diff(run.mode) != 0):
+        t_end = min(2.0 * t_end, longest)
+    switched = bool(np.any(np.diff(run.mode) != 0))
+    for _ in range(TRUTH_CONTINUATIONS if outcome is None else 0):
+        # a growth from round-off, a slew back on the torque limit: the motion goes on from where the run ended
+        run = simulate(rig, "phase-plane", t_end=longest, initial=dict(zip(run.state_names, run.states[-1])))
+        switched = switched or bool(np.any(np.diff(run.mode) != 0))
+        outcome = classify_run(run, rig.plant.half_gap, final=True)
+        if outcome is not None:
+            break
+    if outcome == "rest" and rig.load.torque == 0.0 and not switched:
         return "stayed"  # never touched a flank: in the gap of a free load that settles by construction
     return outcome or "unsettled"
 
@@ -225,20 +239,30 @@ def truth(rig):
     return ("unstable" if outcomes["diverged"] else "no oscillation"), outcomes
 
 
+_VERDICT_FIELDS = ("commit", "verdict", "reason", "df_alone", "contact_stable", "capped", "saturated", "t_verdict")
+
+
 def one(job):
     """Verdict, DF-only verdict and truth of rig ``index`` of a corpus, with CPU times: one record (a dict).
 
     ``known``, a record of the same rig, gives the truth (its ``truth``, ``outcomes``,
-    ``t_truth`` and ``truth_commit``) instead of running it again; ``commit`` names the code
-    that made the record.
+    ``t_truth`` and ``truth_commit``) instead of running it again; ``said``, likewise, gives
+    the verdict (its fields ``_VERDICT_FIELDS``); ``commit`` names the code that made the rest.
     """
-    corpus, seed, index, known, commit = job
+    corpus, seed, index, known, said, commit = job
     rig = random_rig(np.random.default_rng([seed, index]), corpus, index)
-    start = time.process_time()
-    prediction = verify_limit_cycles(rig, predict_limit_cycles(rig, "phase-plane"))
-    verdict = judge_loop(rig, prediction)
-    t_verdict = time.process_time() - start
-    df_only = prediction_verdict(rig, prediction)
+    if said is None:
+        start = time.process_time()
+        prediction = verify_limit_cycles(rig, predict_limit_cycles(rig, "phase-plane"))
+        verdict = judge_loop(rig, prediction)
+        t_verdict = time.process_time() - start
+        fields = {"commit": commit, "verdict": verdict.verdict, "reason": verdict.reason,
+                  "df_alone": prediction_verdict(rig, prediction), "contact_stable": bool(verdict.contact_loop.stable),
+                  "capped": bool(rig.controller.torque_limit > 0.0 and verdict.contact_loop.status == "unstable"
+                                 and verdict.verdict != "unstable"),
+                  "saturated": bool(verdict.saturated), "t_verdict": t_verdict}
+    else:
+        fields = {name: said[name] for name in _VERDICT_FIELDS}
     if known is None:
         start = time.process_time()
         true, outcomes = truth(rig)
@@ -246,12 +270,8 @@ def one(job):
     else:
         true, outcomes, t_truth = known["truth"], known["outcomes"], known["t_truth"]
         truth_commit = known.get("truth_commit", known["commit"])
-    return {"corpus": corpus, "seed": seed, "index": index, "commit": commit, "truth_commit": truth_commit,
-            "kind": _kind(rig), "rig": describe(rig), "truth": true, "outcomes": dict(outcomes), "verdict": verdict.verdict,
-            "reason": verdict.reason, "df_alone": df_only, "contact_stable": bool(verdict.contact_loop.stable),
-            "capped": bool(rig.controller.torque_limit > 0.0 and verdict.contact_loop.status == "unstable"
-                           and verdict.verdict != "unstable"),
-            "saturated": bool(verdict.saturated), "t_verdict": t_verdict, "t_truth": t_truth}
+    return {"corpus": corpus, "seed": seed, "index": index, "truth_commit": truth_commit, "kind": _kind(rig),
+            "rig": describe(rig), "truth": true, "outcomes": dict(outcomes), "t_truth": t_truth, **fields}
 
 
 def _commit():
@@ -310,23 +330,24 @@ def _line(r):
             f"{r['df_alone']:14s} {r['t_verdict']:5.1f} s / {r['t_truth']:5.1f} s {r['outcomes']}")
 
 
-def run_corpus(corpus, seed, n_rigs, record=None, truths=None, first=0):
+def run_corpus(corpus, seed, n_rigs, record=None, truths=None, first=0, verdicts=None):
     """The records of rigs ``first .. n_rigs - 1``: those in ``record`` kept, the others run on two workers.
 
     Each new record is printed and appended to ``record`` (JSON lines) as it comes, so an
     interrupted run loses only the rigs in flight; run again, it does only the rest.  The
     records of ``truths`` (another record file) give their rigs' truths, which are then
-    not run again: for a change of the verdict alone.
+    not run again: for a change of the verdict alone; those of ``verdicts`` likewise give
+    the verdicts, for a change of the truth alone.
     """
     commit = _commit()
     done = {i: r for i, r in read_record(record, corpus, seed).items() if first <= i < n_rigs}
-    known = read_record(truths, corpus, seed)
+    known, said = read_record(truths, corpus, seed), read_record(verdicts, corpus, seed)
     if done:
         commits = Counter(r["commit"] for r in done.values())
         print(f"{len(done)} rigs from {record} (commits: "
               + ", ".join(f"{c} {n}" for c, n in sorted(commits.items())) + ")", flush=True)
     with ProcessPoolExecutor(2) as pool:
-        jobs = [pool.submit(one, (corpus, seed, i, known.get(i), commit)) for i in range(first, n_rigs) if i not in done]
+        jobs = [pool.submit(one, (corpus, seed, i, known.get(i), said.get(i), commit)) for i in range(first, n_rigs) if i not in done]
         for job in as_completed(jobs):
             result = job.result()
             print(_line(result), flush=True)
@@ -337,11 +358,11 @@ def run_corpus(corpus, seed, n_rigs, record=None, truths=None, first=0):
     return [done[i] for i in range(first, n_rigs)]
 
 
-def main(corpus="loaded", n_rigs=None, seed=None, record=None, truths=None, first=0):
+def main(corpus="loaded", n_rigs=None, seed=None, record=None, truths=None, first=0, verdicts=None):
     default_rigs, default_seed = CORPORA[corpus]
     n_rigs, seed = n_rigs or default_rigs, default_seed if seed is None else seed
     start = time.perf_counter()
-    results = run_corpus(corpus, seed, n_rigs, record, truths, first)
+    results = run_corpus(corpus, seed, n_rigs, record, truths, first, verdicts)
     wall = time.perf_counter() - start
     said = [(r["truth"], r["verdict"]) for r in results]
     alone = [(r["truth"], r["df_alone"]) for r in results]
@@ -390,7 +411,7 @@ def main(corpus="loaded", n_rigs=None, seed=None, record=None, truths=None, firs
 
 
 def _arguments(args):
-    """``[CORPUS] [N_RIGS] [SEED] [--record PATH] [--truths-from OLD] [--first K]`` (run_all.py passes N_RIGS
+    """``[CORPUS] [N_RIGS] [SEED] [--record PATH] [--truths-from OLD] [--verdicts-from OLD] [--first K]`` (run_all.py passes N_RIGS
     alone); a bad argument is argparse's usage and one error line, exit code 2."""
     parser = argparse.ArgumentParser(prog="bench_verdicts.py", formatter_class=argparse.RawDescriptionHelpFormatter,
                                      description=__doc__.split("``CORPUS`` is one of", 1)[0].strip())
@@ -399,6 +420,7 @@ def _arguments(args):
                              "(default: the corpus's)")
     parser.add_argument("--record", type=Path, metavar="PATH", help="JSON-lines record: appended to, and resumed from")
     parser.add_argument("--truths-from", type=Path, metavar="OLD", help="a record whose truths are taken")
+    parser.add_argument("--verdicts-from", type=Path, metavar="OLD", help="a record whose verdicts are taken")
     parser.add_argument("--first", type=int, default=0, metavar="K", help="run and tabulate rigs K.. alone")
     options = parser.parse_intermixed_args(args)
     values = list(options.values)
@@ -409,7 +431,7 @@ def _arguments(args):
     if options.first < 0:
         parser.error(f"--first must be a rig index >= 0, got {options.first}")
     n_rigs, seed = ([int(value) for value in values] + [None, None])[:2]
-    return corpus, n_rigs, seed, options.record, options.truths_from, options.first
+    return corpus, n_rigs, seed, options.record, options.truths_from, options.first, options.verdicts_from
 
 
 if __name__ == "__main__":
