@@ -20,7 +20,8 @@ works from the loop's rest points outward (:mod:`backlash_df.equilibria`):
   (just out of the rest's mode), the standard set of the rig (twists 1.5, 3,
   8, -20 alpha; kicks 2, 10, 50 alpha omega_n) and a twist onto each stable DF
   cycle, each run until a steady state, a confirmed decay, an overflow or a blow-up
-  (:func:`~backlash_df.simulation.measure_limit_cycle`); an oscillation that
+  (:func:`~backlash_df.simulation.measure_limit_cycle`), a probe still unsettled at
+  320 s run once more up to four times as long; an oscillation that
   holds its level is confirmed by a longer run from the same start or by another
   probe's at the same swing (:func:`~backlash_df.simulation.confirm_across_starts`);
 * for a bistable loop, the **separating orbit**: the exact unstable periodic
@@ -69,10 +70,10 @@ from .models import BacklashModel
 from .orbits import exact_orbits, periodic_orbit
 from .plotting import ResultPlot, axes_or_new, legend_beside, log_scale
 from .report import roundoff_zero, signed_percent, text_table
-from .simulation import confirm_across_starts, default_step, simulated_limit_cycle
+from .simulation import MAX_STEPS, confirm_across_starts, default_step, simulated_limit_cycle
 from .system import lti_linear_part
 
-__all__ = ["VERDICTS", "LinearStability", "Probe", "LoopVerdict", "linear_stability", "probe", "ladder",
+__all__ = ["VERDICTS", "LONGER", "LinearStability", "Probe", "LoopVerdict", "linear_stability", "probe", "ladder",
            "judge_loop", "judge", "verdict_rows", "orbit_rows", "VERDICT_NOTE", "ORBIT_NOTE", "PADE_ORDER"]
 
 VERDICTS = ("no oscillation", "limit cycle", "bistable", "unstable", "undetermined")
@@ -80,6 +81,7 @@ VERDICTS = ("no oscillation", "limit cycle", "bistable", "unstable", "undetermin
 WITHIN, PAST = 0.5, 1.25  # probes at these multiples of a rest's reach: inside its mode, and just out of it
 AMPLITUDE_MATCH, OMEGA_MATCH = 0.2, 0.1  # DF cycle "is" the simulated one within these relative errors
 _SAME_CYCLE = 0.01  # relative amplitude difference of two runs that reached the same cycle
+LONGER = 4.0  # a probe unsettled at the longest run is run again up to this many times as long (1280 s by default)
 
 
 # --------------------------------------------------------------------------- probes
@@ -635,7 +637,8 @@ def judge_loop(rig, prediction, linear=None, t_end=10.0, max_t_end=320.0, distur
     linear : control.LTI, optional
         The user's linear part, if the prediction used one (twists only: it has no motor speed).
     t_end, max_t_end : float
-        First and largest simulated time of each probe, s.
+        First and largest simulated time of each probe, s; a probe still unsettled at
+        ``max_t_end`` runs again from its start, for ``2 max_t_end`` and ``LONGER max_t_end``.
     disturbances : sequence of Disturbance, optional
         The ladder from the rest (default the rig's standard set,
         :func:`~backlash_df.disturbances.standard_disturbances`); the rests' reach
@@ -666,6 +669,8 @@ def judge_loop(rig, prediction, linear=None, t_end=10.0, max_t_end=320.0, distur
     probes = _confirmed_across_starts([probe(rig, model, disturbance, rest, user_linear, t_end, max_t_end, role, dt)
                                        for disturbance, rest, role in ladder(rig, rests, disturbances, user_linear,
                                                                              prediction)])
+    step = default_step(part, model) if dt is None else dt
+    probes = _confirmed_across_starts([_longer(rig, model, p, user_linear, max_t_end, step) for p in probes])
     orbits, note = (_exact(rig, prediction, probes, t_end, max_t_end, dt, refinement) if exact and user_linear is None
                     else ((), ""))
     verdict, reason, fields = _decide(prediction, contact, rests, probes, orbits)
@@ -676,6 +681,20 @@ def judge_loop(rig, prediction, linear=None, t_end=10.0, max_t_end=320.0, distur
             verdict, reason, fields = _decide(prediction, contact, rests, probes, orbits + (separatrix,))
     return LoopVerdict(prediction.model, verdict, reason, contact, opened, probes, orbits=orbits, orbit_note=note,
                        rests=rests, rest_note=rest_note, separatrix=separatrix, prediction=prediction, **fields)
+
+
+def _longer(rig, model, unsettled, linear, max_t_end, dt):
+    """A probe still unsettled at ``max_t_end`` run again from its start, doubling on to ``LONGER * max_t_end``.
+
+    A decay with a time constant of a few hundred seconds, or a slow loop still
+    converging onto its cycle, decides only on a longer run; a probe that has
+    decided, or whose step ``dt`` (s) allowed no longer run, is returned as it is.
+    """
+    t_end = min(2.0 * max_t_end, (MAX_STEPS - 1) * dt)
+    if unsettled.outcome != "unsettled" or t_end <= unsettled.duration:
+        return unsettled
+    return probe(rig, model, unsettled.disturbance, unsettled.rest, linear, t_end, LONGER * max_t_end,
+                 unsettled.role, dt)
 
 
 def _confirmed_across_starts(probes):

@@ -275,9 +275,25 @@ def test_a_motion_converging_slowly_onto_a_cycle_is_followed_until_it_arrives():
     assert switches[last[1:]].sum() == pytest.approx(switches[late[1:]].sum(), abs=3) and switches[last[1:]].sum() > 100
 
 
-def test_a_run_that_would_pass_the_step_limit_is_not_doubled(monkeypatch):
-    """A loop whose step is fine reaches MAX_STEPS before max_t_end: the motion stays undecided instead of the
-    next, longer run refusing to start."""
+def test_a_probe_unsettled_at_the_longest_run_runs_again_four_times_as_long():
+    """A probe still unsettled at max_t_end runs again from its start for 2 and 4 times max_t_end (verdict.LONGER):
+    on load_feedback, runs of 2 s leave probes unsettled; each decides on a run of 8 s, as the same probe asked for
+    8 s from the start does, and the verdict commits."""
+    rig = load_rig(EXAMPLES / "load_feedback.toml")
+    prediction = predict_limit_cycles(rig, "phase-plane")
+    verdict = judge_loop(rig, prediction, t_end=0.5, max_t_end=2.0)
+    longer = [p for p in verdict.probes if p.duration > 2.0]
+    assert longer and verdict.verdict != "undetermined"
+    assert all(p.outcome != "unsettled" for p in verdict.probes)
+    for p in longer:
+        alone = probe(rig, "phase-plane", p.disturbance, p.rest, t_end=4.0, max_t_end=8.0)
+        assert p.duration == pytest.approx(8.0, rel=1e-4) and alone.duration == p.duration
+        assert alone.measured.peak == p.measured.peak  # the same run; across starts an oscillation may be confirmed
+
+
+def test_a_run_that_would_pass_the_step_limit_is_cut_to_it(monkeypatch):
+    """A loop whose step is fine reaches MAX_STEPS before max_t_end: the next run is the longest the step allows
+    (instead of refusing to start, or of stopping at the shorter run before it), and it is the last."""
     import backlash_df.simulation.linear as linear
     import backlash_df.simulation.rig as rig_module
 
@@ -288,7 +304,8 @@ def test_a_run_that_would_pass_the_step_limit_is_not_doubled(monkeypatch):
     with pytest.raises(ValueError, match="more than 6e\\+04"):
         simulate(rig, "phase-plane", t_end=10.0, initial=initial)
     measured, run = simulated_limit_cycle(rig, "phase-plane", t_end=5.0, max_t_end=160.0, initial=initial)
-    assert not measured.settled and run.time[-1] == pytest.approx(5.0, abs=1e-3)
+    step = run.time[1] - run.time[0]
+    assert not measured.settled and run.time[-1] == pytest.approx(59_999 * step) and run.time[-1] > 7.0
 
 
 def test_probe_alone_gives_one_disturbance_outcome():

@@ -97,8 +97,9 @@ def simulated_limit_cycle(rig, model=None, t_end=20.0, max_t_end=160.0, dt=None,
 
     Runs :func:`simulate_rig` for ``t_end`` and doubles it (re-running from the
     start, so a dead time's history stays exact) until :func:`measure_limit_cycle`
-    finds a steady state, or the next run would pass ``max_t_end`` or
-    :data:`~.linear.MAX_STEPS` steps (a stiff loop's fine step).  A motion that
+    finds a steady state, or the next run would pass ``max_t_end``; a run of more
+    than :data:`~.linear.MAX_STEPS` steps (a stiff loop's fine step) is cut to the
+    longest the step allows, which is then the last.  A motion that
     dies out in two successive runs (the second confirming the first) is rest.
 
     Parameters
@@ -121,7 +122,7 @@ def simulated_limit_cycle(rig, model=None, t_end=20.0, max_t_end=160.0, dt=None,
     while True:
         result = simulate_rig(rig, model, t_end=t_end, dt=dt, **kwargs)
         measured = measure_limit_cycle(result, periods=periods, rtol=rtol, previous=measured)
-        longer = 2.0 * t_end / (result.time[1] - result.time[0])  # steps of the next run
-        if measured.settled or 2.0 * t_end > max_t_end or longer > MAX_STEPS:
+        longest = (MAX_STEPS - 1) * (result.time[1] - result.time[0])  # the longest run the step allows, s
+        if measured.settled or 2.0 * t_end > max_t_end or t_end >= longest:
             return measured, result
-        t_end *= 2.0
+        t_end = min(2.0 * t_end, longest)
