@@ -398,6 +398,9 @@ def main(corpus="loaded", n_rigs=None, seed=None, record=None, truths=None, firs
               f"cycle: {sum(r['verdict'] == 'limit cycle' for r in capped)} (saturated: "
               f"{sum(r['saturated'] for r in capped)}), truth limit cycle: "
               f"{sum(r['truth'] == 'limit cycle' for r in capped)}")
+        hunting = [r for r in unstable if "limited" in r["kind"] and r["truth"] == "limit cycle"]
+        print(f"contact loop unstable, torque limit, truth limit cycle (capped by the limit in the long runs): "
+              f"{len(hunting)} rigs, called limit cycle: {sum(r['verdict'] == 'limit cycle' for r in hunting)}")
     t_verdict = np.array([r["t_verdict"] for r in results])
     t_truth = np.array([r["t_truth"] for r in results])
     print(f"CPU time per rig: verdict median {np.median(t_verdict):.2f} s (max {t_verdict.max():.1f}), "
