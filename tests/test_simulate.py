@@ -302,3 +302,27 @@ def test_coulomb_and_breakaway_friction_against_solve_ivp():
     assert result.states[-1, 2] < 0.005  # at rest (within the smoothing) before the end
     stopped = result.time[np.argmax(result.states[:, 2] < 0.005)]
     assert stopped < 0.8 * 0.3 * JL / coulomb  # sooner than Coulomb friction alone (0.84 s) would stop it
+
+
+@pytest.mark.parametrize("law", ["phase-plane", "rubber"])
+def test_constant_inputs_give_the_run_of_their_array_on_every_half_step(law):
+    """A constant load torque and speed reference (timed_inputs of constants: two rows span the run) give, to the
+    bit, the run of the same inputs written out on every half step; the limited loop's command trace too.  The
+    rubber law runs the RK4 kernel, the phase plane law the exact one."""
+    from backlash_df.loops import drive_loop
+    from backlash_df.simulation.linear import default_step, simulate_linear, timed_inputs
+
+    rig = pi_rig(torque_limit=100.0, delay=3e-4)
+    part = drive_loop(rig).linear_part()
+    model = make_model(law, stiffness=K, damping=3.0, half_gap=0.05, rubber_thickness=0.01)
+    dt, t_end = default_step(part, model), 0.3
+    constant = timed_inputs(0.5, -40.0)
+    assert constant.constant == (0.5, -40.0) and not hasattr(timed_inputs(0.5, np.sin), "constant")
+    z0 = np.zeros(part.A.shape[0])
+    z0[part.state_names.index("motor_speed")] = 60.0
+    n_steps = int(round(t_end / dt))
+    written = np.tile([0.5, -40.0], (2 * n_steps + 1, 1))
+    fast = simulate_linear(part, model, t_end, dt, inputs=constant, z0=z0)
+    full = simulate_linear(part, model, t_end, dt, inputs=lambda time: written[:time.size], z0=z0)
+    assert fast.events > 5 and np.array_equal(fast.states, full.states) and np.array_equal(fast.mode, full.mode)
+    assert np.array_equal(fast.command, full.command) and np.abs(fast.command).max() == 100.0

@@ -219,7 +219,8 @@ def simulate_linear(system, model, t_end, dt, inputs=None, z0=None, theta_b0=0.0
         External inputs ``w``: an array of shape (N, m) on the grid
         ``arange(N) * dt`` (N = number of output samples), or a callable
         ``w(t) -> (len(t), m)``, sampled at half steps ``arange(2 N - 1) * dt / 2``
-        (the RK4 stage times).  Default: zero.
+        (the RK4 stage times); a callable of :func:`timed_inputs` whose values are all
+        constants is not sampled (two equal rows span the run).  Default: zero.
     z0 : array_like, optional
         Initial state (default zero).
     theta_b0 : float
@@ -249,8 +250,11 @@ def simulate_linear(system, model, t_end, dt, inputs=None, z0=None, theta_b0=0.0
                          f"the loop's fastest dynamics need that step; check the rig's units (stiffness, damping, inertias, kp)")
     time = np.arange(n_steps + 1) * dt
     n, m = system.E.shape
-    if inputs is None:
-        w = np.zeros((n_steps + 1, m))
+    if inputs is None or getattr(inputs, "constant", None) is not None:
+        # constants: two equal rows span the run (the kernels interpolate w over rows spread uniformly)
+        w = np.tile(np.zeros(m) if inputs is None else np.asarray(inputs.constant, dtype=float), (2, 1))
+        if w.shape != (2, m):
+            raise ValueError(f"inputs must be {m} constants for channels {system.input_names}, got {inputs.constant}")
     elif callable(inputs):
         w = np.asarray(inputs(np.arange(2 * n_steps + 1) * (0.5 * dt)), dtype=float).reshape(2 * n_steps + 1, m)
     else:
@@ -284,7 +288,8 @@ def simulate_linear(system, model, t_end, dt, inputs=None, z0=None, theta_b0=0.0
         theta_d, dtheta_d = states @ system.c_x, states @ system.c_v
     command = None
     if system.command is not None:
-        command = _command_trace(system, time, states, w[::2] if w.shape[0] == 2 * n_steps + 1 else w)
+        rows = {2 * n_steps + 1: w[::2], n_steps + 1: w}  # half steps, or the output grid; else the constant rows
+        command = _command_trace(system, time, states, rows.get(w.shape[0], w[:1]))
     return SimulationResult(
         time=time,
         states=states,
@@ -337,6 +342,8 @@ def timed_inputs(*values):
 
     Each value is a constant, an array on the time grid, or a function of time;
     the returned function gives them as the columns of an array ``(len(time), len(values))``.
+    Where every value is a constant, its attribute ``constant`` holds them, and
+    :func:`simulate_linear` stores two rows instead of one per half step.
     """
     def inputs(time):
         columns = []
@@ -345,6 +352,8 @@ def timed_inputs(*values):
             columns.append(np.broadcast_to(np.asarray(column, dtype=float), time.shape))
         return np.stack(columns, axis=1)
 
+    if not any(callable(value) for value in values) and all(np.ndim(value) == 0 for value in values):
+        inputs.constant = tuple(float(value) for value in values)
     return inputs
 
 
