@@ -70,7 +70,7 @@ from .models import BacklashModel
 from .orbits import exact_orbits, periodic_orbit
 from .plotting import ResultPlot, axes_or_new, legend_beside, log_scale
 from .report import roundoff_zero, signed_percent, text_table
-from .simulation import MAX_STEPS, confirm_across_starts, default_step, simulated_limit_cycle
+from .simulation import confirm_across_starts, default_step, longest_run, simulated_limit_cycle
 from .system import lti_linear_part
 
 __all__ = ["VERDICTS", "LONGER", "LinearStability", "Probe", "LoopVerdict", "linear_stability", "probe", "ladder",
@@ -690,7 +690,7 @@ def _longer(rig, model, unsettled, linear, max_t_end, dt):
     converging onto its cycle, decides only on a longer run; a probe that has
     decided, or whose step ``dt`` (s) allowed no longer run, is returned as it is.
     """
-    t_end = min(2.0 * max_t_end, (MAX_STEPS - 1) * dt)
+    t_end = min(2.0 * max_t_end, longest_run(dt))
     if unsettled.outcome != "unsettled" or t_end <= unsettled.duration:
         return unsettled
     return probe(rig, model, unsettled.disturbance, unsettled.rest, linear, t_end, LONGER * max_t_end,

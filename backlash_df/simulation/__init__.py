@@ -48,7 +48,7 @@ Two kernels share these rules:
 """
 
 from .cycles import MeasuredCycle, confirm_across_starts, measure_limit_cycle, upward_crossings
-from .linear import MAX_STEPS, SimulationResult, default_step, simulate_linear, simulate_two_mass
+from .linear import MAX_STEPS, SimulationResult, default_step, longest_run, simulate_linear, simulate_two_mass
 from .rig import initial_state, simulate_rig, simulated_limit_cycle
 
 __all__ = [
@@ -57,6 +57,7 @@ __all__ = [
     "simulate_two_mass",
     "default_step",
     "MAX_STEPS",
+    "longest_run",
     "MeasuredCycle",
     "measure_limit_cycle",
     "confirm_across_starts",

@@ -18,7 +18,8 @@ from ..plotting import ResultPlot, axes_or_new
 from ..system import closed_loop_matrix, command_matrices, exp_ladder, mode_matrices, two_mass_system
 from ._kernels import LEVELS, run_exact, run_rk4
 
-__all__ = ["SimulationResult", "simulate_linear", "simulate_two_mass", "timed_inputs", "default_step", "MAX_STEPS"]
+__all__ = ["SimulationResult", "simulate_linear", "simulate_two_mass", "timed_inputs", "default_step", "MAX_STEPS",
+           "longest_run"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -203,6 +204,11 @@ def _command_trace(system, time, states, w_grid):
 #: Most steps of one simulation: every sample is stored (about 80 bytes a step), and the
 #: verdict and verification need at most 3.2e6 (320 s at the default step of 1e-4 s).
 MAX_STEPS = 20_000_000
+
+
+def longest_run(dt):
+    """The longest run (s) at the step ``dt`` (s): :data:`MAX_STEPS` steps, less one against round-off."""
+    return (MAX_STEPS - 1) * dt
 
 
 def simulate_linear(system, model, t_end, dt, inputs=None, z0=None, theta_b0=0.0):

@@ -6,7 +6,7 @@ from ..loops import drive_loop
 from ..models import BacklashModel
 from ..system import lti_linear_part
 from .cycles import measure_limit_cycle
-from .linear import MAX_STEPS, default_step, simulate_linear, timed_inputs
+from .linear import default_step, longest_run, simulate_linear, timed_inputs
 
 __all__ = ["simulate_rig", "simulated_limit_cycle", "initial_state"]
 
@@ -122,7 +122,7 @@ def simulated_limit_cycle(rig, model=None, t_end=20.0, max_t_end=160.0, dt=None,
     while True:
         result = simulate_rig(rig, model, t_end=t_end, dt=dt, **kwargs)
         measured = measure_limit_cycle(result, periods=periods, rtol=rtol, previous=measured)
-        longest = (MAX_STEPS - 1) * (result.time[1] - result.time[0])  # the longest run the step allows, s
+        longest = longest_run(result.time[1] - result.time[0])
         if measured.settled or 2.0 * t_end > max_t_end or t_end >= longest:
             return measured, result
         t_end = min(2.0 * t_end, longest)
