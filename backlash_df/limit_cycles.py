@@ -20,8 +20,10 @@ the loci can be nearly tangent to G(jw), so a single local solve is not enough:
 Where N is pointwise (every describing function but the DC-balanced one) the
 evaluations are batched without changing a digit: G is built once per loop, every
 point asked for brings its Jacobian's four neighbours along, the Newton solves
-from all seeds advance side by side and the near-miss solves run in threads whose
-requests are evaluated together, one call of ``G`` and ``N`` per round.
+from all seeds advance side by side, one call of ``G`` and ``N`` per round.  The
+near-miss solves (scipy's least squares) run one after the other: run side by side in
+threads with their requests pooled, they took twice the CPU time (the threads' hand-offs
+cost more than the calls they saved).
 
 Stability is Loeb's criterion (Gelb and Vander Velde, 1968, Ch. 2): with
 ``U + jV = 1 + G(jw) N(A, w)``, a cycle is stable if
@@ -33,12 +35,10 @@ left half plane.  It is a local, first-harmonic statement; the time simulation
 (:func:`verify_limit_cycles`) is the check.
 """
 
-import copy
 import dataclasses
 import functools
 import html
 import math
-import threading
 import warnings
 
 import numpy as np
@@ -500,8 +500,7 @@ def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range,
             roots.append(root)
     cycles = sorted((_cycle(problem, p, q) for p, q in roots), key=lambda c: (c.amplitude, c.omega))
     near = []
-    solves = [functools.partial(_closest_on_flat, p0, q0, box) for p0, q0 in minima]
-    for p, q, distance in _run_threads(problem, solves):
+    for p, q, distance in (_closest_on_flat(p0, q0, box, problem) for p0, q0 in minima):
         at_edge = min(p - box[0][0], box[0][1] - p, q - box[1][0], box[1][1] - q) < 1e-6
         at_root = any(abs(p - pr) < 1e-3 and abs(q - qr) < 1e-3 for pr, qr in roots)
         if distance < 1e-6 or distance > near_miss_cutoff or at_edge or at_root:
@@ -516,96 +515,6 @@ def _closest_on_flat(p, q, box, problem):
     """:meth:`_Problem.closest` from (p, q), moved to the top of a flat (:func:`_flat_top`): (p, q, |F|)."""
     p, q, distance = problem.closest(p, q, box)
     return _flat_top(problem, p, q, distance, box[0][1]), q, distance
-
-
-def _run_threads(problem, tasks):
-    """``[task(problem) for task in tasks]``, where N is pointwise side by side in threads whose requests are
-    evaluated together (:class:`_Rounds`): one call per round instead of one per request."""
-    if not problem.pointwise or len(tasks) < 2:
-        return [task(problem) for task in tasks]
-    rounds = _Rounds(problem, len(tasks))
-    results, errors = [None] * len(tasks), []
-
-    def work(k):
-        own = copy.copy(problem)
-        own.values = functools.partial(rounds.ask, k)
-        try:
-            results[k] = tasks[k](own)
-        except BaseException as error:  # re-raised in the calling thread
-            errors.append(error)
-        finally:
-            rounds.finish()
-
-    threads = [threading.Thread(target=work, args=(k,), daemon=True) for k in range(len(tasks))]
-    for thread in threads:
-        thread.start()
-    try:
-        rounds.serve()
-    finally:
-        for thread in threads:
-            thread.join()
-    if errors:
-        raise errors[0]
-    return results
-
-
-class _Rounds:
-    """Requests of several threads evaluated together: each round waits until every live thread has asked.
-
-    The calling thread waits on one condition (every live thread has asked), each
-    thread on its own event (its answer is there): one wake-up per thread and round.
-    """
-
-    def __init__(self, problem, live):
-        self.problem, self.live = problem, live
-        self.requests, self.answers, self.failed = {}, {}, None
-        self.answered = [threading.Event() for _ in range(live)]
-        self.all_asked = threading.Condition()
-
-    def ask(self, key, groups):
-        """The values of ``groups`` (:meth:`_Problem.values`), evaluated with the other threads' requests."""
-        answered = self.answered[key]
-        answered.clear()
-        with self.all_asked:
-            self.requests[key] = groups
-            if len(self.requests) >= self.live:
-                self.all_asked.notify()
-        answered.wait()
-        if self.failed is not None:
-            raise RuntimeError("the evaluation of a round failed") from self.failed
-        return self.answers.pop(key)
-
-    def finish(self):
-        with self.all_asked:
-            self.live -= 1
-            if len(self.requests) >= self.live:
-                self.all_asked.notify()
-
-    def serve(self):
-        """Answer rounds until every thread has finished; on an error (or an interrupt) the threads are
-        released with it and it is raised here."""
-        with self.all_asked:
-            try:
-                while True:
-                    while self.live and len(self.requests) < self.live:
-                        self.all_asked.wait()
-                    if not self.live:
-                        return
-                    keys = list(self.requests)
-                    values = self.problem.values([group for key in keys for group in self.requests[key]])
-                    start = 0
-                    for key in keys:
-                        count = len(self.requests[key])
-                        self.answers[key] = values[start:start + count]
-                        start += count
-                    self.requests.clear()
-                    for key in keys:
-                        self.answered[key].set()
-            except BaseException as error:
-                self.failed = error
-                for answered in self.answered:
-                    answered.set()
-                raise
 
 
 def _flat_top(problem, p, q, distance, top):
