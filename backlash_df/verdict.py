@@ -155,7 +155,7 @@ class Probe:
 def probe(rig, model, disturbance, rest=None, linear=None, t_end=10.0, max_t_end=320.0, role="ladder", dt=None):
     """Simulate the loop from a rest disturbed by one disturbance, until it has decided.
 
-    The run starts at ``t_end`` and doubles (from the start) up to ``max_t_end``
+    The run starts at ``t_end`` and doubles (going on from its end) up to ``max_t_end``
     until :func:`~backlash_df.simulation.measure_limit_cycle` finds a steady cycle,
     rest, or divergence; a motion that dies out (its envelope falling, its
     switches thinning out) is rest once the next, longer run confirms it.

@@ -326,3 +326,45 @@ def test_constant_inputs_give_the_run_of_their_array_on_every_half_step(law):
     full = simulate_linear(part, model, t_end, dt, inputs=lambda time: written[:time.size], z0=z0)
     assert fast.events > 5 and np.array_equal(fast.states, full.states) and np.array_equal(fast.mode, full.mode)
     assert np.array_equal(fast.command, full.command) and np.abs(fast.command).max() == 100.0
+
+
+@pytest.mark.parametrize(("law", "limit", "delay"), [("phase-plane", 100.0, 3e-4), ("rubber", 100.0, 3e-4),
+                                                     ("exact", 0.0, 0.0), ("exact-undamped", 0.0, 3e-4)])
+def test_a_continued_run_is_the_run_to_its_end(law, limit, delay):
+    """A run gone on twice from its end (``continued``) is, to the bit, the run simulated to that end in one go:
+    states, torque, theta_b, modes, command trace and event count.  The exact kernel carries its augmented
+    state, the RK4 kernel (rubber) its state and theta_b, both the dead time's history and the command's mode;
+    the undamped exact model's halved modes are halved once."""
+    from backlash_df.loops import drive_loop
+    from backlash_df.simulation.linear import default_step, simulate_linear, timed_inputs
+
+    rig = pi_rig(**({"torque_limit": limit} if limit else {}), **({"delay": delay} if delay else {}))
+    part = drive_loop(rig).linear_part()
+    damping = 0.0 if law == "exact-undamped" else 3.0
+    model = make_model(law.removesuffix("-undamped"), stiffness=K, damping=damping, half_gap=0.05,
+                       rubber_thickness=0.01)
+    dt = default_step(part, model)
+    z0 = np.zeros(part.A.shape[0])
+    z0[part.state_names.index("motor_speed")] = 60.0
+    inputs = timed_inputs(0.5, lambda t: -40.0 * np.cos(7.0 * t))
+    run = lambda t_end: simulate_linear(part, model, t_end, dt, inputs=inputs, z0=z0)  # noqa: E731
+    whole, pieces = run(0.6), run(0.15).continued(0.4).continued(0.6)
+    assert whole.events > 5 and pieces.events == whole.events
+    names = ("time", "states", "torque", "theta_b", "mode") + (("command", "command_mode") if limit else ())
+    for name in names:
+        assert np.array_equal(getattr(pieces, name), getattr(whole, name), equal_nan=True), name
+    assert whole.command is None if not limit else np.abs(whole.command).max() == limit
+
+
+def test_a_run_goes_on_only_forward_and_not_from_an_array_of_inputs():
+    from backlash_df.simulation.linear import simulate_linear
+    from backlash_df.system import two_mass_system
+
+    model = make_model("phase-plane", stiffness=K, damping=3.0, half_gap=ALPHA)
+    system = two_mass_system(JM, JL)
+    run = simulate_linear(system, model, 0.1, 1e-4, inputs=lambda t: np.zeros((t.size, 2)))
+    with pytest.raises(ValueError, match="beyond the run's end"):
+        run.continued(0.1)
+    arrays = simulate_linear(system, model, 0.1, 1e-4, inputs=np.zeros((1001, 2)))
+    with pytest.raises(ValueError, match="array on its grid"):
+        arrays.continued(0.2)

@@ -395,16 +395,19 @@ def _free_steps(i, z, theta_b, mode, cmode, limit, law, p, a_mat, b_t, e_mat, c_
 
 
 @_jit
-def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, CMODES):
-    """RK4 run of ``n_steps`` steps ``dt`` from ``z0``, filling ``Z``, ``T``, ``THETA``, the modes; returns the event count.
+def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, CMODES, hist, first, mode0, cmode0):
+    """RK4 run to sample ``n_steps`` (steps ``dt``), filling ``Z``, ``T``, ``THETA``, the modes and ``hist``.
 
     ``sys`` is :meth:`~backlash_df.system.LinearPart.kernel_arrays`, ``cmd`` the
     command (module docs), ``W`` the inputs on the output grid or at half steps,
-    ``p`` the law's ``(k, c, alpha, beta)``.
+    ``p`` the law's ``(k, c, alpha, beta)``, ``hist`` the delayed signals at every
+    sample.  From ``z0`` and ``theta_b0`` at sample ``first = 0`` (the modes found
+    there), or, going on with a run, from its state, ``mode0`` and ``cmode0`` at its
+    last sample ``first`` (its samples and history up to there filled in); returns the
+    event count of the steps taken.
     """
     n = z0.shape[0]
     d_rows = sys[5]
-    hist = np.zeros((n_steps + 1, d_rows.shape[0]))
     work = np.empty((6, n))
     wvals = np.zeros(W.shape[1])
     dvals = np.zeros(d_rows.shape[0])
@@ -412,21 +415,24 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
     z_new = np.empty(n)
     z_try = np.empty(n)
     theta_b = theta_b0
-    x, v = _xv(z, sys[3], sys[4])
-    mode = _mode_of(law, p, 0, x, v, theta_b)
-    cmode = 0
-    _record(0, z, n, theta_b, mode, cmode, _torque(law, mode, x, v, p), d_rows, Z, T, THETA, MODES, CMODES, hist)
-    if cmd[3] > 0.0:  # the command mode of the initial state
-        _signals(0.0, sys[7], W, hist, dt, wvals, dvals)
-        cmode = initial_command_mode(_row_value(cmd[1], z, wvals, dvals), _row_value(cmd[2], z, wvals, dvals), cmd[3],
-                                     cmd[4] >= 0)
+    mode = mode0
+    cmode = cmode0
+    if first == 0:
+        x, v = _xv(z, sys[3], sys[4])
+        mode = _mode_of(law, p, 0, x, v, theta_b)
+        cmode = 0
+        _record(0, z, n, theta_b, mode, cmode, _torque(law, mode, x, v, p), d_rows, Z, T, THETA, MODES, CMODES, hist)
+        if cmd[3] > 0.0:  # the command mode of the initial state
+            _signals(0.0, sys[7], W, hist, dt, wvals, dvals)
+            cmode = initial_command_mode(_row_value(cmd[1], z, wvals, dvals), _row_value(cmd[2], z, wvals, dvals),
+                                         cmd[3], cmd[4] >= 0)
     events = 0
     tmp = np.empty(n)
     # unpacked once: a tuple of arrays passed on, even to an inlined helper, is reference-counted member by member
     a_mat, b_t, e_mat, c_x, c_v, _, e_d, delay, f_row, e_f, f_level, f_eps, f_break, f_ws = sys
     friction = (f_level, f_eps, f_break, f_ws)
     limit = cmd[3]
-    i = 0
+    i = first
     while True:
         i, theta_b, ended = _free_steps(i, z, theta_b, mode, cmode, limit, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d,
                                         e_f, f_row, friction, delay, W, hist, dt, n_steps, d_rows, work, tmp, wvals,
@@ -683,30 +689,31 @@ def _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, u_row, e_row, rates
 
 
 @_jit
-def run_exact(ladders, u_row, e_row, rates, limit, clamps, law, p, W, z0, theta_b0, delay, d_rows, c_x, c_v, dt,
-              n_steps, Z, T, THETA, MODES, CMODES):
-    """Exact-discretisation run on the augmented state of :func:`~backlash_df.system.mode_matrices`.
+def run_exact(ladders, u_row, e_row, rates, limit, clamps, law, p, W, q, delay, d_rows, c_x, c_v, dt,
+              n_steps, Z, T, THETA, MODES, CMODES, hist, first, mode0, cmode0):
+    """Exact-discretisation run on the augmented state ``q`` of :func:`~backlash_df.system.mode_matrices`.
 
     ``ladders`` holds :func:`~backlash_df.system.exp_ladder` of the left-contact,
     free and right-contact matrices (each by command mode with a limit,
     :func:`~backlash_df.system.command_matrices`, whose rows ``u_row, e_row, rates``
-    it switches on); returns the event count.
+    it switches on).  The run goes from ``q`` at sample ``first`` (0, the modes
+    found there; or a run's last sample, going on with it, its modes ``mode0`` and
+    ``cmode0``, its samples and history ``hist`` up to there filled in) to sample
+    ``n_steps``, where ``q`` is left; returns the event count of the steps taken.
     """
-    n = z0.shape[0]
+    n = Z.shape[1]
     size = ladders.shape[2]
-    hist = np.zeros((n_steps + 1, d_rows.shape[0]))
-    q = np.zeros(size)
     q_new, q_lo, trial, q_hi = np.empty(size), np.empty(size), np.empty(size), np.empty(size)
-    _copy_vector(z0, q, n)
-    q[n] = theta_b0
-    q[n + 1] = 1.0
-    x, v = _xv(q, c_x, c_v)
-    mode = _mode_of(law, p, 0, x, v, theta_b0)
-    cmode = 0
+    mode = mode0
+    cmode = cmode0
+    if first == 0:
+        x, v = _xv(q, c_x, c_v)
+        mode = _mode_of(law, p, 0, x, v, q[n])
+        cmode = 0
     events = 0
     first_rows = n + 1 if limit == 0.0 else size  # the rows _step_exactly advances over a whole step
     inputs_vary = W.shape[1] > 0 or delay > 0.0
-    for i in range(n_steps + 1):
+    for i in range(first, n_steps + 1):
         x, v = _xv(q, c_x, c_v)
         _record(i, q, n, q[n], mode, cmode, _torque(law, mode, x, v, p), d_rows, Z, T, THETA, MODES, CMODES, hist)
         if i == n_steps or _diverged(i, q, n, Z, T, THETA, MODES, CMODES):

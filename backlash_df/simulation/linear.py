@@ -66,6 +66,33 @@ class SimulationResult:
     state_names: tuple
     command: np.ndarray | None = dataclasses.field(default=None, repr=False)
     command_mode: np.ndarray | None = dataclasses.field(default=None, repr=False)
+    _end: "_RunEnd | None" = dataclasses.field(default=None, repr=False, compare=False)
+
+    def continued(self, t_end):
+        """The run gone on to ``t_end`` (s) from its last sample: the same, to the bit, as a run to ``t_end``.
+
+        Only the new steps are integrated; the kernel's state at the last sample
+        (the exact model's theta_b, the modes, a dead time's history) is carried.
+
+        Raises
+        ------
+        ValueError
+            A run whose inputs were given as an array on its grid, a ``t_end`` not
+            beyond the run's, or more than :data:`MAX_STEPS` steps.
+        """
+        if self._end is None:
+            raise ValueError("a run whose inputs are an array on its grid cannot go on: simulate to t_end instead")
+        end = self._end
+        first = self.time.size - 1
+        n_steps = _step_count(t_end, end.dt)
+        if n_steps <= first:
+            raise ValueError(f"t_end = {t_end!r} s must lie beyond the run's end, {self.time[-1]!r} s")
+        outputs = _outputs(n_steps, end.system.A.shape[0], end.hist.shape[1])
+        for array, old in zip(outputs, (self.states, self.torque, self.theta_b, self.mode, self.command_mode,
+                                        end.hist)):
+            if old is not None:
+                array[:first + 1] = old
+        return _run(end.system, end.model, end.inputs, end.dt, n_steps, outputs, end, first)
 
     @property
     def backlash_switched(self):
@@ -148,9 +175,12 @@ def _piecewise_affine(system, model):
 
 
 
-def _simulate_exactly(system, model, w, z0, theta_b0, dt, n_steps, outputs):
-    """Fill the outputs with the exact-discretisation kernel; returns the number of events."""
-    states, torque, theta_b, modes, cmodes = outputs
+def _simulate_exactly(system, model, w, dt, n_steps, outputs, start, first):
+    """Fill the outputs with the exact-discretisation kernel from ``start`` at sample ``first``.
+
+    Returns ``(events, q)``: the events of the steps taken and the kernel's state at the last sample.
+    """
+    states, torque, theta_b, modes, cmodes, hist = outputs
     law = DEAD_ZONE if model.law == EXACT and model.damping == 0.0 else model.law
     varying = [j for j in range(w.shape[1]) if np.ptp(w[:, j]) > 0.0]
     constant = np.delete(w[0], varying)
@@ -162,15 +192,18 @@ def _simulate_exactly(system, model, w, z0, theta_b0, dt, n_steps, outputs):
         matrices = per_mode.reshape(-1, size, size)
         rows, limit, clamps = (u_row, e_row, rates), system.command.limit, system.command.integrator >= 0
     ladders = np.stack([exp_ladder(m_aug, dt, LEVELS) for m_aug in matrices])
+    if first == 0:
+        n = system.A.shape[0]
+        q = np.zeros(size)
+        q[:n], q[n], q[n + 1] = start.state[:n], start.state[n], 1.0
+    else:
+        q = start.state.copy()
     events = run_exact(
-        ladders, *rows, float(limit), clamps, law, _law_params(model), np.ascontiguousarray(w[:, varying]), z0,
-        theta_b0, float(system.delay), system.d, system.c_x, system.c_v, dt, n_steps, states, torque, theta_b, modes,
-        cmodes,
+        ladders, *rows, float(limit), clamps, law, _law_params(model), np.ascontiguousarray(w[:, varying]), q,
+        float(system.delay), system.d, system.c_x, system.c_v, dt, n_steps, states, torque, theta_b, modes, cmodes,
+        hist, first, start.mode, start.cmode,
     )
-    if law != model.law:  # the exact model without damping is the dead-zone (Remark 2)
-        modes //= 2
-        theta_b[:] = np.clip(states @ system.c_x, -model.half_gap, model.half_gap)
-    return events
+    return events, q
 
 
 def _law_params(model):
@@ -248,14 +281,63 @@ def simulate_linear(system, model, t_end, dt, inputs=None, z0=None, theta_b0=0.0
         raise ValueError(f"t_end must be finite and > 0, got {t_end!r}")
     if 0.0 < system.delay < dt:
         raise ValueError(f"dt = {dt!r} s must not exceed the delay {system.delay!r} s")
+    n_steps = _step_count(t_end, dt)
+    n, m = system.E.shape
+    if not (inputs is None or callable(inputs)):
+        inputs = np.asarray(inputs, dtype=float)
+        if inputs.ndim == 1 and m == 1:
+            inputs = inputs[:, None]
+        if inputs.shape != (n_steps + 1, m):
+            raise ValueError(f"inputs must have shape ({n_steps + 1}, {m}) for channels {system.input_names}, "
+                             f"got {inputs.shape}")
+    z0 = np.zeros(n) if z0 is None else np.asarray(z0, dtype=float).copy()
+    if z0.shape != (n,) or not np.all(np.isfinite(z0)):
+        raise ValueError(f"z0 must be {n} finite numbers for states {system.state_names}")
+    if abs(theta_b0) > model.half_gap:
+        raise ValueError(f"theta_b0 must lie in [-half_gap, half_gap], got {theta_b0!r}")
+    start = _RunEnd(system, model, inputs, float(dt), np.append(z0, float(theta_b0)), 0, 0, None, 0)
+    return _run(system, model, inputs, float(dt), n_steps, _outputs(n_steps, n, system.n_delayed), start, 0)
+
+
+def _step_count(t_end, dt):
+    """The steps of a run to ``t_end`` (s) at ``dt`` (s); a ``ValueError`` for a duration out of bounds."""
+    if not (t_end > 0.0 and math.isfinite(t_end)):
+        raise ValueError(f"t_end must be finite and > 0, got {t_end!r}")
     n_steps = int(round(t_end / dt))
     if n_steps < 1:
         raise ValueError(f"t_end = {t_end!r} s must be at least one step dt = {dt!r} s")
     if n_steps > MAX_STEPS:
         raise ValueError(f"t_end = {t_end:g} s at dt = {dt:.3g} s is {n_steps:.3g} steps, more than {MAX_STEPS:.0e}: "
                          f"the loop's fastest dynamics need that step; check the rig's units (stiffness, damping, inertias, kp)")
-    time = np.arange(n_steps + 1) * dt
-    n, m = system.E.shape
+    return n_steps
+
+
+def _outputs(n_steps, n, n_delayed):
+    """The arrays a kernel fills: states, torque, theta_b, modes, command modes, delayed signals."""
+    return (np.empty((n_steps + 1, n)), np.empty(n_steps + 1), np.empty(n_steps + 1),
+            np.empty(n_steps + 1, dtype=np.int64), np.zeros(n_steps + 1, dtype=np.int64),
+            np.zeros((n_steps + 1, n_delayed)))
+
+
+@dataclasses.dataclass(frozen=True)
+class _RunEnd:
+    """Where a kernel run starts or stopped: its state (``z`` and theta_b; the exact kernel's augmented ``q``),
+    modes and delayed-signal history there, with what it needs to go on."""
+
+    system: object
+    model: BacklashModel
+    inputs: object
+    dt: float
+    state: np.ndarray
+    mode: int
+    cmode: int
+    hist: np.ndarray | None
+    events: int
+
+
+def _input_rows(system, inputs, n_steps, dt):
+    """The inputs as the kernels take them: two equal rows for constants, else rows on the grid or at half steps."""
+    m = system.E.shape[1]
     if inputs is None or getattr(inputs, "constant", None) is not None:
         # constants: two equal rows span the run (the kernels interpolate w over rows spread uniformly)
         w = np.tile(np.zeros(m) if inputs is None else np.asarray(inputs.constant, dtype=float), (2, 1))
@@ -264,51 +346,51 @@ def simulate_linear(system, model, t_end, dt, inputs=None, z0=None, theta_b0=0.0
     elif callable(inputs):
         w = np.asarray(inputs(np.arange(2 * n_steps + 1) * (0.5 * dt)), dtype=float).reshape(2 * n_steps + 1, m)
     else:
-        w = np.asarray(inputs, dtype=float)
-        if w.ndim == 1 and m == 1:
-            w = w[:, None]
-        if w.shape != (n_steps + 1, m):
-            raise ValueError(f"inputs must have shape ({n_steps + 1}, {m}) for channels {system.input_names}, got {w.shape}")
+        w = inputs
     if not np.all(np.isfinite(w)):
         raise ValueError("inputs must be finite")
-    z0 = np.zeros(n) if z0 is None else np.asarray(z0, dtype=float).copy()
-    if z0.shape != (n,) or not np.all(np.isfinite(z0)):
-        raise ValueError(f"z0 must be {n} finite numbers for states {system.state_names}")
-    if abs(theta_b0) > model.half_gap:
-        raise ValueError(f"theta_b0 must lie in [-half_gap, half_gap], got {theta_b0!r}")
-    states = np.empty((n_steps + 1, n))
-    torque = np.empty(n_steps + 1)
-    theta_b = np.empty(n_steps + 1)
-    modes = np.empty(n_steps + 1, dtype=np.int64)
-    cmodes = np.zeros(n_steps + 1, dtype=np.int64)
-    w = np.ascontiguousarray(w)
-    if _piecewise_affine(system, model):
-        events = _simulate_exactly(system, model, w, z0, float(theta_b0), float(dt), n_steps,
-                                   (states, torque, theta_b, modes, cmodes))
+    return np.ascontiguousarray(w)
+
+
+def _run(system, model, inputs, dt, n_steps, outputs, start, first):
+    """The kernel's run from ``start`` at sample ``first`` to ``n_steps``, into ``outputs``: a SimulationResult."""
+    w = _input_rows(system, inputs, n_steps, dt)
+    states, torque, theta_b, modes, cmodes, hist = outputs
+    exactly = _piecewise_affine(system, model)
+    if exactly:
+        events, state = _simulate_exactly(system, model, w, dt, n_steps, outputs, start, first)
     else:
-        events = run_rk4(system.kernel_arrays(), _command_arrays(system), model.law, _law_params(model), w, z0,
-                         float(theta_b0), float(dt), n_steps, states, torque, theta_b, modes, cmodes)
+        n = system.A.shape[0]
+        events = run_rk4(system.kernel_arrays(), _command_arrays(system), model.law, _law_params(model), w,
+                         start.state[:n], float(start.state[n]), dt, n_steps, states, torque, theta_b, modes, cmodes,
+                         hist, first, start.mode, start.cmode)
+        state = np.append(states[-1], theta_b[-1])
+    end = _RunEnd(system, model, inputs, dt, state, int(modes[-1]), int(cmodes[-1]), hist, start.events + int(events))
     if model.is_static:
         theta_b[:] = np.nan
+    elif exactly and model.law == EXACT and model.damping == 0.0:  # stepped as the dead-zone (Remark 2)
+        modes[first:] //= 2
+        theta_b[:] = np.clip(states @ system.c_x, -model.half_gap, model.half_gap)
     with np.errstate(over="ignore", invalid="ignore"):  # a diverged run is named by measure_limit_cycle
         theta_d, dtheta_d = states @ system.c_x, states @ system.c_v
     command = None
     if system.command is not None:
         rows = {2 * n_steps + 1: w[::2], n_steps + 1: w}  # half steps, or the output grid; else the constant rows
-        command = _command_trace(system, time, states, rows.get(w.shape[0], w[:1]))
+        command = _command_trace(system, np.arange(n_steps + 1) * dt, states, rows.get(w.shape[0], w[:1]))
     return SimulationResult(
-        time=time,
+        time=np.arange(n_steps + 1) * dt,
         states=states,
         theta_d=theta_d,
         dtheta_d=dtheta_d,
         torque=torque,
         theta_b=theta_b,
         mode=modes,
-        events=int(events),
+        events=end.events,
         model=model,
         state_names=system.state_names,
         command=command,
         command_mode=None if system.command is None else cmodes,
+        _end=None if isinstance(inputs, np.ndarray) else end,
     )
 
 

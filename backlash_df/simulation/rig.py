@@ -95,8 +95,8 @@ def simulate_rig(rig, model=None, t_end=20.0, dt=None, speed_reference=0.0, load
 def simulated_limit_cycle(rig, model=None, t_end=20.0, max_t_end=160.0, dt=None, periods=6, rtol=1e-3, **kwargs):
     """Simulate until a steady state and measure the limit cycle.
 
-    Runs :func:`simulate_rig` for ``t_end`` and doubles it (re-running from the
-    start, so a dead time's history stays exact) until :func:`measure_limit_cycle`
+    Runs :func:`simulate_rig` for ``t_end`` and doubles it (going on from the
+    run's end, :meth:`~.linear.SimulationResult.continued`) until :func:`measure_limit_cycle`
     finds a steady state, or the next run would pass ``max_t_end``; a run of more
     than :data:`~.linear.MAX_STEPS` steps (a stiff loop's fine step) is cut to the
     longest the step allows, which is then the last.  A motion that
@@ -119,10 +119,11 @@ def simulated_limit_cycle(rig, model=None, t_end=20.0, max_t_end=160.0, dt=None,
         The last simulation run.
     """
     measured = None
+    result = simulate_rig(rig, model, t_end=t_end, dt=dt, **kwargs)
     while True:
-        result = simulate_rig(rig, model, t_end=t_end, dt=dt, **kwargs)
         measured = measure_limit_cycle(result, periods=periods, rtol=rtol, previous=measured)
         longest = longest_run(result.time[1] - result.time[0])
         if measured.settled or 2.0 * t_end > max_t_end or t_end >= longest:
             return measured, result
         t_end = min(2.0 * t_end, longest)
+        result = result.continued(t_end)
