@@ -5,9 +5,19 @@ this folder on ``sys.path``) and take the rigs as fixtures.  Every path is
 absolute, so the tests pass from any working directory.
 """
 
+import os
 from pathlib import Path
 
-import pytest
+# One BLAS thread per process, set before numpy loads here and inherited by pytest-xdist's
+# workers, the notebooks' kernels and the commands the tests run: two workers on two cores,
+# each with OpenBLAS's two threads spinning between the loops' small matrix products, spent
+# a third more CPU for no gain in time (a tune of motor_lag_feedback: 10.8 s of CPU on two
+# threads, 7.2 s on one, 7.3 s and 7.2 s of wall time).  The command line pins one thread
+# for the same reason (backlash_df/cli/common.py).
+for _variable in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+import pytest  # noqa: E402
 
 import backlash_df as bd
 from backlash_df.disturbances import standard_disturbances
