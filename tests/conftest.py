@@ -6,6 +6,8 @@ absolute, so the tests pass from any working directory.
 """
 
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 # One BLAS thread per process, set before numpy loads here and inherited by pytest-xdist's
@@ -142,3 +144,18 @@ PLOTS = ["LimitCyclePrediction", "LoopVerdict", "LoopAnalysis", "PeriodicOrbit",
 
 #: Keys of ``results`` whose class writes a report (``report_html(title="", rig_text="")``).
 REPORTS = ["LimitCyclePrediction", "LoopAnalysis", "Branch", "DesignMap", "Diagnosis", "Tuning"]
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_sessionstart(session):
+    """With pytest-xdist workers: the kernels compiled into numba's cache once, in two processes, before the
+    workers start (tests/warm_kernels.py); on a warm cache this costs the workloads' runs, a few seconds."""
+    config = session.config
+    workers = config.getoption("numprocesses", None)  # pytest-xdist's -n, resolved to a count by now
+    if hasattr(config, "workerinput") or not (isinstance(workers, int) and workers > 1):
+        return
+    warm = Path(__file__).with_name("warm_kernels.py")
+    halves = [subprocess.Popen([sys.executable, str(warm), str(half)], cwd=ROOT, stdout=subprocess.DEVNULL,
+                               stderr=subprocess.DEVNULL) for half in range(2)]
+    for half in halves:
+        half.wait()  # a failure here shows again, with its message, in the tests that call the same code
