@@ -155,7 +155,9 @@ def pytest_sessionstart(session):
     if hasattr(config, "workerinput") or not (isinstance(workers, int) and workers > 1):
         return
     warm = Path(__file__).with_name("warm_kernels.py")
-    halves = [subprocess.Popen([sys.executable, str(warm), str(half)], cwd=ROOT, stdout=subprocess.DEVNULL,
-                               stderr=subprocess.DEVNULL) for half in range(2)]
+    # the package the tests import (the checkout's, first on sys.path), not another installed one
+    path = os.pathsep.join([str(ROOT)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p])
+    halves = [subprocess.Popen([sys.executable, str(warm), str(half)], cwd=ROOT, env={**os.environ, "PYTHONPATH": path},
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) for half in range(2)]
     for half in halves:
         half.wait()  # a failure here shows again, with its message, in the tests that call the same code
