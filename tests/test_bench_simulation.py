@@ -17,6 +17,9 @@ import bench_simulation  # noqa: E402
 import compiled_rk  # noqa: E402
 from backlash_df.models import DAMPED_DEAD_ZONE  # noqa: E402
 
+#: On one worker: the benchmark's compiled pairs and floor loops compile once, not on each.
+pytestmark = pytest.mark.xdist_group("benchmark-numerics")
+
 # a damped oscillator with a constant force, the same in every mode: dz/dt = A z + f
 A = np.array([[0.0, 1.0], [-400.0, -2.0]])
 F = np.array([0.0, 4.0])

@@ -199,6 +199,7 @@ def references():
     return {step: reference_cycle(rig, step, T_END, KICK) for step in STEPS}
 
 
+@pytest.mark.xdist_group("delay-reference")  # the references computed (and their solver compiled) on one worker
 def test_reference_converges_at_its_order(references):
     (a1, w1), (a2, w2), (a3, w3) = (references[h] for h in STEPS)
     order = math.log2(abs(a1 - a2) / abs(a2 - a3))
@@ -208,6 +209,7 @@ def test_reference_converges_at_its_order(references):
     assert abs(a2 - a3) < 1e-7 * a3  # so the finest reference is good to far below 1e-4
 
 
+@pytest.mark.xdist_group("delay-reference")
 def test_simulation_with_dead_time_matches_the_reference(references):
     rig = critical_rig()
     amplitude, omega = references[STEPS[-1]]

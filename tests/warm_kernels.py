@@ -44,12 +44,30 @@ def rk4_kernel_and_laws():
         bd.describing_function(model, [0.06, 0.1], 100.0)
 
 
+def describing_function_variants():
+    """The grid's threads and the reference quadrature of the describing functions, with and without bias (7 s)."""
+    from backlash_df.describing import describing_function_grid
+    from backlash_df.describing._evaluation import evaluate
+
+    rig = _rig()
+    amplitude, omega = 0.05 * np.geomspace(1.01, 50.0, 4), np.geomspace(1.0, 2e4, 3)
+    for law in ("phase-plane", "rubber"):
+        for bias in (0.0, 0.02):
+            describing_function_grid(_model(rig, law), amplitude, omega, bias)
+    evaluate(_model(rig, "phase-plane"), amplitude[:, None], omega[None, :], 0.0, "harmonic-balance")
+
+
 def diagnosis():
-    """The diagnosis' prediction kernels (6 s)."""
-    bd.diagnose(bd.load_measurements(EXAMPLES / "diagnose_friction.csv"), bd.load_rig(EXAMPLES / "diagnose_rig.toml"))
+    """The diagnosis' prediction kernels, two-mass and rigid body (6 s)."""
+    from backlash_df.identify.calibrate import predict
+
+    measurements = bd.load_measurements(EXAMPLES / "diagnose_friction.csv")
+    rig = bd.load_rig(EXAMPLES / "diagnose_rig.toml")
+    for structure in ("two_mass", "rigid_body"):
+        predict(measurements, rig, structure=structure)
 
 
-HALVES = ((exact_kernel_and_verdict, diagnosis), (rk4_kernel_and_laws,))
+HALVES = ((exact_kernel_and_verdict, diagnosis, describing_function_variants), (rk4_kernel_and_laws,))
 
 
 if __name__ == "__main__":
