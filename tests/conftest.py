@@ -161,3 +161,11 @@ def pytest_sessionstart(session):
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) for half in range(2)]
     for half in halves:
         half.wait()  # a failure here shows again, with its message, in the tests that call the same code
+
+
+def pytest_collection_modifyitems(items):
+    """The notebooks, then the tests that share a long computation on one worker (an xdist group: a tuning, the
+    built documentation), then the rest: the longest work handed out first, so that both workers finish together
+    (the groups of tests/test_tuning.py, collected late, ran last and alone)."""
+    items.sort(key=lambda item: 0 if item.nodeid.startswith("notebooks/") else
+               1 if item.get_closest_marker("xdist_group") else 2)
