@@ -84,7 +84,7 @@ from .models import (
     PHASE_PLANE,
     REVISED_DEAD_ZONE,
     BacklashModel,
-    theta_star,
+    theta_star_kernel,
 )
 from .plotting import ResultPlot, axes_or_new
 from .simulation import MeasuredCycle, SimulationResult, default_step, simulate_linear, upward_crossings
@@ -140,7 +140,7 @@ def _theta_star_slope(v, k, c, alpha):
     With ``s = c v / k``, ``K = 2 alpha / s`` and ``u = (alpha - theta*) / s`` the root of
     ``u - ln u = 1 + K``: ``d theta*/ds = -u (1 + K / (1 - u))`` (implicit derivative).
     """
-    ts = float(theta_star(v, k, c, alpha))
+    ts = theta_star_kernel(float(v), k, c, alpha)  # the compiled scalar: a ufunc call costs 20x more
     s = c * v / k
     u = (alpha - ts) / s
     if u <= 0.0:  # theta* rounds to alpha: the slope is below 1e-19
@@ -225,7 +225,7 @@ class _Loop:
         e_b[-1] = 1.0 if self.exact else 0.0
         self.rows = np.array([self.c_x, self.c_v, e_b])  # (theta_d, dtheta_d, theta_b) = rows @ q
         self.damping_on = 0.0 if self.law == DEAD_ZONE else self.c
-        self._ladders = {}
+        self._ladders, self._fields = {}, {}
         command = self.part.command
         self.limit = 0.0 if command is None else command.limit
         if command is None:
@@ -242,8 +242,11 @@ class _Loop:
 
     def field(self, mode, q):
         """Vector field dq/dt of ``mode`` at ``q``."""
-        m_aug = self.aug[mode]
-        return m_aug[:-1, :-1] @ q + m_aug[:-1, -1]
+        if mode not in self._fields:  # the mode's matrix and constant term, sliced once
+            m_aug = self.aug[mode]
+            self._fields[mode] = (np.ascontiguousarray(m_aug[:-1, :-1]), m_aug[:-1, -1].copy())
+        matrix, constant = self._fields[mode]
+        return matrix @ q + constant
 
     def torque(self, mode, q):
         """Shaft torque (N m) of ``mode`` at ``q``."""
@@ -287,21 +290,24 @@ class _Loop:
         clamped, integrating = rates @ np.append(q, 1.0)
         return [(s * clamped, s * rates[0, :-1]), (-s * integrating, -s * rates[1, :-1])]
 
-    def exits(self, mode, q):
+    def exits(self, mode, q, gradients=True):
         """``[(label, value, gradient in q)]``: the mode is left where a value turns > 0.
 
         ``label`` is the backlash mode a contact or release enters, None for a
         boundary of the command's modes (whose target :meth:`target` finds).
+        Without ``gradients`` the backlash's gradients are None (a root search
+        needs the values alone).
         """
         side = mode[0]
         x, v, tb = self.rows @ q
         args = (self.law, self.k, self.c, self.alpha, x, v, tb)
         if side == 0:
             items = [(1, _contact_right(*args)), (-1, _mirrored(_contact_right, *args))]
-            out = [(target, value, np.asarray(grad) @ self.rows) for target, (value, grad) in items]
+            out = [(target, value, np.asarray(grad) @ self.rows if gradients else None)
+                   for target, (value, grad) in items]
         else:
             value, grad = _release_right(*args) if side > 0 else _mirrored(_release_right, *args)
-            out = [(0, -value, -(np.asarray(grad) @ self.rows))]
+            out = [(0, -value, -(np.asarray(grad) @ self.rows) if gradients else None)]
         if self.limit:
             out += [(None, value, grad) for value, grad in self._command_exits(mode, q)]
         return out
@@ -431,7 +437,8 @@ class _Loop:
             crossings = self._crossings(mode, ladder, q_a, ex_a, ex_b, e_step, width, step,
                                         on_limit if t_a == 0.0 else frozenset())
             if crossings:
-                located = [(*self.locate(ladder, q_a, lambda z, i=index: self.exits(mode, z)[i][1], hi, e_hi), index)
+                located = [(*self.locate(ladder, q_a, lambda z, i=index: self.exits(mode, z, False)[i][1], hi, e_hi),
+                            index)
                            for index, hi, e_hi in crossings]
                 fraction, e_event, index = min(located, key=lambda item: item[0])
                 return t_a + fraction * step, self.apply(e_event, q_a), (ex_a[index][0], index), e_event @ transition
@@ -468,7 +475,7 @@ class _Loop:
     def _excursion(self, mode, ladder, q_a, index, width):
         """Where an exit function between two negative samples peaks above zero: (fraction, transition) or None."""
         def minus(s):
-            return -self.exits(mode, self.apply(self.dyadic(ladder, s), q_a))[index][1]
+            return -self.exits(mode, self.apply(self.dyadic(ladder, s), q_a), False)[index][1]
 
         from scipy import optimize  # lazy: scipy.optimize takes a fraction of a second to import
 
