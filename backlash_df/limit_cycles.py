@@ -435,6 +435,32 @@ def _local_minima(magnitude):
     return np.argwhere(is_min) + 1
 
 
+def _deepest_per_valley(indices, magnitude, reach=2):
+    """Of grid minima in one valley (chained at most ``reach`` grid steps apart), the deepest, in grid order.
+
+    Nearly tangent loci leave a long narrow valley of |F| whose floor the grid
+    samples as a chain of local minima; a minimisation from each ends at the
+    same closest approach.
+    """
+    group = list(range(len(indices)))
+
+    def root(a):
+        while group[a] != a:
+            a = group[a]
+        return a
+
+    for a in range(len(indices)):
+        for b in range(a + 1, len(indices)):
+            if np.max(np.abs(indices[a] - indices[b])) <= reach:
+                group[root(b)] = root(a)
+    deepest = {}
+    for a, (i, j) in enumerate(indices):
+        r = root(a)
+        if r not in deepest or magnitude[i, j] < magnitude[tuple(indices[deepest[r]])]:
+            deepest[r] = a
+    return [indices[a] for a in sorted(deepest.values())]
+
+
 def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range, grid=(60, 80),
                            near_miss_cutoff=0.5, amplitude_dependent=False):
     """All roots of ``1 + G(jw) N(A, w) = 0`` in a box, their stability and the near misses.
@@ -491,7 +517,8 @@ def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range,
     values = problem.residual(ps[:, None], qs[None, :])
     magnitude = np.abs(values)
     seeds = [(0.5 * (ps[i] + ps[i + 1]), 0.5 * (qs[j] + qs[j + 1])) for i, j in _winding_cells(values)]
-    minima = [(ps[i], qs[j]) for i, j in _local_minima(magnitude)]
+    lowest = _local_minima(magnitude)
+    minima = [(ps[i], qs[j]) for i, j in lowest]
     roots = []
     for root in _run_together(problem, [problem.newton(p0, q0, box) for p0, q0 in seeds + minima]):
         if root is None or not (box[0][0] <= root[0] <= box[0][1] and box[1][0] <= root[1] <= box[1][1]):
@@ -500,7 +527,8 @@ def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range,
             roots.append(root)
     cycles = sorted((_cycle(problem, p, q) for p, q in roots), key=lambda c: (c.amplitude, c.omega))
     near = []
-    for p, q, distance in (_closest_on_flat(p0, q0, box, problem) for p0, q0 in minima):
+    starts = [(ps[i], qs[j]) for i, j in _deepest_per_valley(lowest, magnitude)]
+    for p, q, distance in (_closest_on_flat(p0, q0, box, problem) for p0, q0 in starts):
         at_edge = min(p - box[0][0], box[0][1] - p, q - box[1][0], box[1][1] - q) < 1e-6
         at_root = any(abs(p - pr) < 1e-3 and abs(q - qr) < 1e-3 for pr, qr in roots)
         if distance < 1e-6 or distance > near_miss_cutoff or at_edge or at_root:
