@@ -12,10 +12,12 @@ the loci can be nearly tangent to G(jw), so a single local solve is not enough:
 1. ``F`` is evaluated on a grid in ``(log(A - alpha), log w)``;
 2. every grid cell around which ``F`` winds (topological degree != 0) and every
    interior local minimum of ``|F|`` seeds a damped Newton solve;
-3. converged roots are deduplicated; minima that do not lead to a root are
-   refined by a bounded minimisation of ``|F|`` and reported as *near misses*
-   with their distance ``|1 + G N|``, which is the relative change of G (gain
-   and phase together) that would make the loci meet.
+3. converged roots are deduplicated; from the deepest grid minimum of each
+   valley (a chain of minima at most two grid steps apart, the floor of a long
+   narrow valley that nearly tangent loci leave) a bounded minimisation of
+   ``|F|`` finds the closest approach, reported as a *near miss* with its
+   distance ``|1 + G N|``, the relative change of G (gain and phase together)
+   that would make the loci meet, unless it is a root.
 
 Where N is pointwise (every describing function but the DC-balanced one) the
 evaluations are batched without changing a digit: G is built once per loop, every
