@@ -521,15 +521,19 @@ def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range,
     seeds = [(0.5 * (ps[i] + ps[i + 1]), 0.5 * (qs[j] + qs[j + 1])) for i, j in _winding_cells(values)]
     lowest = _local_minima(magnitude)
     minima = [(ps[i], qs[j]) for i, j in lowest]
-    roots = []
-    for root in _run_together(problem, [problem.newton(p0, q0, box) for p0, q0 in seeds + minima]):
+    roots, rooted = [], set()  # rooted: the minima whose Newton solve ends on a root
+    found = _run_together(problem, [problem.newton(p0, q0, box) for p0, q0 in seeds + minima])
+    for k, root in enumerate(found):
         if root is None or not (box[0][0] <= root[0] <= box[0][1] and box[1][0] <= root[1] <= box[1][1]):
             continue
+        if k >= len(seeds):
+            rooted.add(k - len(seeds))
         if all(abs(root[0] - p) > 1e-6 or abs(root[1] - q) > 1e-6 for p, q in roots):
             roots.append(root)
     cycles = sorted((_cycle(problem, p, q) for p, q in roots), key=lambda c: (c.amplitude, c.omega))
     near = []
-    starts = [(ps[i], qs[j]) for i, j in _deepest_per_valley(lowest, magnitude)]
+    open_minima = [index for k, index in enumerate(lowest) if k not in rooted]
+    starts = [(ps[i], qs[j]) for i, j in _deepest_per_valley(open_minima, magnitude)]
     for p, q, distance in (_closest_on_flat(p0, q0, box, problem) for p0, q0 in starts):
         at_edge = min(p - box[0][0], box[0][1] - p, q - box[1][0], box[1][1] - q) < 1e-6
         at_root = any(abs(p - pr) < 1e-3 and abs(q - qr) < 1e-3 for pr, qr in roots)

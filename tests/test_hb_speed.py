@@ -52,17 +52,17 @@ def test_batched_balance_matches_the_unbatched_one(case):
             assert _close(new[key], old[key]), (key, new[key], old[key])
 
 
-@pytest.mark.parametrize("failing_call", [2, 20, 40, 60, 75])
+@pytest.mark.parametrize("failing_call", [2, 10, 25, 35, 45])
 def test_an_error_in_a_batched_round_reaches_the_caller(failing_call):
-    """A describing function that fails at its n-th call (in the Newton rounds or in the near-miss
-    solves) raises its error in the caller."""
+    """A describing function that fails at its n-th call (in the Newton rounds, calls 1-18 of the 46 here,
+    or in the near-miss solves) raises its error in the caller."""
     import functools
 
     import backlash_df as bd
     from backlash_df.limit_cycles import default_ranges, solve_harmonic_balance
     from backlash_df.system import frequency_response
 
-    rig = bd.load_rig(HERE.parent / "examples" / "load_feedback.toml")
+    rig = bd.load_rig(HERE.parent / "examples" / "motor_lag_feedback.toml")  # a near miss: solves after Newton's
     model = rig.make_model(None)
     calls = []
 
