@@ -12,20 +12,18 @@ the loci can be nearly tangent to G(jw), so a single local solve is not enough:
 1. ``F`` is evaluated on a grid in ``(log(A - alpha), log w)``;
 2. every grid cell around which ``F`` winds (topological degree != 0) and every
    interior local minimum of ``|F|`` seeds a damped Newton solve;
-3. converged roots are deduplicated; from the deepest grid minimum of each
-   valley (a chain of minima at most two grid steps apart, the floor of a long
-   narrow valley that nearly tangent loci leave) a bounded minimisation of
-   ``|F|`` finds the closest approach, reported as a *near miss* with its
-   distance ``|1 + G N|``, the relative change of G (gain and phase together)
-   that would make the loci meet, unless it is a root.
+3. converged roots are deduplicated; of the minima whose Newton solve found
+   no root, the deepest of each valley (a chain of minima at most two grid
+   steps apart, the floor of a long narrow valley that nearly tangent loci
+   leave) starts a bounded minimisation of ``|F|`` to the closest approach,
+   reported as a *near miss* with its distance ``|1 + G N|``, the relative
+   change of G (gain and phase together) that would make the loci meet.
 
 Where N is pointwise (every describing function but the DC-balanced one) the
 evaluations are batched without changing a digit: G is built once per loop, every
 point asked for brings its Jacobian's four neighbours along, the Newton solves
-from all seeds advance side by side, one call of ``G`` and ``N`` per round.  The
-near-miss solves (scipy's least squares) run one after the other: run side by side in
-threads with their requests pooled, they took twice the CPU time (the threads' hand-offs
-cost more than the calls they saved).
+from all seeds advance side by side, one call of ``G`` and ``N`` per round; the
+near-miss solves (scipy's least squares) run one after the other.
 
 Stability is Loeb's criterion (Gelb and Vander Velde, 1968, Ch. 2): with
 ``U + jV = 1 + G(jw) N(A, w)``, a cycle is stable if
@@ -444,22 +442,18 @@ def _deepest_per_valley(indices, magnitude, reach=2):
     samples as a chain of local minima; a minimisation from each ends at the
     same closest approach.
     """
-    group = list(range(len(indices)))
+    if not indices:
+        return []
+    from scipy.sparse.csgraph import connected_components  # lazy, as scipy.optimize below
 
-    def root(a):
-        while group[a] != a:
-            a = group[a]
-        return a
-
-    for a in range(len(indices)):
-        for b in range(a + 1, len(indices)):
-            if np.max(np.abs(indices[a] - indices[b])) <= reach:
-                group[root(b)] = root(a)
+    points = np.array(indices)
+    near = np.abs(points[:, None, :] - points[None, :, :]).max(axis=2) <= reach
+    _, valley = connected_components(near, directed=False)
+    depth = magnitude[points[:, 0], points[:, 1]]
     deepest = {}
-    for a, (i, j) in enumerate(indices):
-        r = root(a)
-        if r not in deepest or magnitude[i, j] < magnitude[tuple(indices[deepest[r]])]:
-            deepest[r] = a
+    for a, label in enumerate(valley):  # the first of equally deep minima is kept
+        if label not in deepest or depth[a] < depth[deepest[label]]:
+            deepest[label] = a
     return [indices[a] for a in sorted(deepest.values())]
 
 

@@ -181,7 +181,7 @@ def _simulate_exactly(system, model, w, dt, n_steps, outputs, start, first):
     Returns ``(events, q)``: the events of the steps taken and the kernel's state at the last sample.
     """
     states, torque, theta_b, modes, cmodes, hist = outputs
-    law = DEAD_ZONE if model.law == EXACT and model.damping == 0.0 else model.law
+    law = _stepped_law(model)
     varying = [j for j in range(w.shape[1]) if np.ptp(w[:, j]) > 0.0]
     constant = np.delete(w[0], varying)
     matrices = mode_matrices(system, model, law, varying, constant)
@@ -204,6 +204,11 @@ def _simulate_exactly(system, model, w, dt, n_steps, outputs, start, first):
         hist, first, start.mode, start.cmode,
     )
     return events, q
+
+
+def _stepped_law(model):
+    """The law the exact kernel steps: the exact model without damping is the dead-zone (Remark 2)."""
+    return DEAD_ZONE if model.law == EXACT and model.damping == 0.0 else model.law
 
 
 def _law_params(model):
@@ -368,17 +373,18 @@ def _run(system, model, inputs, dt, n_steps, outputs, start, first):
     end = _RunEnd(system, model, inputs, dt, state, int(modes[-1]), int(cmodes[-1]), hist, start.events + int(events))
     if model.is_static:
         theta_b[:] = np.nan
-    elif exactly and model.law == EXACT and model.damping == 0.0:  # stepped as the dead-zone (Remark 2)
+    elif exactly and _stepped_law(model) != model.law:  # dead-zone modes 0, +-2 back to the exact model's
         modes[first:] //= 2
         theta_b[:] = np.clip(states @ system.c_x, -model.half_gap, model.half_gap)
     with np.errstate(over="ignore", invalid="ignore"):  # a diverged run is named by measure_limit_cycle
         theta_d, dtheta_d = states @ system.c_x, states @ system.c_v
+    time = np.arange(n_steps + 1) * dt
     command = None
     if system.command is not None:
         rows = {2 * n_steps + 1: w[::2], n_steps + 1: w}  # half steps, or the output grid; else the constant rows
-        command = _command_trace(system, np.arange(n_steps + 1) * dt, states, rows.get(w.shape[0], w[:1]))
+        command = _command_trace(system, time, states, rows.get(w.shape[0], w[:1]))
     return SimulationResult(
-        time=np.arange(n_steps + 1) * dt,
+        time=time,
         states=states,
         theta_d=theta_d,
         dtheta_d=dtheta_d,
