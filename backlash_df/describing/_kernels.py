@@ -26,7 +26,7 @@ from ..models import (
     theta_star_kernel,
 )
 
-_jit = numba.njit(cache=True, nogil=True)
+_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 
 _TWO_PI = 2.0 * math.pi
 _HALF_PI = 0.5 * math.pi
@@ -108,9 +108,12 @@ def _integrate_fixed(law, m, a, e, amp, omega, bias, p, nodes, weights, acc):
 
 
 @_jit
-def _kronrod(law, m, a, e, amp, omega, bias, p):
+def _kronrod(law, m, a, e, amp, omega, bias, k, c, alpha, beta):
     """15-point Kronrod integrals of T sin, T cos, T over [a, e], |K15 - G7| and int |T|
-    (T of mode m of the law, or the rubber band torque of :func:`_band_torque` if law is _RUBBER_BAND)."""
+    (T of mode m of the law, or the rubber band torque of :func:`_band_torque` if law is _RUBBER_BAND).
+
+    The law's parameters come as scalars: an array argument of a compiled helper called in a
+    loop is reference-counted on every call (see ``backlash_df._jit.inline``)."""
     half = 0.5 * (e - a)
     centre = a + half
     k_sin = k_cos = k_one = g_sin = g_cos = g_one = total = 0.0
@@ -119,7 +122,7 @@ def _kronrod(law, m, a, e, amp, omega, bias, p):
         sn = math.sin(phi)
         cs = math.cos(phi)
         x, v = bias + amp * sn, amp * omega * cs
-        torque = _band_torque(x, v, p) if law == _RUBBER_BAND else mode_torque(law, m, x, v, p[0], p[1], p[2], p[3])
+        torque = _band_torque(x, v, k, c, alpha, beta) if law == _RUBBER_BAND else mode_torque(law, m, x, v, k, c, alpha, beta)
         kronrod = KRONROD[i, 1] * torque
         gauss = KRONROD[i, 2] * torque
         k_sin += kronrod * sn
@@ -155,7 +158,7 @@ def integrate_adaptive(law, m, a, e, amp, omega, bias, p, stack, acc):
     while top > 0:
         top -= 1
         lo, hi, level = stack[top, 0], stack[top, 1], stack[top, 2]
-        k_sin, k_cos, k_one, error, total = _kronrod(law, m, lo, hi, amp, omega, bias, p)
+        k_sin, k_cos, k_one, error, total = _kronrod(law, m, lo, hi, amp, omega, bias, p[0], p[1], p[2], p[3])
         if error <= _KRONROD_TOLERANCE * total or level >= _MAX_LEVEL or top + 2 > stack.shape[0]:
             acc[0] += k_sin
             acc[1] += k_cos
@@ -1028,9 +1031,8 @@ def contact_fraction(big_k):
 
 
 @_jit
-def _band_torque(x, v, p):
+def _band_torque(x, v, k, c, alpha, beta):
     """Right rubber-band torque (36) of models.right_torque, mode 1 (N m), theta* by contact_fraction."""
-    k, c, alpha, beta = p[0], p[1], p[2], p[3]
     s = c * v / k
     if v > 0.0:
         ts = alpha if 20.0 * s < alpha else alpha - s * contact_fraction(2.0 * alpha / s)

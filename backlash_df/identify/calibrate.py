@@ -197,7 +197,7 @@ def _segments(law, p, eps, w_s, tm, tl, starts, stops, z0, substeps, states, tor
         mode = held_mode(law, 0, x, wm - wl, p[2], p[3], p[4], p[5])
         for i in range(starts[s], stops[s]):
             states[i, 0], states[i, 1], states[i, 2] = x, wm, wl
-            torque[i] = _rates(x, wm, wl, tm[i], tl[i], law, mode, p, eps, w_s)[3]
+            a0, a1, a2, torque[i] = _rates(x, wm, wl, tm[i], tl[i], law, mode, p, eps, w_s)
             if i == last:
                 continue
             d_tm, d_tl = tm[i + 1] - tm[i], tl[i + 1] - tl[i]
@@ -206,7 +206,8 @@ def _segments(law, p, eps, w_s, tm, tl, starts, stops, z0, substeps, states, tor
                 h = (f1 - f0) * p[13]
                 fm = 0.5 * (f0 + f1)
                 tmm, tlm = tm[i] + fm * d_tm, tl[i] + fm * d_tl
-                a0, a1, a2, _ = _rates(x, wm, wl, tm[i] + f0 * d_tm, tl[i] + f0 * d_tl, law, mode, p, eps, w_s)
+                if q > 0:  # the first stage of the sample's first step is the rate its torque came with
+                    a0, a1, a2, _ = _rates(x, wm, wl, tm[i] + f0 * d_tm, tl[i] + f0 * d_tl, law, mode, p, eps, w_s)
                 b0, b1, b2, _ = _rates(x + 0.5 * h * a0, wm + 0.5 * h * a1, wl + 0.5 * h * a2, tmm, tlm, law, mode, p,
                                        eps, w_s)
                 c0, c1, c2, _ = _rates(x + 0.5 * h * b0, wm + 0.5 * h * b1, wl + 0.5 * h * b2, tmm, tlm, law, mode, p,
