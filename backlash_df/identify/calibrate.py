@@ -164,10 +164,12 @@ def fit_percent(measured, simulated):
 
 @_inline
 def _friction(w, viscous, coulomb, breakaway, eps, w_s):
-    """``F(w)`` of the module docs, N m; without Coulomb or breakaway friction no tanh or exp is evaluated
-    (the same number: they are multiplied by zero)."""
+    """``F(w)`` of the module docs, N m; without Coulomb or breakaway friction no tanh, without breakaway
+    friction no exp is evaluated (the same number: they are multiplied by zero; ``w_s > 0``)."""
     if coulomb == 0.0 and breakaway == 0.0:
         return viscous * w
+    if breakaway == 0.0:
+        return viscous * w + coulomb * math.tanh(w / eps)
     return viscous * w + (coulomb + breakaway * math.exp(-(w / w_s) ** 2)) * math.tanh(w / eps)
 
 
