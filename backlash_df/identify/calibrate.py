@@ -176,7 +176,7 @@ def _friction(w, viscous, coulomb, breakaway, eps, w_s):
 @_inline
 def _rates(x, wm, wl, tm, tl, law, mode, p, eps, w_s):
     """Right-hand side of the model (module docs) at theta_d = ``x`` and speeds ``wm, wl`` (rad, rad/s):
-    ``(dtheta_d/dt, dw_m/dt, dw_l/dt, shaft torque in N m)``."""
+    ``(dtheta_d/dt, dw_m/dt, dw_l/dt, shaft torque in N m)``; ``p``: the first 13 values of :func:`_segments`."""
     v = wm - wl
     m = held_mode(law, mode, x, v, p[2], p[3], p[4], p[5])
     torque = mode_torque(law, m, x, v, p[2], p[3], p[4], p[5])
@@ -188,18 +188,21 @@ def _rates(x, wm, wl, tm, tl, law, mode, p, eps, w_s):
 def _segments(law, p, eps, w_s, tm, tl, starts, stops, z0, substeps, states, torque):
     """Simulate each segment ``starts[i]:stops[i]`` from state ``z0[i]`` (RK4, inputs interpolated).
 
-    The state is held in scalars and :func:`_rates` is inlined: no array is passed
-    inside the step loop (numba reference-counts array arguments of compiled calls).
+    The state is held in scalars, the values ``p`` in a tuple (not reference-counted) and
+    :func:`_rates` is inlined: no array is passed inside the step loop (numba
+    reference-counts an array passed to an inlined helper that calls compiled functions:
+    2 of every 9 ns of a step before).
     numpy's error model (7 % faster): its divisors, the inertias, the sample interval
     and the smoothing speeds, are positive (the fit's bounds, the record's checks).
     """
     last = tm.shape[0] - 1
+    values = (p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12])
     for s in range(starts.shape[0]):
         x, wm, wl = z0[s, 0], z0[s, 1], z0[s, 2]
         mode = held_mode(law, 0, x, wm - wl, p[2], p[3], p[4], p[5])
         for i in range(starts[s], stops[s]):
             states[i, 0], states[i, 1], states[i, 2] = x, wm, wl
-            a0, a1, a2, torque[i] = _rates(x, wm, wl, tm[i], tl[i], law, mode, p, eps, w_s)
+            a0, a1, a2, torque[i] = _rates(x, wm, wl, tm[i], tl[i], law, mode, values, eps, w_s)
             if i == last:
                 continue
             d_tm, d_tl = tm[i + 1] - tm[i], tl[i + 1] - tl[i]
@@ -209,13 +212,14 @@ def _segments(law, p, eps, w_s, tm, tl, starts, stops, z0, substeps, states, tor
                 fm = 0.5 * (f0 + f1)
                 tmm, tlm = tm[i] + fm * d_tm, tl[i] + fm * d_tl
                 if q > 0:  # the first stage of the sample's first step is the rate its torque came with
-                    a0, a1, a2, _ = _rates(x, wm, wl, tm[i] + f0 * d_tm, tl[i] + f0 * d_tl, law, mode, p, eps, w_s)
-                b0, b1, b2, _ = _rates(x + 0.5 * h * a0, wm + 0.5 * h * a1, wl + 0.5 * h * a2, tmm, tlm, law, mode, p,
-                                       eps, w_s)
-                c0, c1, c2, _ = _rates(x + 0.5 * h * b0, wm + 0.5 * h * b1, wl + 0.5 * h * b2, tmm, tlm, law, mode, p,
-                                       eps, w_s)
+                    a0, a1, a2, _ = _rates(x, wm, wl, tm[i] + f0 * d_tm, tl[i] + f0 * d_tl, law, mode, values, eps,
+                                           w_s)
+                b0, b1, b2, _ = _rates(x + 0.5 * h * a0, wm + 0.5 * h * a1, wl + 0.5 * h * a2, tmm, tlm, law, mode,
+                                       values, eps, w_s)
+                c0, c1, c2, _ = _rates(x + 0.5 * h * b0, wm + 0.5 * h * b1, wl + 0.5 * h * b2, tmm, tlm, law, mode,
+                                       values, eps, w_s)
                 d0, d1, d2, _ = _rates(x + h * c0, wm + h * c1, wl + h * c2, tm[i] + f1 * d_tm, tl[i] + f1 * d_tl, law,
-                                       mode, p, eps, w_s)
+                                       mode, values, eps, w_s)
                 x += h / 6.0 * (a0 + 2.0 * b0 + 2.0 * c0 + d0)
                 wm += h / 6.0 * (a1 + 2.0 * b1 + 2.0 * c1 + d1)
                 wl += h / 6.0 * (a2 + 2.0 * b2 + 2.0 * c2 + d2)
