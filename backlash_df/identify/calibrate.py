@@ -580,7 +580,7 @@ class TwoMassModel:
 
     def speeds_of(self, states):
         """Columns of ``states`` matching the measured speeds."""
-        return states[:, 1:1 + self.measurements.speeds.shape[1]]
+        return states[:, 1:1 + len(self.measurements.speed_names)]
 
     def _quasi_static_states(self, values, p, starts):
         """Segment starts on the rigid body's state: both speeds at the momentum-weighted data speed ``w``, and
@@ -1092,7 +1092,7 @@ class Shooting:
     def __init__(self, measurements, starts, stops, residual_rms, drift=False):
         noise = np.maximum(speed_noise(measurements), 1e-9 * (float(np.ptp(measurements.speeds)) + 1.0))
         self.n_segments = starts.size
-        self.states = ([0] if drift else []) + [1 + j for j in range(measurements.speeds.shape[1])]  # w_m (, w_l)
+        self.states = ([0] if drift else []) + [1 + j for j in range(len(measurements.speed_names))]  # w_m (, w_l)
         raw = noise / math.sqrt(1.0 - SMOOTHED_NOISE_SHARE**2)  # the speeds' noise before smoothing
         step = measurements.dt * math.sqrt(float(np.median(stops - starts)) * float(np.sum(raw**2)))
         self.scales = ([step] if drift else []) + list(SMOOTHED_NOISE_SHARE * noise)
@@ -1100,7 +1100,7 @@ class Shooting:
         self.size = len(self.states) * self.n_segments
         self.weight = residual_rms
         # the segment of each data row (the measured speeds stacked), and of each correction
-        self.segment_of_row = np.tile(np.repeat(np.arange(starts.size), stops - starts), measurements.speeds.shape[1])
+        self.segment_of_row = np.tile(np.repeat(np.arange(starts.size), stops - starts), len(measurements.speed_names))
         self.segment_of_correction = np.tile(np.arange(starts.size), len(self.states))
 
     @property
