@@ -27,6 +27,10 @@ from ..models import (
 )
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+#: A helper that only borrows the arrays it is given (its caller holds them) and allocates none:
+#: compiled without numba's reference counting, which counts an array passed to a compiled call
+#: at every call (NRT_incref/NRT_decref: a quarter of the rubber law's DF).
+_borrowing = numba.njit(cache=True, nogil=True, error_model="numpy", _nrt=False)
 
 _TWO_PI = 2.0 * math.pi
 _HALF_PI = 0.5 * math.pi
@@ -708,7 +712,7 @@ def _add_event(events, n, phi, sin_phi, cos_phi, start, end):
     return n
 
 
-@_jit
+@_borrowing
 def _add_arc_ends(events, n, centre, sin_centre, cos_centre, h, cos_h, sin_h, start, end):
     """Append both ends centre -+ h of an arc (see _arc) that is neither empty nor the whole circle."""
     if h <= 0.0 or h >= math.pi:
@@ -1042,7 +1046,7 @@ def _band_torque(x, v, k, c, alpha, beta):
     return 0.5 * k * (x - lower) ** 2 / (beta + 2.0 * s)
 
 
-@_jit
+@_borrowing
 def _add_piece(mode, a, sa, ca, e, se, ce, amp, omega, bias, p, contact, stack, acc):
     """Add the integrals of the right rubber torque in mode (0 free, 1 band, 2 contact, k (y - alpha)
     on the arc ``contact`` of _arc_integrals) over [a, e] to acc."""
@@ -1057,7 +1061,7 @@ def _add_piece(mode, a, sa, ca, e, se, ce, amp, omega, bias, p, contact, stack, 
         integrate_adaptive(_RUBBER_BAND, 1, a, e, amp, omega, bias, p, stack, acc)
 
 
-@_jit
+@_borrowing
 def _push_crossing(events, n, mode, level, lo, hi, rising, amp, slope_scale, alpha):
     """Append the crossing of gamma = level in [lo, hi] (see _contact_root) with the mode after it."""
     phi, sin_phi, cos_phi = _contact_root(level, lo, hi, rising, amp, slope_scale, alpha)
@@ -1065,7 +1069,7 @@ def _push_crossing(events, n, mode, level, lo, hi, rising, amp, slope_scale, alp
     return n + 1
 
 
-@_jit
+@_borrowing
 def _level_crossings(level, up_mode, down_mode, amp, rate, psi, radius, alpha, crit, events, n):
     """Append every crossing of gamma = level on the rising half (v > 0), with the mode after it
     (up_mode rising through level, down_mode falling)."""
@@ -1109,7 +1113,7 @@ def _level_crossings(level, up_mode, down_mode, amp, rate, psi, radius, alpha, c
     return n
 
 
-@_jit
+@_borrowing
 def _rubber_side(amp, omega, bias, p, crit, stack, acc, events):
     """Right-side integrals of the rubber law (28)-(40), accumulated in acc[0:3] and returned.
 
@@ -1193,7 +1197,7 @@ def _phase_plane_point(p, amp, omega, bias, crit):
     return _both_sides(amp, right, _phase_plane_side(amp, omega, -bias, p, crit) if bias != 0.0 else right)
 
 
-@_jit
+@_borrowing
 def _rubber_point(p, amp, omega, bias, crit, stack, acc, events):
     """(N, mean torque) of the rubber law (40) at one point (both sides share crit)."""
     crit[0] = -1.0
