@@ -10,7 +10,7 @@ import contextlib
 import numba
 from numba.core import event
 
-__all__ = ["jit", "jit_unchecked", "inline", "copy_into", "on_first_compile"]
+__all__ = ["jit", "jit_unchecked", "inline", "borrowing", "borrowing_unchecked", "copy_into", "on_first_compile"]
 
 #: Decorator of every compiled kernel of :mod:`backlash_df.system` and :mod:`backlash_df.simulation`.
 jit = numba.njit(cache=True, nogil=True)
@@ -24,6 +24,15 @@ jit_unchecked = numba.njit(cache=True, nogil=True, error_model="numpy")
 #: compiled function that calls another makes numba reference-count its array arguments
 #: on every call (NRT_incref/NRT_decref), a helper without calls does not.
 inline = numba.njit(cache=True, nogil=True, inline="always")
+#: :data:`jit` for a compiled loop that only borrows the arrays it is given (its caller holds
+#: them) and allocates none, nor do the functions it calls (numba compiles them with its flags):
+#: compiled without numba's reference counting, which otherwise counts an array passed to a
+#: compiled call, or held by an inlined helper across one, at every call (a third of the RK4
+#: kernel's event path, a quarter of the rubber law's describing function).  An allocation
+#: below it fails to compile ("NRT required but not enabled"), never at run time.
+borrowing = numba.njit(cache=True, nogil=True, _nrt=False)
+#: :data:`borrowing` with numpy's error model (:data:`jit_unchecked`).
+borrowing_unchecked = numba.njit(cache=True, nogil=True, error_model="numpy", _nrt=False)
 
 
 @jit

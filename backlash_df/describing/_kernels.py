@@ -13,6 +13,7 @@ import math
 import numba
 import numpy as np
 
+from .._jit import borrowing_unchecked as _borrowing
 from ..models import (
     DAMPED_DEAD_ZONE,
     DEAD_ZONE,
@@ -27,10 +28,6 @@ from ..models import (
 )
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-#: A helper that only borrows the arrays it is given (its caller holds them) and allocates none:
-#: compiled without numba's reference counting, which counts an array passed to a compiled call
-#: at every call (NRT_incref/NRT_decref: a quarter of the rubber law's DF).
-_borrowing = numba.njit(cache=True, nogil=True, error_model="numpy", _nrt=False)
 
 _TWO_PI = 2.0 * math.pi
 _HALF_PI = 0.5 * math.pi

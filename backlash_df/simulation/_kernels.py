@@ -19,6 +19,7 @@ import math
 
 import numpy as np
 
+from .._jit import borrowing as _borrowing
 from .._jit import inline as _inline
 from .._jit import jit as _jit
 from .._jit import jit_unchecked as _jit_unchecked
@@ -198,9 +199,10 @@ def _rk4(z, t, h, mode, cmode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_
 
 
 @_jit
-def _command_mode_rk4(mode, cmode, z, t, sys, cmd, law, p, W, hist, dt, work, wvals, dvals):
+def _command_mode_rk4(mode, cmode, z, t, sys, cmd, law, p, W, hist, dt, work, wvals, dvals, ahead):
     """The command mode of state ``z`` at ``t`` reached in ``cmode`` (``du/dt`` by the clamped field
-    and by differences of the inputs and delayed signals over half a step)."""
+    and by differences of the inputs and delayed signals over half a step; ``ahead`` holds the signals
+    half a step on, inputs then delayed ones)."""
     column, row, error, limit, integrator = cmd
     if limit == 0.0:
         return 0
@@ -220,13 +222,16 @@ def _command_mode_rk4(mode, cmode, z, t, sys, cmd, law, p, W, hist, dt, work, wv
     n, m = z.shape[0], wvals.shape[0]
     h = 0.5 * dt
     _signals(t + h, delay, W, hist, dt, wvals, dvals)
-    ahead_w, ahead_d = wvals.copy(), dvals.copy()
+    for j in range(m):
+        ahead[j] = wvals[j]
+    for j in range(dvals.shape[0]):
+        ahead[m + j] = dvals[j]
     _signals(max(t - h, 0.0), delay, W, hist, dt, wvals, dvals)
     span = t + h - max(t - h, 0.0)
     for j in range(m):
-        clamped += row[n + j] * (ahead_w[j] - wvals[j]) / span
+        clamped += row[n + j] * (ahead[j] - wvals[j]) / span
     for j in range(dvals.shape[0]):
-        clamped += row[n + m + j] * (ahead_d[j] - dvals[j]) / span
+        clamped += row[n + m + j] * (ahead[m + j] - dvals[j]) / span
     integrating = clamped + (row[integrator] * e if integrator >= 0 else 0.0)
     return command_mode_of(cmode, u, e, clamped, integrating, limit, integrator >= 0)
 
@@ -272,8 +277,8 @@ def _must_leave(law, p, mode, x, v, theta_b):
     return abs(theta_b) >= p[2]
 
 
-@_jit
-def _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp, wvals, dvals, z_out):
+@_borrowing
+def _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp, wvals, dvals, ahead, z_out):
     """One frozen-mode step; returns (theta_b at the end, True if the backlash or the command mode must change).
 
     On the limit (sliding) the step is the clamped one with the integrator then
@@ -288,7 +293,7 @@ def _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
         _signals(t + h, delay, W, hist, dt, wvals, dvals)
         z_out[integrator] += ((limit if cmode > 0 else -limit) - _row_value(row, z_out, wvals, dvals)) / row[integrator]
     command_leaves = limit > 0.0 and _command_mode_rk4(mode, cmode, z_out, t + h, sys, cmd, law, p, W, hist, dt,
-                                                       work, wvals, dvals) != cmode
+                                                       work, wvals, dvals, ahead) != cmode
     x0, v0 = _xv(z, c_x, c_v)
     x1, v1 = _xv(z_out, c_x, c_v)
     theta_new, backlash_leaves = _backlash_after(law, p, mode, theta_b, x0, v0, x1, v1, h)
@@ -347,7 +352,7 @@ def _diverged(i, z, n, Z, T, THETA, MODES, CMODES):
     return False
 
 
-@_jit
+@_borrowing
 def _free_steps(i, z, theta_b, mode, cmode, limit, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction,
                 delay, W, hist, dt, n_steps, d_rows, k, tmp, wvals, dvals, z_new, Z, T, THETA, MODES, CMODES):
     """Sample ``i`` recorded, then, without a torque limit, the steps that stay in their modes, each sample recorded.
@@ -356,8 +361,7 @@ def _free_steps(i, z, theta_b, mode, cmode, limit, law, p, a_mat, b_t, e_mat, c_
     ``theta_b`` its state; ``ended`` if the run ends there (the last sample, or
     diverged), else step ``j`` is left to the event path of :func:`run_rk4` (it
     leaves its modes, or a limit is set).  The step is :func:`_rk4` in command mode 0
-    with :func:`_stage` written out: one call per run of such steps, and no array
-    held by an inlined helper across a call (numba would reference-count them).
+    with :func:`_stage` written out: one call per run of such steps.
     """
     n = z.shape[0]
     f_level, f_eps, f_break, f_ws = friction
@@ -411,6 +415,7 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
     work = np.empty((6, n))
     wvals = np.zeros(W.shape[1])
     dvals = np.zeros(d_rows.shape[0])
+    ahead = np.empty(W.shape[1] + d_rows.shape[0])
     z = z0.copy()
     z_new = np.empty(n)
     z_try = np.empty(n)
@@ -443,7 +448,7 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
         remaining = dt
         for _ in range(_MAX_EVENTS_PER_STEP):
             theta_end, changed = _advance(z, theta_b, t, remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
-                                          tmp, wvals, dvals, z_new)
+                                          tmp, wvals, dvals, ahead, z_new)
             if not changed:
                 _copy_vector(z_new, z, n)
                 theta_b = theta_end
@@ -455,20 +460,20 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
             for _b in range(_BISECTIONS):
                 mid = 0.5 * (lo + hi)
                 _, ch = _advance(z, theta_b, t, mid * remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
-                                 tmp, wvals, dvals, z_try)
+                                 tmp, wvals, dvals, ahead, z_try)
                 if ch:
                     hi = mid
                 else:
                     lo = mid
             h = hi * remaining
             theta_try, _ = _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp, wvals,
-                                    dvals, z_try)
+                                    dvals, ahead, z_try)
             x, v = _xv(z_try, c_x, c_v)
             if law == EXACT and mode == 0:
                 theta_try = p[2] if theta_try > 0.0 else -p[2]
             new_mode = _mode_of(law, p, mode, x, v, theta_try)
             new_cmode = _command_mode_rk4(new_mode, cmode, z_try, t + h, sys, cmd, law, p, W, hist, dt, work, wvals,
-                                          dvals)
+                                          dvals, ahead)
             if new_mode == mode and new_cmode == cmode:  # grazing or round-off at a boundary: no real switch
                 break
             _copy_vector(z_try, z, n)
@@ -482,7 +487,7 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
                 break
         if remaining > 1e-14 * dt:
             theta_b, _ = _advance(z, theta_b, t, remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp,
-                                  wvals, dvals, z_new)
+                                  wvals, dvals, ahead, z_new)
             _copy_vector(z_new, z, n)
         i += 1
     return events
