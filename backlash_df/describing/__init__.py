@@ -64,7 +64,7 @@ import numpy as np
 from .._json import json_ready
 from ..models import BacklashModel, make_model
 from ..plotting import ResultPlot, axes_or_new, label_contours, legend_beside, log_scale
-from ._evaluation import as_model, evaluate
+from ._evaluation import as_model, balance, check_scales, evaluate, validated
 
 __all__ = [
     "describing_function",
@@ -205,7 +205,7 @@ def dc_bias(model, amplitude, omega, load_torque, iterations=40):
     load_torque : float
         T_l, N m, applied to the load (positive: the shaft carries ``-T_l``).
     iterations : int
-        Most Newton steps (safeguarded by bisection).
+        Most Newton steps (safeguarded by bisection); a point stops at its own tolerance.
 
     Returns
     -------
@@ -221,24 +221,33 @@ def dc_bias(model, amplitude, omega, load_torque, iterations=40):
     >>> round(float(dc_bias(model, 1e-3, 10.0, 20.0)), 6)
     -0.07
     """
-    a, w = np.broadcast_arrays(np.asarray(amplitude, dtype=float), np.asarray(omega, dtype=float))
-    target = -float(load_torque)
+    model = as_model(model)
+    a, w = np.broadcast_arrays(validated("amplitude", amplitude, positive=True), validated("omega", omega))
+    shape = a.shape
+    target = -float(validated("load_torque", load_torque))
     # at b = +-width the oscillation never leaves a flank: N0 = k (b -+ alpha) passes the target
     width = model.half_gap + a + abs(target) / model.stiffness
+    check_scales(model, a, w, width)  # every b of the bracket: |b| <= width
     lo, hi = (np.zeros(a.shape), width) if target > 0.0 else (-width, np.zeros(a.shape))
     # start as if always in contact: exact for small A, and Newton's steps stay inside the bracket
     b = np.clip(np.full(a.shape, target / model.stiffness + np.copysign(model.half_gap, target)), lo, hi)
+    a, w, b, lo, hi, width = (np.array(x, dtype=float).ravel() for x in (a, w, b, lo, hi, width))
     step = 1e-7 * width
+    active = np.arange(a.size)  # the points not converged yet: each stops at its own tolerance
     for _ in range(iterations):
-        f = evaluate(model, a, w, b, "auto")[1] - target
-        if np.all(np.abs(f) <= _BIAS_TOL * model.stiffness * width):
+        f = balance(model, a[active], w[active], b[active])[1] - target
+        going = np.abs(f) > _BIAS_TOL * model.stiffness * width[active]
+        active, f = active[going], f[going]
+        if active.size == 0:
             break
-        slope = (evaluate(model, a, w, b + step, "auto")[1] - target - f) / step
-        lo, hi = np.where(f < 0.0, b, lo), np.where(f > 0.0, b, hi)
-        newton = b - f / np.where(slope > 0.0, slope, 1.0)
-        inside = (slope > 0.0) & (newton > lo) & (newton < hi)
-        b = np.where(f == 0.0, b, np.where(inside, newton, 0.5 * (lo + hi)))
-    return b
+        bb, low, high = b[active], lo[active], hi[active]
+        slope = (balance(model, a[active], w[active], bb + step[active])[1] - target - f) / step[active]
+        low, high = np.where(f < 0.0, bb, low), np.where(f > 0.0, bb, high)
+        newton = bb - f / np.where(slope > 0.0, slope, 1.0)
+        inside = (slope > 0.0) & (newton > low) & (newton < high)
+        lo[active], hi[active] = low, high
+        b[active] = np.where(inside, newton, 0.5 * (low + high))
+    return b.reshape(shape)
 
 
 @dataclasses.dataclass(frozen=True)

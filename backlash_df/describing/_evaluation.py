@@ -60,7 +60,9 @@ def _closed_form(model, amplitude, omega):
 _MEAN_ROUND_OFF = 1e-10
 
 
-def _validated(name, values, positive=False):
+def validated(name, values, positive=False):
+    """``values`` as a float array; a one-line ``ValueError`` naming ``name`` unless finite (and > 0 if
+    ``positive``; ``omega`` >= 0)."""
     array = np.asarray(values, dtype=float)
     if not np.isfinite(array).all():
         raise ValueError(f"{name} must be finite")
@@ -82,7 +84,7 @@ def as_model(model):
 _MAX_BIAS_RATIO = 1e8
 
 
-def _check_scales(model, a, w, b):
+def check_scales(model, a, w, b):
     """Refuse arguments whose harmonic balance floating point cannot carry (one-line ``ValueError``)."""
     if a.size == 0:
         return
@@ -115,13 +117,19 @@ def evaluate(model, amplitude, omega, bias, method, samples=None, gauss_order=No
     the points of a static law among numba's threads.
     """
     model = as_model(model)
-    amplitude = _validated("amplitude", amplitude, positive=True)
-    omega = _validated("omega", omega)
-    bias = _validated("bias", bias)
+    amplitude = validated("amplitude", amplitude, positive=True)
+    omega = validated("omega", omega)
+    bias = validated("bias", bias)
     if method not in ("auto", "closed-form", "harmonic-balance"):
         raise ValueError(f"method must be 'auto', 'closed-form' or 'harmonic-balance', got {method!r}")
     a, w, b = np.broadcast_arrays(amplitude, omega, bias)
-    _check_scales(model, a, w, b)
+    check_scales(model, a, w, b)
+    return balance(model, a, w, b, method, samples, gauss_order, scan_step, parallel)
+
+
+def balance(model, a, w, b, method="auto", samples=None, gauss_order=None, scan_step=SCAN_STEP, parallel=False):
+    """:func:`evaluate` on arguments it has checked (``a``, ``w``, ``b`` float arrays of one shape): for a
+    solver that has checked its range once and calls it in a loop (:func:`backlash_df.describing.dc_bias`)."""
     closed = _closed_form(model, a, w) if method != "harmonic-balance" and not b.any() else None
     if method == "closed-form" and closed is None:
         raise ValueError(f"no closed-form describing function for {model.name!r} (or with a bias)")
