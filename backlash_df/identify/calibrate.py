@@ -911,8 +911,8 @@ def cluster_robust_stderr(jacobian, residual, clusters, scales):
 
     bread = np.linalg.pinv(jacobian.T @ jacobian)
     n_clusters = int(clusters.max()) + 1
-    scores = np.zeros((n_clusters, jacobian.shape[1]))
-    np.add.at(scores, clusters, jacobian * residual[:, None])
+    weighted = jacobian * residual[:, None]
+    scores = np.column_stack([np.bincount(clusters, column, n_clusters) for column in weighted.T])
     meat = scores.T @ scores * n_clusters / max(n_clusters - 1, 1)
     cov = bread @ meat @ bread
     stderr = np.sqrt(np.clip(np.diag(cov), 0.0, None)) * scales
