@@ -221,6 +221,11 @@ def dc_bias(model, amplitude, omega, load_torque, iterations=40):
     >>> round(float(dc_bias(model, 1e-3, 10.0, 20.0)), 6)
     -0.07
     """
+    return _balanced_bias(model, amplitude, omega, load_torque, iterations)[0]
+
+
+def _balanced_bias(model, amplitude, omega, load_torque, iterations=40):
+    """(b, N) of :func:`dc_bias`: N at the bias found, from the balance that accepted it."""
     model = as_model(model)
     a, w = np.broadcast_arrays(validated("amplitude", amplitude, positive=True), validated("omega", omega))
     shape = a.shape
@@ -232,10 +237,13 @@ def dc_bias(model, amplitude, omega, load_torque, iterations=40):
     # start as if always in contact: exact for small A, and Newton's steps stay inside the bracket
     b = np.clip(np.full(a.shape, target / model.stiffness + np.copysign(model.half_gap, target)), lo, hi)
     a, w, b, lo, hi, width = (np.array(x, dtype=float).ravel() for x in (a, w, b, lo, hi, width))
+    n = np.empty(a.size, dtype=complex)
     step = 1e-7 * width
     active = np.arange(a.size)  # the points not converged yet: each stops at its own tolerance
     for _ in range(iterations):
-        f = balance(model, a[active], w[active], b[active])[1] - target
+        n_active, mean = balance(model, a[active], w[active], b[active])
+        f = mean - target
+        n[active] = n_active
         going = np.abs(f) > _BIAS_TOL * model.stiffness * width[active]
         active, f = active[going], f[going]
         if active.size == 0:
@@ -247,7 +255,10 @@ def dc_bias(model, amplitude, omega, load_torque, iterations=40):
         inside = (slope > 0.0) & (newton > low) & (newton < high)
         lo[active], hi[active] = low, high
         b[active] = np.where(inside, newton, 0.5 * (low + high))
-    return b.reshape(shape)
+    else:  # the last steps' points: N at the bias they ended on
+        if active.size:
+            n[active] = balance(model, a[active], w[active], b[active])[0]
+    return b.reshape(shape), n.reshape(shape)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -269,9 +280,7 @@ class BiasedDescribing:
     load_torque: float
 
     def __call__(self, amplitude, omega):
-        a, w = np.broadcast_arrays(np.asarray(amplitude, dtype=float), np.asarray(omega, dtype=float))
-        bias = dc_bias(self.model, a, w, self.load_torque)
-        return evaluate(self.model, a, w, bias, "auto")[0]
+        return _balanced_bias(self.model, amplitude, omega, self.load_torque)[1]
 
     def bias(self, amplitude, omega):
         """b (rad) at (A, w); see :func:`dc_bias`."""
