@@ -150,5 +150,7 @@ def balance(model, a, w, b, method="auto", samples=None, gauss_order=None, scan_
     n_out, mean_out = n_out.reshape(a.shape), mean_out.reshape(a.shape)
     # Every law is odd, T(-x, -v) = -T(x, v): at zero bias the mean torque is zero, and
     # what the quadrature returns is round-off relative to the torque's scale |N| A.
-    round_off = (b == 0.0) & (np.abs(mean_out) <= _MEAN_ROUND_OFF * np.abs(n_out) * a)
-    return n_out, np.where(round_off, 0.0, mean_out)
+    unbiased = b == 0.0
+    if unbiased.any():
+        mean_out = np.where(unbiased & (np.abs(mean_out) <= _MEAN_ROUND_OFF * np.abs(n_out) * a), 0.0, mean_out)
+    return n_out, mean_out
