@@ -19,7 +19,8 @@ the loci can be nearly tangent to G(jw), so a single local solve is not enough:
    reported as a *near miss* with its distance ``|1 + G N|``, the relative
    change of G (gain and phase together) that would make the loci meet.
 
-Where N is pointwise (every describing function but the DC-balanced one) the
+N is pointwise (a point's value does not depend on the other points of a call; the
+DC-balanced one of a loaded loop too, each point's bias solved on its own), so the
 evaluations are batched without changing a digit: G is built once per loop, every
 point asked for brings its Jacobian's four neighbours along, the Newton solves
 from all seeds advance side by side, one call of ``G`` and ``N`` per round; the
@@ -268,18 +269,16 @@ class _Problem:
     ``g_of_w(omega)``, or ``g_of_w(omega, amplitude)`` where the linear part depends
     on the amplitude through a second nonlinearity (``amplitude_dependent``).
 
-    The solver asks for F through :meth:`values`, a list of groups of points.  Where
-    N is *pointwise* (a point's value does not depend on the other points of the
-    call: every describing function but :class:`BiasedDescribing`, whose DC balance
-    iterates until all points of a call have converged) the groups are evaluated in
-    one call, and every point asked for brings the four neighbours of its
-    finite-difference Jacobian along; otherwise each group keeps a call of its own.
+    The solver asks for F through :meth:`values`, a list of groups of points, evaluated
+    in one call: N is *pointwise* (a point's value does not depend on the other points
+    of the call; :class:`BiasedDescribing` solves each point's DC balance on its own),
+    and every point asked for brings the four neighbours of its finite-difference
+    Jacobian along.
     """
 
     def __init__(self, g_of_w, n_of, half_gap, amplitude_dependent=False):
         self.g_of_w, self.n_of, self.half_gap = g_of_w, n_of, half_gap
         self.amplitude_dependent = amplitude_dependent
-        self.pointwise = not isinstance(n_of, BiasedDescribing)
 
     def to_aw(self, p, q):
         return self.half_gap + np.exp(p), np.exp(q)
@@ -291,20 +290,16 @@ class _Problem:
 
     def values(self, groups):
         """F at each group ``(p, q)`` of 1-D arrays: a list of complex arrays, one per group."""
-        if not self.pointwise:
-            return [self.residual(p, q) for p, q in groups]
         flat = self.residual(np.concatenate([p for p, _ in groups]), np.concatenate([q for _, q in groups]))
         return np.split(flat, np.cumsum([len(p) for p, _ in groups])[:-1])
 
     def request(self, p, q):
-        """The group that asks for F at (p, q): with its Jacobian's neighbours where N is pointwise."""
-        if self.pointwise:
-            return _neighbours(p, q, centre=True)
-        return np.array([p]), np.array([q])
+        """The group that asks for F at (p, q), with its Jacobian's neighbours."""
+        return _neighbours(p, q, centre=True)
 
     def answer(self, values):
-        """``(F, Jacobian or None)`` from the values of a :meth:`request`."""
-        return complex(values[0]), (_jacobian_of(values[1:]) if len(values) > 1 else None)
+        """``(F, Jacobian)`` from the values of a :meth:`request`."""
+        return complex(values[0]), _jacobian_of(values[1:])
 
     def jacobian(self, p, q):
         """d(Re F, Im F)/d(p, q) by central differences."""
@@ -312,8 +307,7 @@ class _Problem:
 
     def at(self, p, q):
         """``(F, Jacobian)`` at (p, q)."""
-        f, jac = self.answer(self.values([self.request(p, q)])[0])
-        return f, (self.jacobian(p, q) if jac is None else jac)
+        return self.answer(self.values([self.request(p, q)])[0])
 
     def newton(self, p, q, box, iterations=60):
         """Damped Newton from (p, q), a coroutine (:func:`_run_together`): yields lists of point groups and
@@ -322,8 +316,6 @@ class _Problem:
         for _ in range(iterations):
             if abs(f) < _NEWTON_TOL:
                 return p, q
-            if jac is None:
-                jac = _jacobian_of((yield [_neighbours(p, q)])[0])
             try:
                 step = np.linalg.solve(jac, -np.array([f.real, f.imag]))
             except np.linalg.LinAlgError:
@@ -356,9 +348,7 @@ class _Problem:
         known = {}
 
         def residual(y):
-            f, jac = self.answer(self.values([self.request(y[0], y[1])])[0])
-            if jac is not None:
-                known[y.tobytes()] = jac
+            f, known[y.tobytes()] = self.answer(self.values([self.request(y[0], y[1])])[0])
             return _split(f)
 
         def jacobian(y):
@@ -552,8 +542,8 @@ def _flat_top(problem, p, q, distance, top):
     so |F| is flat in p below the amplitude at which the gap opens, and the minimiser
     stops anywhere on the flat (round-off decides).  The miss is reported at the top
     of the flat: the largest amplitude at which the loci pass that close (33 points,
-    then 40 bisections, four at a time where N is pointwise: the midpoints of the next
-    four steps, all 15 candidates, are evaluated in one call).
+    then 40 bisections, four at a time: the midpoints of the next four steps, all 15
+    candidates, are evaluated in one call).
     """
     def on_flat(xs):
         values = problem.values([(np.array([x]), np.array([q])) for x in xs])
@@ -567,7 +557,7 @@ def _flat_top(problem, p, q, distance, top):
         return top
     first_off = flat.index(False)
     low, high = points[first_off - 1], points[first_off]
-    depth = 4 if problem.pointwise else 1
+    depth = 4
     for _ in range(40 // depth):
         brackets, middles = [(low, high)], []
         for _ in range(depth):

@@ -5,10 +5,9 @@ Run: ``python benchmarks/bench_predict.py [--repeat 3] [--rounds 3] [--baseline 
 Rows (DF only, no simulation, warm: the compiled kernels loaded before the clock starts):
 
 - ``predict <rig>``: ``predict_limit_cycles(rig)`` on three bundled rigs (default grid
-  60 x 80): ``load_feedback`` and ``motor_lag_feedback`` (no load: a pointwise describing
-  function, whose evaluations are batched) and ``loaded_feedback`` (a load torque: the
-  DC balance ``BiasedDescribing``, which keeps one call per request, so only the linear
-  part built once helps there);
+  60 x 80): ``load_feedback`` and ``motor_lag_feedback`` (no load) and ``loaded_feedback``
+  (a load torque: the DC balance ``BiasedDescribing``, batched like the others since each
+  point's bias is solved on its own, 2026-12-05; one call per request before);
 - ``map cell``: one DF-only cell of ``design_map(load_feedback, [30], [0.5],
   simulate=False)`` (the laws phase-plane and damped-dead-zone, grid 30 x 40).
 
