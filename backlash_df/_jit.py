@@ -17,8 +17,10 @@ jit = numba.njit(cache=True, nogil=True)
 #: The same with numpy's error model: a float division by zero gives inf or NaN instead of raising.
 #: For call-free helpers whose divisors cannot be zero: the raise path of a checked division
 #: keeps numba from pruning the reference counts of their array arguments (the RK4 kernel's
-#: stage helpers: reference counting 43 % of a run with it, 24 % without), and for the
-#: diagnosis' prediction kernels (``identify/calibrate.py``), whose divisors are positive.
+#: stage helpers: reference counting 43 % of a run with it, 24 % without), for the
+#: diagnosis' prediction kernels (``identify/calibrate.py``), whose divisors are positive,
+#: and for the describing functions' kernels (``describing/_kernels.py``), whose inputs
+#: ``describing._evaluation`` checks first.
 jit_unchecked = numba.njit(cache=True, nogil=True, error_model="numpy")
 #: The same for a small helper of a compiled loop, inlined into its callers by numba: a
 #: compiled function that calls another makes numba reference-count its array arguments

@@ -14,6 +14,7 @@ import numba
 import numpy as np
 
 from .._jit import borrowing_unchecked as _borrowing
+from .._jit import jit_unchecked as _jit
 from ..models import (
     DAMPED_DEAD_ZONE,
     DEAD_ZONE,
@@ -26,8 +27,6 @@ from ..models import (
     static_mode,
     theta_star_kernel,
 )
-
-_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 
 _TWO_PI = 2.0 * math.pi
 _HALF_PI = 0.5 * math.pi
