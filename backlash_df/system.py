@@ -36,9 +36,10 @@ import math
 
 import numpy as np
 
-from ._jit import copy_into as _copy
 from ._jit import jit as _jit
 from .models import DEAD_ZONE, EXACT
+
+_TERMS = 25  # Taylor terms of exp_ladder at most (A0^0 .. A0^24)
 
 __all__ = [
     "LinearPart",
@@ -575,47 +576,44 @@ def initial_command_mode(u, e, limit, clamps):
     return 2 * side if clamps and side * e > 0.0 else side
 
 
-@_jit
-def _taylor(powers, ratio, scaled):
-    """``sum_k ratio^k A0^k / k!`` from the powers of ``A0`` (``||A0||_1 = scaled <= 1/2``), terms down to 1e-18."""
-    out = powers[0].copy()
-    coef = 1.0
-    for k in range(1, powers.shape[0]):
-        coef *= ratio / k
-        if coef * scaled**k < 1e-18:
-            break
-        out += coef * powers[k]
+def _taylor(a0, ratios, scaled):
+    """``sum_k r^k A0^k / k!`` at every ratio ``r``, shape (ratios, N, N); ``||A0||_1 = scaled <= 1/2``.
+
+    A ratio's terms stop before the first below 1e-18 (its coefficient times
+    ``scaled^k``, ``k < 25``); the coefficients are the running products ``r/1 r/2
+    ... r/k`` and the terms are added in order of ``k``.
+    """
+    coefs = np.cumprod(ratios[:, None] / np.arange(1, _TERMS), axis=1)
+    kept = np.logical_and.accumulate(coefs * scaled ** np.arange(1, _TERMS) >= 1e-18, axis=1)
+    coefs = np.where(kept, coefs, 0.0)
+    power = np.eye(a0.shape[0])
+    out = np.repeat(power[None], ratios.size, axis=0)
+    for k in range(1, 1 + kept.sum(axis=1).max()):
+        power = a0 if k == 1 else power @ a0
+        out += coefs[:, k - 1, None, None] * power
     return out
 
 
-@_jit
 def exp_ladder(m_aug, dt, levels):
     """``exp(M dt 2^-j)`` for ``j = 0 .. levels - 1``, shape (levels, N, N).
 
     Scaling and squaring: Taylor series of ``A0 = M dt 2^-j0`` (``||A0||_1 <=
     1/2``) at the levels ``j >= j0``, repeated squaring of level ``j0`` above.
+    numpy, not compiled: a ladder is built once per mode and step, and compiling it
+    cost two seconds of a first ``predict``.
     """
-    size = m_aug.shape[0]
-    norm = 0.0
-    for j in range(size):
-        norm = max(norm, np.abs(m_aug[:, j]).sum() * dt)
+    norm = float(np.max(np.cumsum(np.abs(m_aug), axis=0)[-1] * dt))
     base = 0
     while norm * 0.5**base > 0.5:
         base += 1
-    scaled = norm * 0.5**base
-    powers = np.empty((25, size, size))
-    _copy(np.eye(size), powers[0])
-    _copy(m_aug * (dt * 0.5**base), powers[1])
-    for k in range(2, powers.shape[0]):
-        _copy(powers[k - 1] @ powers[1], powers[k])
-    out = np.empty((levels, size, size))
-    for j in range(base, levels):
-        _copy(_taylor(powers, 0.5 ** (j - base), scaled), out[j])
-    square = _taylor(powers, 1.0, scaled)
+    taylor = _taylor(m_aug * (dt * 0.5**base), 0.5 ** np.append(np.arange(levels - base), 0.0), norm * 0.5**base)
+    out = np.empty((levels,) + m_aug.shape)
+    out[base:] = taylor[:-1]
+    square = taylor[-1]
     for j in range(base - 1, -1, -1):
         square = square @ square
         if j < levels:
-            _copy(square, out[j])
+            out[j] = square
     return out
 
 
