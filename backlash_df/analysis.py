@@ -16,7 +16,7 @@ from .limit_cycles import predict_limit_cycles, verify_limit_cycles
 from .report import html_page, table_html
 from .verdict import ORBIT_NOTE, VERDICT_NOTE, judge_loop, orbit_rows, verdict_rows
 
-__all__ = ["LoopAnalysis", "analyse_loop"]
+__all__ = ["LoopAnalysis", "analyse_loop", "loop_models"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -105,6 +105,23 @@ class LoopAnalysis:
         return html_page(title or f"Limit cycles: {self.source}", sections)
 
 
+def loop_models(rig, models=None):
+    """The torque laws :func:`analyse_loop` analyses: ``models`` without repeats (default: the rig's
+    ``[model] backlash``), each checked against the rig.
+
+    Raises
+    ------
+    ValueError
+        No ``[controller]``, or a law the rig cannot describe (``rubber`` without
+        ``rubber_thickness``).
+    """
+    rig.require_controller()
+    models = list(dict.fromkeys(models or [rig.model]))
+    for name in models:
+        rig.make_model(name)  # a law the rig cannot describe stops here
+    return models
+
+
 def analyse_loop(rig, models=None, *, exact=False, progress=None):
     """Predict, verify and judge the limit cycles of a rig's loop for each torque law.
 
@@ -129,10 +146,7 @@ def analyse_loop(rig, models=None, *, exact=False, progress=None):
         No ``[controller]``, or a law the rig cannot describe (``rubber`` without
         ``rubber_thickness``), before anything is computed.
     """
-    rig.require_controller()
-    models = list(dict.fromkeys(models or [rig.model]))
-    for name in models:
-        rig.make_model(name)  # a law the rig cannot describe stops here
+    models = loop_models(rig, models)
     predictions = [predict_limit_cycles(rig, name) for name in models]
     total = sum(max(1, len(p.stable_cycles)) for p in predictions) + len(predictions)
     done = 0

@@ -53,7 +53,7 @@ class Group(click.Group):
 
 
 #: The stderr line a command prints once when numba compiles (a cold cache: the first run).
-COMPILING_NOTICE = "backlash-df: compiling kernels (first run only, about 20 s of one core)"
+COMPILING_NOTICE = "backlash-df: compiling kernels (first run only; later runs load them from a cache)"
 
 
 def _compiling_notice():

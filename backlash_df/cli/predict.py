@@ -7,10 +7,11 @@ import sys
 import click
 from tqdm import tqdm
 
-from ..analysis import analyse_loop
+from ..analysis import analyse_loop, loop_models
 from ..config import load_rig
 from .common import MODEL, echo_table, read_text
 from .outputs import Outputs
+from .warmup import warm_kernels
 
 __all__ = ["predict_command"]
 
@@ -31,6 +32,8 @@ def predict_command(rig_file, models, json_out, report_out, exact):
     """
     outputs = Outputs({"--json": json_out, "--report": report_out})
     rig = load_rig(rig_file)
+    models = loop_models(rig, models)
+    warm_kernels(rig, rig_file, models)
     with contextlib.ExitStack() as stack:
         bars = []
 
