@@ -85,3 +85,13 @@ def test_the_second_process_runs_and_prints_nothing():
     done = subprocess.run([sys.executable, "-c", warmup.SECOND_PROCESS, str(RIG), "phase-plane"],
                           capture_output=True, text=True, timeout=300)
     assert (done.returncode, done.stdout, done.stderr) == (0, "", "")
+
+
+def test_a_slow_loop_warms_up_as_a_fast_one(processes, monkeypatch):
+    """A hundred of the loop's own steps, whatever its time scale (here a step of seconds)."""
+    monkeypatch.setattr(warmup, "on_first_compile", _compiling)
+    slow = bd.rig_from_dict({"plant": {"motor_inertia": 1e4, "load_inertia": 1e4, "stiffness": 1.0, "damping": 0.1,
+                                       "half_gap": 0.05},
+                             "controller": {"kp": 0.01, "ti": 100.0, "feedback": "motor"}})
+    warmup.warm_kernels(slow, RIG, ["phase-plane"])
+    assert [p.calls for p in processes] == [["wait", "kill"]]

@@ -21,7 +21,8 @@ import sys
 from .._jit import on_first_compile
 from ..config import load_rig
 from ..limit_cycles import predict_limit_cycles
-from ..simulation import simulate_rig
+from ..loops import drive_loop
+from ..simulation import default_step, simulate_rig
 
 __all__ = ["warm_kernels", "SECOND_PROCESS"]
 
@@ -29,8 +30,9 @@ __all__ = ["warm_kernels", "SECOND_PROCESS"]
 #: the command line has imported already).
 SECOND_PROCESS = "import sys; from backlash_df.cli.warmup import _predict_only; _predict_only(sys.argv[1], sys.argv[2:])"
 
-#: Length of a warm-up run (s of the loop): a few hundred steps, long enough to meet the gap's edges.
-_WARM_T_END = 0.05
+#: Steps of a warm-up run (of the loop's default step): whatever the rig's time scale, a run that
+#: compiles the kernel and costs milliseconds.
+_WARM_STEPS = 100
 
 
 def warm_kernels(rig, rig_file, models):
@@ -55,8 +57,11 @@ def warm_kernels(rig, rig_file, models):
 
     try:
         with on_first_compile(start_second):
+            system = drive_loop(rig).linear_part()
             for name in models:
-                simulate_rig(rig, rig.make_model(name), t_end=_WARM_T_END, kick=1.0)
+                model = rig.make_model(name)
+                dt = default_step(system, model)
+                simulate_rig(rig, model, t_end=_WARM_STEPS * dt, dt=dt, kick=1.0)
         for process in second:
             process.wait()
     finally:
