@@ -23,6 +23,7 @@ from click.testing import CliRunner
 from backlash_df import load_rig, make_model, rig_from_dict, simulate
 from backlash_df.cli import main
 from backlash_df.disturbances import KINDS, MOTOR_SPEED, TWIST, Disturbance, standard_disturbances
+from backlash_df.equilibria import loop_rests
 from backlash_df.limit_cycles import predict_limit_cycles, verify_limit_cycles
 from backlash_df.loops import drive_loop
 from backlash_df.simulation import (MeasuredCycle, SimulationResult, confirm_across_starts, measure_limit_cycle,
@@ -559,3 +560,28 @@ def test_an_oscillation_holding_its_level_is_confirmed_by_another_start_at_its_s
     # alone, or beside a swing 6 % away, an oscillation stays unconfirmed
     assert confirm_across_starts([held(0.0910)])[0].verdict == "oscillating"
     assert [m.verdict for m in confirm_across_starts([held(0.0910), held(0.0970)])] == ["oscillating"] * 2
+
+
+# a stiff loop with a slow integrator, resting on a flank under a load torque (found by a random sweep of rigs):
+# the rest computed in floating point sits off the true one, motor and load turning at 4.5e-12 rad/s for ever
+STIFF_LOADED = {"plant": {"motor_inertia": 0.02009, "load_inertia": 0.01246, "stiffness": 4955.0, "damping": 29.33,
+                          "half_gap": 0.005426},
+                "controller": {"kp": 1.272, "ti": 0.3478, "feedback": "load", "speed_filter": 0.0001065,
+                               "torque_lag": 0.002073, "delay": 0.0009165},
+                "load": {"torque": 1.041}}
+
+
+def test_a_rest_whose_speeds_stand_at_round_off_is_a_rest():
+    """Speeds at a round-off floor are no motion, however small the disturbance was (they were read as a
+    drive slewing, then as an irregular motion, for 106 s of simulation: the verdict undetermined)."""
+    rig = rig_from_dict(STIFF_LOADED)
+    model = make_model("phase-plane", **rig.plant.shaft)
+    (rest,), _ = loop_rests(rig, model)
+    assert rest.stable and rest.theta_d < -rig.plant.half_gap  # on the left flank
+    for twist in (1e-4, 1e-5, 1e-7):
+        measured, run = simulated_limit_cycle(rig, model, t_end=10.0, max_t_end=320.0,
+                                              initial=rest.initial(Disturbance(TWIST, twist)), theta_b0=rest.theta_b)
+        assert (measured.verdict, measured.settled) == ("no limit cycle", True), twist
+        assert run.time[-1] == pytest.approx(10.0, rel=1e-6)  # decided by the first run
+        speed = abs(run.state("motor_speed")[-1])
+        assert 0.0 < speed < 1e-10  # the floor itself: still turning, at round-off

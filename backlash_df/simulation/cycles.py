@@ -136,6 +136,7 @@ _ROUNDOFF = 1e-9  # a relative speed this far below the record's largest is roun
 _LEVEL = 0.1  # an oscillation holding its level: the RMS of its second half's halves within 10 % ...
 _SWING = 0.05  # ... and its swing within 5 % of the shorter run's
 _SLEW_RATIO = 10.0  # a drive this many times faster than the shaft's relative speed turns as one body
+_STANDING = 1e-6  # a level speed that turns its angle by less than this many gaps over the second half stands still
 
 
 def _windows(time, count):
@@ -194,10 +195,12 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
     window's amplitude:
 
     * **rest** (``"no limit cycle"``): the relative speed is round-off (1e-9 of
-      its largest value), or its envelope falls over a second half without a
-      switch (contact, release, command limit) and in contact: one linear mode,
-      decaying to its rest; never with the torque command on its limit in the
-      second half (the drive may accelerate with the shaft still);
+      its largest value, or a level without a switch too small to turn theta_d by
+      a millionth of the gap over the second half: :func:`_standing`), or its
+      envelope falls over a second half without a switch (contact, release,
+      command limit) and in contact: one linear mode, decaying to its rest; never
+      with the torque command on its limit in the second half (the drive may
+      accelerate with the shaft still);
     * **dying out** (``"decaying"``): the coasting speeds of the last three free
       flights across the gap fall by 20 % a flight at least (:func:`free_flights`),
       as when a free load bounces between the flanks ever more slowly (its speed
@@ -256,7 +259,9 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
     # the command on its limit in the second half: the drive may accelerate while theta_d stands still
     limited = result.command_mode is not None and bool(np.any(result.command_mode[time >= 0.5 * time[-1]]))
     drive = _slewing(result, envelope)
-    if envelope[-1] <= _ROUNDOFF * np.abs(result.dtheta_d).max() and not limited and drive is None:
+    still = envelope[-1] <= _ROUNDOFF * np.abs(result.dtheta_d).max() or (not switches.any()
+                                                                          and _standing(result, envelope))
+    if still and not limited and drive is None:
         return _none("no limit cycle", True)
     free_tail = np.all(result.mode[time >= time[-1] * (1.0 - window)] == 0)
     measured = _steady_cycle(result, periods, rtol)
@@ -433,7 +438,7 @@ def _slewing(result, envelope):
     The drive moves where the larger of ``|w_m|`` and ``|w_l|`` (rad/s) over the
     last window is more than :data:`_SLEW_RATIO` times the relative speed's
     ``envelope`` (:func:`motion_trend`) there,
-    and not round-off of its own largest: motor and load turn together, in contact
+    and neither round-off of its own largest nor standing (:func:`_standing`): motor and load turn together, in contact
     (a position loop slewing on its torque limit), while the shaft's relative speed
     stands still.  Such a motion is no rest, and the relative speed says nothing of
     its trend.  None where the states hold no motor and load speed (a user's linear
@@ -443,7 +448,23 @@ def _slewing(result, envelope):
         return None
     speed = np.maximum(np.abs(result.state("motor_speed")), np.abs(result.state("load_speed")))
     drive = _per_window(_windows(result.time, envelope.size), speed, np.max)
-    return drive if drive[-1] > _SLEW_RATIO * envelope[-1] and drive[-1] > _ROUNDOFF * speed.max() else None
+    moves = drive[-1] > _ROUNDOFF * speed.max() and not _standing(result, drive)
+    return drive if drive[-1] > _SLEW_RATIO * envelope[-1] and moves else None
+
+
+def _standing(result, envelope):
+    """True if a speed's envelope (rad/s, :func:`motion_trend`'s windows) holds a level within
+    :data:`_LEVEL` too small to turn its angle by :data:`_STANDING` times the gap ``alpha`` over
+    the record's second half: the round-off floor of a rest, not a motion.
+
+    A rest computed in floating point sits off the true one by about ``eps |z| / (dt
+    |p|)`` (``p`` the slowest pole): on a stiff loop with a slow integrator, speeds of
+    1e-12 rad/s that hold for ever, whatever the disturbance was.  Measured against
+    the run's largest speed (:data:`_ROUNDOFF`), they look like motion after a small
+    disturbance.
+    """
+    level = envelope.max() <= (1.0 + _LEVEL) * envelope.min()
+    return bool(level and envelope[-1] * 0.5 * result.time[-1] <= _STANDING * result.model.half_gap)
 
 
 def _bounces_die(result, loss=0.8):
