@@ -602,7 +602,7 @@ def exp_ladder(m_aug, dt, levels):
     numpy, not compiled: a ladder is built once per mode and step, and compiling it
     cost two seconds of a first ``predict``.
     """
-    norm = float(np.max(np.cumsum(np.abs(m_aug), axis=0)[-1] * dt))
+    norm = float(np.max(np.abs(m_aug).sum(axis=0) * dt))
     base = 0
     while norm * 0.5**base > 0.5:
         base += 1

@@ -259,8 +259,8 @@ def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, p
     # the command on its limit in the second half: the drive may accelerate while theta_d stands still
     limited = result.command_mode is not None and bool(np.any(result.command_mode[time >= 0.5 * time[-1]]))
     drive = _slewing(result, envelope)
-    still = envelope[-1] <= _ROUNDOFF * np.abs(result.dtheta_d).max() or (not switches.any()
-                                                                          and _standing(result, envelope))
+    round_off = envelope[-1] <= _ROUNDOFF * np.abs(result.dtheta_d).max()
+    still = round_off or (not switches.any() and _standing(result, envelope))
     if still and not limited and drive is None:
         return _none("no limit cycle", True)
     free_tail = np.all(result.mode[time >= time[-1] * (1.0 - window)] == 0)
