@@ -58,6 +58,7 @@ __all__ = [
     "right_torque",
     "static_mode",
     "held_mode",
+    "theta_star_partials",
     "mode_torque",
     "static_torque",
     "exact_torque",
@@ -158,6 +159,24 @@ def theta_star_kernel(v, k, c, alpha):
     if 20.0 * s < alpha:  # K > 40: alpha - theta* = 2 alpha u / K < 1e-19 alpha rounds off
         return alpha
     return alpha - s * _contact_fraction(2.0 * alpha / s)
+
+
+@_jit
+def theta_star_partials(v, k, c, alpha):
+    """theta*(v) of (19) (v > 0) and its partial derivatives ``(theta*, d/dv, d/dk, d/dc, d/dalpha)``.
+
+    ``theta* = alpha - s u(K)`` with ``s = c v / k``, ``K = 2 alpha / s`` and
+    ``u - ln u = 1 + K`` (reading notes, item 1), so ``du/dK = u / (u - 1)``;
+    where :func:`theta_star_kernel` returns alpha (K > 40),
+    theta* follows alpha alone.
+    """
+    s = c * v / k
+    if s <= 0.0 or 20.0 * s < alpha:
+        return alpha, 0.0, 0.0, 0.0, 1.0
+    u = _contact_fraction(2.0 * alpha / s)
+    slope = u / (u - 1.0)  # du/dK
+    by_s = -u + (2.0 * alpha / s) * slope  # d theta*/ds
+    return alpha - s * u, by_s * c / k, -by_s * s / k, by_s * v / k, 1.0 - 2.0 * slope
 
 
 @_lazy_ufunc("float64(float64, float64, float64, float64)")

@@ -45,7 +45,8 @@ import numpy as np
 
 from backlash_df import load_rig
 from backlash_df.identify import diagnose, load_measurements, synthesize
-from backlash_df.identify.calibrate import TwoMassModel, nominal_values, segment_bounds
+from backlash_df.identify.calibrate import (Shooting, TwoMassModel, nominal_values, parallel_jacobian, segment_bounds,
+                                            sensitivity_jacobian)
 from backlash_df.identify.diagnose import EXTENDED_MIN_AHEAD_FIT, VALIDATION_HORIZON
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -157,6 +158,59 @@ def timing(repeat):
           f"machine is shared, cpu times above)")
     print(f"  ceiling of two threads on this machine: the prediction kernel alone (200 k-step runs of the record) "
           f"{kernel_thread_ratio(record.measurements, rig):.2f}x faster on 2 threads than on 1")
+    jacobian_ratio(record.measurements, rig, repeat=max(repeat, 5))
+
+
+def jacobian_ratio(measurements, rig, repeat):
+    """The Jacobian of a k-step fit with multiple shooting (plant values, offset, encoder skew, Coulomb and
+    viscous friction on the load, the speeds' corrections): forward sensitivities against forward differences
+    (``parallel_jacobian``, one thread, what a fit took before), each best of ``repeat``; their agreement, and
+    each one's against central differences of step 3e-6."""
+    model = TwoMassModel(measurements, rig)
+    n = measurements.n_samples
+    starts, stops = segment_bounds(0, n, 200)
+    weights = 1.0 / measurements.speeds.std(axis=0)
+    values = nominal_values(rig) | {"theta_d0": 0.001, "encoder_skew": 1e-4, "coulomb_friction_load": 2.0,
+                                    "viscous_friction_load": 0.5}
+    names = ["motor_inertia", "load_inertia", "stiffness", "damping", "half_gap", "theta_d0", "encoder_skew",
+             "coulomb_friction_load", "viscous_friction_load"]
+    scales, g = np.array([values[name] for name in names]), len(names)
+    shooting = Shooting(measurements, starts, stops, 0.3)
+
+    def values_of(x):
+        return values | dict(zip(names, x[:g] * scales))
+
+    def residual(x):
+        states, _ = model.run(values_of(x), starts, stops, shooting.corrections(x[g:]))
+        data = ((measurements.speeds - model.speeds_of(states)) * weights).ravel(order="F")
+        return np.concatenate([data, shooting.penalty(x[g:])])
+
+    x = np.concatenate([np.ones(g), np.random.default_rng(1).normal(size=shooting.size)])
+    kinds = {"sensitivities": sensitivity_jacobian(model, names, values_of, scales, (0, n), starts, stops, weights,
+                                                   shooting),
+             "forward differences": parallel_jacobian(residual, g, shooting, np.full(x.size, np.inf), 1)}
+    seconds, jacobians = {}, {}
+    for kind, jacobian in kinds.items():
+        times = []
+        for _ in range(repeat):
+            start = time.perf_counter()
+            jacobians[kind] = jacobian(x).toarray()
+            times.append(time.perf_counter() - start)
+        seconds[kind] = min(times)
+    central = np.zeros((jacobians["sensitivities"].shape[0], g))
+    for j in range(g):
+        step = np.zeros_like(x)
+        step[j] = 3e-6
+        central[:, j] = (residual(x + step) - residual(x - step)) / 6e-6
+
+    def worst(jacobian):
+        return max(np.linalg.norm(jacobian[:, j] - central[:, j]) / np.linalg.norm(central[:, j]) for j in range(g))
+
+    print(f"  Jacobian of a k-step fit ({n} samples, {g} values, {shooting.size} corrections): sensitivities "
+          f"{1e3 * seconds['sensitivities']:.1f} ms, forward differences {1e3 * seconds['forward differences']:.1f} ms "
+          f"(best of {repeat}): {seconds['forward differences'] / seconds['sensitivities']:.2f}x; largest column "
+          f"difference to central differences: sensitivities {worst(jacobians['sensitivities']):.1e}, forward "
+          f"differences {worst(jacobians['forward differences']):.1e}")
 
 
 def kernel_thread_ratio(measurements, rig, runs=200):

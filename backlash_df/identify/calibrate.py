@@ -62,6 +62,16 @@ a segment, as they are, do not make the interval overconfident.
 
 The kernel is compiled (numba, fixed-step RK4 with ``substeps`` steps a sample,
 inputs interpolated linearly) and runs every segment in one call.
+
+**Jacobians.**  A k-step fit of the two-mass model takes its Jacobian from
+forward sensitivities (:mod:`.sensitivity`, :func:`sensitivity_jacobian`): one
+run of the kernel with the derivatives riding along gives every column, the
+multiple-shooting corrections' included, where forward differences took one run
+a value.  It is the derivative of the discrete prediction with its modes held,
+which differences of a small step reproduce (to 1e-6, the tests); a free run
+(:func:`refine`) keeps forward differences (:func:`parallel_jacobian`): over a
+whole window the contacts' switching times move with the values, which a held
+mode's derivative does not see and differences do, and so does the rigid body.
 """
 
 import dataclasses
@@ -78,6 +88,7 @@ from .._json import json_ready
 from ..models import LAW_CODES, PHASE_PLANE, RUBBER, held_mode, mode_torque
 from ..plotting import ResultPlot, axes_or_new, legend_beside
 from .effects import get_effect, smoothing_speeds
+from .sensitivity import DELAY, segment_sensitivities
 
 __all__ = [
     "FitParameter",
@@ -105,6 +116,7 @@ __all__ = [
     "RigidBodyModel",
     "Shooting",
     "parallel_jacobian",
+    "sensitivity_jacobian",
     "cluster_robust_stderr",
 ]
 
@@ -555,8 +567,26 @@ class TwoMassModel:
         """Simulate segments from the data's states (plus ``corrections``, shape (segments, 3), the
         multiple-shooting corrections of :class:`Shooting`); (states, torque) on the whole record's
         grid (rows outside the segments are zero)."""
+        p = self.kernel_values(values)
+        n = self.measurements.n_samples
+        states = np.zeros((n, 3))
+        torque = np.zeros(n)
+        _segments(_law_code(self.rig.model, values), p, self.eps, self.w_s,
+                  self.motor_torque(values.get("actuator_delay", 0.0)), self.load_torque,
+                  starts.astype(np.int64), stops.astype(np.int64), self.initial_states(values, p, starts, corrections),
+                  _SUBSTEPS, states, torque)
+        return states, torque
+
+    def kernel_values(self, values):
+        """The kernel's vector: :data:`MODEL_PARAMETERS` of ``values`` (the rubber band at most the gap,
+        ``beta <= 2 alpha``) and the sample interval."""
         p = np.array([float(values[name]) for name in MODEL_PARAMETERS] + [self.measurements.dt])
         p[5] = min(p[5], 2.0 * p[4])
+        return p
+
+    def initial_states(self, values, p, starts, corrections=None):
+        """The segments' initial states (segments, 3): the data's (module docs), quasi-static or from the
+        twist, plus ``corrections``; a free run's fitted initial speeds."""
         if self.quasi_static:
             z0 = self._quasi_static_states(values, p, starts)
         else:
@@ -569,14 +599,95 @@ class TwoMassModel:
         for column, name in ((1, "motor_speed0"), (2, "load_speed0")):
             if name in values:  # fitted initial speeds of a free run
                 z0[0, column] = values[name]
-        n = self.measurements.n_samples
-        states = np.zeros((n, 3))
-        torque = np.zeros(n)
-        _segments(_law_code(self.rig.model, values), p, self.eps, self.w_s,
-                  self.motor_torque(values.get("actuator_delay", 0.0)), self.load_torque,
-                  starts.astype(np.int64), stops.astype(np.int64), np.ascontiguousarray(z0),
-                  _SUBSTEPS, states, torque)
-        return states, torque
+        return np.ascontiguousarray(z0)
+
+    def speed_sensitivities(self, values, starts, stops, names, corrections=None, steps=None, initial=()):
+        """Derivatives of the predicted speeds by ``values[names]`` and by the segments' ``initial`` states.
+
+        Forward sensitivities (:mod:`.sensitivity`): one run gives every column.
+        A value that moves the initial states does so through
+        :meth:`initial_states`: linearly (the twist offset, the encoder skew, a
+        free run's initial speeds), or, from a quasi-static start, every value,
+        differentiated by forward differences of ``steps`` (default
+        :data:`_INITIAL_STATE_STEP` ``max(1, |value|)``; no simulation).
+
+        Parameters
+        ----------
+        values : dict
+        starts, stops : ndarray of int
+            Segments.
+        names : sequence of str
+            Values to differentiate by.
+        corrections : ndarray, optional
+            As :meth:`run`.
+        steps : sequence of float, optional
+            Forward-difference step of each of ``names`` for quasi-static initial states.
+        initial : sequence of int
+            Initial states (0 theta_d, 1 w_m, 2 w_l) to differentiate by, each segment's own.
+
+        Returns
+        -------
+        by_values : ndarray, shape (n, speeds, len(names))
+            ``d(speeds)/d(values[names])`` on the record's grid (zero outside the segments).
+        by_initial : ndarray, shape (n, speeds, len(initial))
+            ``d(speeds)/d(initial state)`` of the row's segment.
+        """
+        p = self.kernel_values(values)
+        starts, stops = starts.astype(np.int64), stops.astype(np.int64)
+        z0 = self.initial_states(values, p, starts, corrections)
+        if steps is None:
+            steps = [_INITIAL_STATE_STEP * max(1.0, abs(float(values[name]))) for name in names]
+        shifts = {}  # d z0 / d value of the values that move the initial states
+        for name, step in zip(names, steps):
+            if self.quasi_static and name == "actuator_delay":  # through the motor torque, piecewise linear
+                shifts[name] = self._quasi_static_by_delay(values, p, starts)
+            elif self.quasi_static:
+                moved = values | {name: float(values[name]) + step}
+                shifts[name] = (self.initial_states(moved, self.kernel_values(moved), starts, corrections) - z0) / step
+            elif name in _INITIAL_STATE_VALUES:  # linear: theta_d0 + twist - skew w_l, a free run's speeds
+                shifts[name] = np.zeros_like(z0)
+                if name == "theta_d0":
+                    shifts[name][:, 0] = 1.0
+                elif name == "encoder_skew":
+                    shifts[name][:, 0] = -self.speeds[starts, -1]
+                else:
+                    shifts[name][0, 1 if name == "motor_speed0" else 2] = 1.0
+        requested = len(initial)
+        moved = {int(r) for shift in shifts.values() for r in np.flatnonzero(np.any(shift, axis=0))}
+        initial = list(initial) + sorted(moved - set(initial))
+        clipped = float(values["rubber_thickness"]) > 2.0 * float(values["half_gap"])  # beta = 2 alpha
+        codes = {name: DELAY if name == "actuator_delay" else MODEL_PARAMETERS.index(name)
+                 for name in names if name in MODEL_PARAMETERS or name == "actuator_delay"}
+        beta = MODEL_PARAMETERS.index("rubber_thickness")
+        columns = sorted(set(codes.values()) | ({beta} if clipped and "half_gap" in names else set()))
+        delay = values.get("actuator_delay", 0.0)
+        n, speeds, width = self.measurements.n_samples, len(self.measurements.speed_names), len(columns) + len(initial)
+        out = np.zeros((n, 2, width))
+        segment_sensitivities(_law_code(self.rig.model, values), p, self.eps, self.w_s, self.motor_torque(delay),
+                              self.motor_torque_rate(delay) if DELAY in columns else self.load_torque,
+                              self.load_torque, starts, stops, z0, _SUBSTEPS, np.array(columns, dtype=np.int64),
+                              np.array(initial, dtype=np.int64), np.zeros((11, width)), out)
+        by_state = out[:, :speeds, len(columns):]
+        segment = np.repeat(np.arange(starts.size), stops - starts)
+        by_values = np.zeros((n, speeds, len(names)))
+        for j, name in enumerate(names):
+            if name in codes and not (clipped and name == "rubber_thickness"):
+                by_values[:, :, j] = out[:, :speeds, columns.index(codes[name])]
+            if clipped and name == "half_gap":
+                by_values[:, :, j] += 2.0 * out[:, :speeds, columns.index(beta)]
+            if name in shifts:  # through the initial states
+                rows = slice(starts[0], stops[-1])
+                by_values[rows, :, j] += np.einsum("isk,ik->is", by_state[rows],
+                                                   shifts[name][segment][:, initial])
+        return by_values, by_state[:, :, :requested]
+
+    def motor_torque_rate(self, delay):
+        """Derivative of :meth:`motor_torque` by the delay (N m/s): minus the commanded torque's slope at
+        ``t - delay``, the slope of the interval below a sample (a delay's forward step lands there), zero
+        before the record."""
+        torque = self.measurements.motor_torque
+        slopes = np.concatenate([[0.0], np.diff(torque) / np.diff(self.t_rel)])
+        return np.ascontiguousarray(-slopes[np.searchsorted(self.t_rel, self.t_rel - max(delay, 0.0), side="left")])
 
     def speeds_of(self, states):
         """Columns of ``states`` matching the measured speeds."""
@@ -587,14 +698,34 @@ class TwoMassModel:
         the twist whose shaft torque ``T_s = (J_l (T_m + T_0 - F_m(w)) - J_m (T_l - F_l(w))) / (J_m + J_l)``
         accelerates both inertias alike, through the dead zone's inverse ``T_s / k + alpha tanh(T_s / (k alpha))``
         (the jump across the gap smoothed over the torque ``k alpha``)."""
-        jm, jl, k, alpha = p[0], p[1], p[2], p[4]
-        w = (jm * self.speeds[starts, 0] + jl * self.speeds[starts, -1]) / (jm + jl)
+        k, alpha = p[2], p[4]
+        shaft = self._quasi_static_shaft_torque(values, p, starts)
+        twist = shaft / k + alpha * np.tanh(shaft / max(k * alpha, 1e-12))
+        w = self._momentum_speed(p, starts)
+        return np.column_stack([twist, w, w])
+
+    def _momentum_speed(self, p, starts):
+        """The data's momentum-weighted speed ``(J_m w_m + J_l w_l) / (J_m + J_l)`` at ``starts`` (rad/s)."""
+        return (p[0] * self.speeds[starts, 0] + p[1] * self.speeds[starts, -1]) / (p[0] + p[1])
+
+    def _quasi_static_shaft_torque(self, values, p, starts):
+        """``T_s`` of :meth:`_quasi_static_states` at ``starts`` (N m)."""
+        jm, jl = p[0], p[1]
+        w = self._momentum_speed(p, starts)
         motor = self.motor_torque(values.get("actuator_delay", 0.0))[starts] + p[12] - _friction_of(w, p[8], p[6],
                                                                                                    p[10], self)
         load = self.load_torque[starts] - _friction_of(w, p[9], p[7], p[11], self)
-        shaft = (jl * motor - jm * load) / (jm + jl)
-        twist = shaft / k + alpha * np.tanh(shaft / max(k * alpha, 1e-12))
-        return np.column_stack([twist, w, w])
+        return (jl * motor - jm * load) / (jm + jl)
+
+    def _quasi_static_by_delay(self, values, p, starts):
+        """``d z0 / d(actuator delay)`` of :meth:`_quasi_static_states` (rad/s, 0, 0): the motor torque's
+        rate (:meth:`motor_torque_rate`) through ``T_s`` and the inverse dead zone."""
+        jm, jl, k, alpha = p[0], p[1], p[2], p[4]
+        shaft = self._quasi_static_shaft_torque(values, p, starts)
+        by_shaft = (2.0 - np.tanh(shaft / max(k * alpha, 1e-12)) ** 2) / k
+        shift = np.zeros((starts.size, 3))
+        shift[:, 0] = by_shaft * jl / (jm + jl) * self.motor_torque_rate(values.get("actuator_delay", 0.0))[starts]
+        return shift
 
 
 class RigidBodyModel(TwoMassModel):
@@ -627,6 +758,13 @@ class RigidBodyModel(TwoMassModel):
         states = np.zeros((n, 3))
         states[:, 1] = states[:, 2] = speed
         return states, np.zeros(n)
+
+
+#: Relative step of the forward differences of a segment's quasi-static initial states by a value (an algebraic
+#: function, no simulation: the square root of the double's resolution balances truncation and round-off).
+_INITIAL_STATE_STEP = 1.5e-8
+#: Values that move the initial states of a segment that does not start quasi-statically.
+_INITIAL_STATE_VALUES = ("theta_d0", "encoder_skew", "motor_speed0", "load_speed0")
 
 
 def _friction_of(w, viscous, coulomb, breakaway, model):
@@ -737,7 +875,8 @@ class Calibration:
     aic, bic : float
         ``N ln(RSS / N) + 2 p`` and ``N ln(RSS / N) + p ln N`` on the estimation window.
     nfev : int
-        Model evaluations of the optimiser (Jacobian columns included).
+        Model runs of the optimiser (a forward-difference Jacobian's columns, a sensitivity Jacobian's one run,
+        included).
     success : bool
     message : str
     shooting_segments : int
@@ -957,7 +1096,8 @@ def calibrate(measurements, rig, effects=(), window=None, start_values=None, hor
     horizon : float or None
         Length (s) of the k-step segments (module docs); None: one free run.
     workers : int
-        Threads computing Jacobian columns (the kernel releases the GIL).
+        Threads computing forward-difference Jacobian columns (the free runs, the rigid body; the
+        kernel releases the GIL).
     max_nfev : int, optional
         Limit of optimiser iterations.
     polish : bool
@@ -1102,6 +1242,7 @@ class Shooting:
         # the segment of each data row (the measured speeds stacked), and of each correction
         self.segment_of_row = np.tile(np.repeat(np.arange(starts.size), stops - starts), len(measurements.speed_names))
         self.segment_of_correction = np.tile(np.arange(starts.size), len(self.states))
+        self._pattern = None  # (values, indices, indptr) of :meth:`jacobian`'s CSR matrix
 
     @property
     def scale(self):
@@ -1137,6 +1278,23 @@ class Shooting:
         if base is not None:
             drift = drift + np.interp(starts, *base)
         return np.asarray(starts, dtype=float), drift
+
+    def jacobian(self, by_values, by_corrections):
+        """The fit's Jacobian (CSR) from its data rows' derivatives: by the values (rows, values) and by
+        their own segment's corrections (rows, :attr:`states`), then the prior's rows, exact."""
+        from scipy import sparse
+
+        rows, g = by_values.shape
+        if self._pattern is None or self._pattern[0] != g:
+            width = g + len(self.states)
+            own = g + self.n_segments * np.arange(len(self.states)) + self.segment_of_row[:, None]
+            columns = np.hstack([np.broadcast_to(np.arange(g), (rows, g)), own]).ravel()
+            prior = self.prior_matrix
+            self._pattern = (g, np.concatenate([columns, g + prior.indices]),
+                             np.concatenate([width * np.arange(rows + 1), rows * width + prior.indptr[1:]]))
+        _, indices, indptr = self._pattern
+        data = np.concatenate([np.hstack([by_values, by_corrections]).ravel(), self.weight * self.prior_matrix.data])
+        return sparse.csr_matrix((data, indices, indptr), shape=(rows + self.size, g + self.size))
 
     def blocks(self):
         """Index ranges (in the corrections' vector) of each speed's corrections."""
@@ -1184,25 +1342,34 @@ def _fit(model, effects, window, values0, horizon, workers, max_nfev, fixed=()):
     if not np.linalg.norm(x0) > _MIN_START_NORM:  # trf's first trust radius is ||x0||: every value at its null
         x0 = np.clip(x0 + _MIN_START_NORM, lower, upper)
     # from the data's states first; from that solution the corrections converge in a few steps
-    solution = least_squares(residual, x0, bounds=(lower, upper),
-                             jac=parallel_jacobian(residual, g, None, upper, workers), method="trf", max_nfev=max_nfev)
-    nfev = int(solution.nfev) + int(solution.njev or 0) * g
-    jacobian = solution.jac
+
+    sensitivities = model.structure == "two_mass" and k is not None  # not a free run (module docs)
+
+    def jacobian(shooting, upper):
+        if sensitivities:
+            return sensitivity_jacobian(model, names, values_of, scales, window, starts, stops, weights, shooting)
+        return parallel_jacobian(residual, g, shooting, upper, workers)
+
+    runs_a_jacobian = 1 if sensitivities else g
+    solution = least_squares(residual, x0, bounds=(lower, upper), jac=jacobian(None, upper), method="trf",
+                             max_nfev=max_nfev)
+    nfev = int(solution.nfev) + int(solution.njev or 0) * runs_a_jacobian
+    jacobian_at_solution = solution.jac
     blocks = segment_bounds(start, stop, k or _horizon_samples(measurements, DEFAULT_HORIZON))
     clusters = np.tile(np.repeat(np.arange(blocks[0].size), blocks[1] - blocks[0]), measured.shape[1])
     if k is not None and model.structure == "two_mass" and not model.quasi_static:
         shooting = Shooting(measurements, starts, stops, math.sqrt(float(np.mean(solution.fun**2))), model.drifting)
         free = np.full(shooting.size, np.inf)
-        scales = np.concatenate([scales, shooting.scale])
         upper = np.concatenate([upper, free])
         solution = least_squares(residual, np.concatenate([solution.x, np.zeros(shooting.size)]),
-                                 jac=parallel_jacobian(residual, g, shooting, upper, workers),
+                                 jac=jacobian(shooting, upper),
                                  bounds=(np.concatenate([lower, -free]), upper), method="trf", x_scale="jac",
                                  max_nfev=max_nfev, tr_solver="lsmr")
-        nfev += int(solution.nfev) + int(solution.njev or 0) * (g + len(shooting.states))
-        jacobian = solution.jac.toarray()
+        nfev += int(solution.nfev) + int(solution.njev or 0)
+        jacobian_at_solution = solution.jac.toarray()
         clusters = np.concatenate([clusters, shooting.segment_of_correction])  # a prior row per correction
-    stderr, quantile = cluster_robust_stderr(jacobian, solution.fun, clusters, scales)
+        scales = np.concatenate([scales, shooting.scale])
+    stderr, quantile = cluster_robust_stderr(jacobian_at_solution, solution.fun, clusters, scales)
     parameters = {
         name: FitParameter(name, float(value), float(err), float(row[5]), float(row[2]), float(row[3]), row[6],
                            quantile)
@@ -1244,6 +1411,65 @@ def _keeping_the_last(residual):
     return remembered
 
 
+def sensitivity_jacobian(model, names, values_of, scales, window, starts, stops, weights, shooting=None,
+                         rel_step=_INITIAL_STATE_STEP):
+    """Jacobian of a two-mass fit's residual from forward sensitivities: one run a Jacobian.
+
+    The residual is :func:`_fit`'s: the data rows ``(measured - predicted) weights``
+    over ``window``, speed after speed, then (with ``shooting``) the prior's rows.
+    Its derivatives by the scaled values (``x[:len(names)]``, value ``x scales``)
+    come from :meth:`TwoMassModel.speed_sensitivities`, those by the corrections
+    from the same run's sensitivities to the segments' initial states (a
+    correction moves its own segment only), the prior's rows exact.
+
+    Parameters
+    ----------
+    model : TwoMassModel
+    names : sequence of str
+        The fitted values, in ``x``'s order.
+    values_of : callable
+        ``x -> values`` of the model.
+    scales : ndarray
+        Scale of each of ``names``.
+    window : tuple of int
+        Samples ``(start, stop)`` of the data rows.
+    starts, stops : ndarray of int
+        The k-step segments.
+    weights : ndarray
+        Weight of each measured speed.
+    shooting : Shooting, optional
+        The corrections' layout.
+    rel_step : float
+        Relative step of the forward differences of quasi-static initial states by a
+        value (:meth:`TwoMassModel.speed_sensitivities`), on the scaled value.
+
+    Returns
+    -------
+    callable
+        ``x -> J``, an ndarray, or a sparse matrix with ``shooting``.
+    """
+    start, stop = window
+    g = len(names)
+
+    def jacobian(x):
+        corrections = shooting.corrections(x[g:]) if shooting else None
+        steps = rel_step * np.maximum(1.0, np.abs(x[:g])) * scales[:g]
+        by_values, by_state = model.speed_sensitivities(values_of(x), starts, stops, names, corrections, steps,
+                                                        shooting.states if shooting else ())
+        dense = _stacked_rows(by_values[start:stop], weights) * -scales[:g]
+        if shooting is None:
+            return dense
+        return shooting.jacobian(dense, _stacked_rows(by_state[start:stop], weights) * -np.asarray(shooting.scales))
+
+    return jacobian
+
+
+def _stacked_rows(by_sample, weights):
+    """``by_sample`` (samples, speeds, columns) as the residual's data rows (speed after speed), each speed's
+    rows times its weight."""
+    return (by_sample * weights[None, :, None]).transpose(1, 0, 2).reshape(-1, by_sample.shape[2])
+
+
 def information_criterion(rss, n, n_free, kind="aic"):
     """AIC ``N ln(RSS/N) + 2 p`` or BIC ``N ln(RSS/N) + p ln N``, as lmfit computes them."""
     penalty = 2.0 * n_free if kind == "aic" else n_free * math.log(n)
@@ -1282,11 +1508,7 @@ def parallel_jacobian(residual, n_global, shooting, upper, workers, rel_step=1e-
 
     groups = [np.array([i]) for i in range(n_global)]
     if shooting is not None:
-        from scipy import sparse
-
         groups += [n_global + block for block in shooting.blocks()]
-        rows = np.arange(shooting.segment_of_row.size)
-        prior = shooting.weight * shooting.prior_matrix
 
     def jacobian(x, f0=None):
         f0 = residual(x) if f0 is None else f0
@@ -1306,12 +1528,9 @@ def parallel_jacobian(residual, n_global, shooting, upper, workers, rel_step=1e-
         dense = np.column_stack([change / steps[group[0]] for group, change in zip(groups[:n_global], differences)])
         if shooting is None:
             return dense
-        blocks = []
-        for group, change in zip(groups[n_global:], differences[n_global:]):
-            columns = group[shooting.segment_of_row]
-            blocks.append(sparse.coo_matrix((change[:rows.size] / steps[columns], (rows, columns - n_global)),
-                                            shape=(rows.size, shooting.size)))
-        corrections = sparse.vstack([sum(blocks[1:], blocks[0]), prior])
-        return sparse.hstack([sparse.csr_matrix(dense), corrections], format="csr")
+        rows = shooting.segment_of_row.size
+        by_correction = np.column_stack([change[:rows] / steps[group[shooting.segment_of_row]]
+                                         for group, change in zip(groups[n_global:], differences[n_global:])])
+        return shooting.jacobian(dense[:rows], by_correction)
 
     return jacobian

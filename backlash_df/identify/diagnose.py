@@ -1213,7 +1213,7 @@ def diagnose(measurements, rig, candidates=None, estimation_fraction=0.6, transi
         Length (s) of the k-step segments.
     workers : int
         Threads: the independent fits of a selection step (the screenings, the full refits, the backward
-        checks) side by side, the other fits' Jacobian columns; the result does not depend on it.
+        checks) side by side, the free runs' forward-difference Jacobian columns; the result does not depend on it.
     progress : callable, optional
         Called with a label after every fit (a progress bar's update; from the fits' threads).
 
