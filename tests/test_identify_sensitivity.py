@@ -77,6 +77,11 @@ def test_friction_partials_are_its_derivatives():
             assert value == pytest.approx(law(*q), rel=1e-15, abs=1e-15)
             for j, exact in enumerate((by_w, by_coulomb, by_breakaway)):
                 assert exact == pytest.approx(_central(law, q, j, floor=1.0), rel=1e-6, abs=1e-9)
+            # the prediction kernel's shortcuts: no tanh without Coulomb nor breakaway friction, no exp without
+            # breakaway friction (zero partials where they would be)
+            short = friction_partials(w, viscous, coulomb, breakaway, eps, w_s, coulomb != 0.0 or breakaway != 0.0,
+                                      breakaway != 0.0)
+            assert short[:2] == (value, by_w)
 
 
 def _synthetic(effects, encoder_counts=2**20, law="phase-plane", seed=7):

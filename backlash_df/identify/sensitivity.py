@@ -85,18 +85,24 @@ def torque_partials(law, m, x, v, k, c, alpha, beta):
 
 
 @_inline
-def friction_partials(w, viscous, coulomb, breakaway, eps, w_s):
+def friction_partials(w, viscous, coulomb, breakaway, eps, w_s, with_tanh=True, with_exp=True):
     """``(F, dF/dw, dF/dcoulomb, dF/dbreakaway)`` of the friction law ``F`` of :mod:`.calibrate` (N m;
-    ``dF/dviscous = w``); ``F`` to the bit of the prediction kernel's (a zero level adds zero)."""
-    th = math.tanh(w / eps)
-    e = math.exp(-(w / w_s) ** 2)
+    ``dF/dviscous = w``); ``F`` to the bit of the prediction kernel's (a zero level adds zero).
+
+    Without ``with_tanh`` (no Coulomb nor breakaway friction, neither differentiated by) no tanh, without
+    ``with_exp`` (no breakaway friction, not differentiated by) no exp is evaluated, as in the prediction
+    kernel; the partial derivatives they would give are then returned as zero.
+    """
+    th = math.tanh(w / eps) if with_tanh else 0.0
+    e = math.exp(-(w / w_s) ** 2) if with_exp else 0.0
     level = coulomb + breakaway * e
     by_w = viscous + level * (1.0 - th * th) / eps - 2.0 * breakaway * e * th * w / (w_s * w_s)
     return viscous * w + level * th, by_w, th, e * th
 
 
 @_inline
-def _stage(x, wm, wl, tm, dtm, tl, law, mode, p, eps, w_s, columns, source, sens, target, step, acc, weight, by_value):
+def _stage(x, wm, wl, tm, dtm, tl, law, mode, p, eps, w_s, terms, columns, source, sens, target, step, acc, weight,
+           by_value):
     """One RK4 stage of the sensitivities at the stage's state ``(x, wm, wl)`` and inputs.
 
     ``K = (df/dz) source + df/dq`` for every column ``q`` (the kernel's value
@@ -104,29 +110,31 @@ def _stage(x, wm, wl, tm, dtm, tl, law, mode, p, eps, w_s, columns, source, sens
     ``acc += weight K`` (``acc = K`` when ``weight`` is 0: the first stage) and
     ``target = sens + step K``, the next stage's input (skipped when ``step`` is
     0: the last stage).  ``source`` may be ``target``: a column is read before it is
-    written.  ``by_value`` (2, columns): work space for ``df/dq``.  Returns the
-    stage's rates ``(dtheta_d/dt, dw_m/dt, dw_l/dt)``.
+    written.  ``by_value`` (2, columns): work space for ``df/dq``.  ``terms``: the
+    ``with_tanh, with_exp`` of :func:`friction_partials` on the motor side, then the
+    load side.  Returns the stage's rates ``(dtheta_d/dt, dw_m/dt, dw_l/dt)``.
     """
     v = wm - wl
     k, c, alpha, beta = p[2], p[3], p[4], p[5]
     m = held_mode(law, mode, x, v, k, c, alpha, beta)  # as the prediction kernel's stage (its ``_rates``)
     torque = mode_torque(law, m, x, v, k, c, alpha, beta)
     t_x, t_v, t_k, t_c, t_a, t_b = torque_partials(law, m, x, v, k, c, alpha, beta)
-    f_m, f_m_w, f_m_c, f_m_b = friction_partials(wm, p[8], p[6], p[10], eps, w_s)
-    f_l, f_l_w, f_l_c, f_l_b = friction_partials(wl, p[9], p[7], p[11], eps, w_s)
+    f_m, f_m_w, f_m_c, f_m_b = friction_partials(wm, p[8], p[6], p[10], eps, w_s, terms[0], terms[1])
+    f_l, f_l_w, f_l_c, f_l_b = friction_partials(wl, p[9], p[7], p[11], eps, w_s, terms[2], terms[3])
     jm, jl = p[0], p[1]
     a1 = (tm + p[12] - torque - f_m) / jm
     a2 = (tl + torque - f_l) / jl
+    im, il = 1.0 / jm, 1.0 / jl
     # d(dw_m/dt)/dq and d(dw_l/dt)/dq for q in the order of p, then the delay
-    b1 = (-a1 / jm, 0.0, -t_k / jm, -t_c / jm, -t_a / jm, -t_b / jm, -f_m_c / jm, 0.0, -wm / jm, 0.0, -f_m_b / jm,
-          0.0, 1.0 / jm, dtm / jm)
-    b2 = (0.0, -a2 / jl, t_k / jl, t_c / jl, t_a / jl, t_b / jl, 0.0, -f_l_c / jl, 0.0, -wl / jl, 0.0, -f_l_b / jl,
+    b1 = (-a1 * im, 0.0, -t_k * im, -t_c * im, -t_a * im, -t_b * im, -f_m_c * im, 0.0, -wm * im, 0.0, -f_m_b * im,
+          0.0, im, dtm * im)
+    b2 = (0.0, -a2 * il, t_k * il, t_c * il, t_a * il, t_b * il, 0.0, -f_l_c * il, 0.0, -wl * il, 0.0, -f_l_b * il,
           0.0, 0.0)
     for q in range(columns.shape[0]):
         by_value[0, q] = b1[columns[q]]
         by_value[1, q] = b2[columns[q]]
-    m0, m1, m2 = -t_x / jm, -(t_v + f_m_w) / jm, t_v / jm
-    l0, l1, l2 = t_x / jl, t_v / jl, -(t_v + f_l_w) / jl
+    m0, m1, m2 = -t_x * im, -(t_v + f_m_w) * im, t_v * im
+    l0, l1, l2 = t_x * il, t_v * il, -(t_v + f_l_w) * il
     for q in range(source.shape[1]):
         s0, s1, s2 = source[0, q], source[1, q], source[2, q]
         k0 = s1 - s2
@@ -143,6 +151,17 @@ def _stage(x, wm, wl, tm, dtm, tl, law, mode, p, eps, w_s, columns, source, sens
             target[1, q] = sens[1, q] + step * k1
             target[2, q] = sens[2, q] + step * k2
     return v, a1, a2
+
+
+@_inline
+def _friction_term(level, columns, code):
+    """Whether a friction level (``p[code]``) needs its function evaluated: nonzero, or differentiated by."""
+    if level != 0.0:
+        return True
+    for q in range(columns.shape[0]):
+        if columns[q] == code:
+            return True
+    return False
 
 
 @_borrowing_unchecked
@@ -181,6 +200,8 @@ def segment_sensitivities(law, p, eps, w_s, tm, dtm, tl, starts, stops, z0, subs
     n_columns = columns.shape[0]
     width = n_columns + initial.shape[0]
     sens, stage, acc, by_value = work[0:3], work[3:6], work[6:9], work[9:11]
+    terms = (_friction_term(p[6], columns, 6) or _friction_term(p[10], columns, 10), _friction_term(p[10], columns, 10),
+             _friction_term(p[7], columns, 7) or _friction_term(p[11], columns, 11), _friction_term(p[11], columns, 11))
     for s in range(starts.shape[0]):
         x, wm, wl = z0[s, 0], z0[s, 1], z0[s, 2]
         for r in range(3):
@@ -198,15 +219,15 @@ def segment_sensitivities(law, p, eps, w_s, tm, dtm, tl, starts, stops, z0, subs
                 h = (f1 - f0) * p[13]
                 fm = 0.5 * (f0 + f1)
                 a0, a1, a2 = _stage(x, wm, wl, tm[i] + f0 * d_tm, dtm[i] + f0 * d_dtm, tl[i] + f0 * d_tl, law, mode,
-                                    values, eps, w_s, columns, sens, sens, stage, 0.5 * h, acc, 0.0, by_value)
+                                    values, eps, w_s, terms, columns, sens, sens, stage, 0.5 * h, acc, 0.0, by_value)
                 b0, b1, b2 = _stage(x + 0.5 * h * a0, wm + 0.5 * h * a1, wl + 0.5 * h * a2, tm[i] + fm * d_tm,
-                                    dtm[i] + fm * d_dtm, tl[i] + fm * d_tl, law, mode, values, eps, w_s, columns,
+                                    dtm[i] + fm * d_dtm, tl[i] + fm * d_tl, law, mode, values, eps, w_s, terms, columns,
                                     stage, sens, stage, 0.5 * h, acc, 2.0, by_value)
                 c0, c1, c2 = _stage(x + 0.5 * h * b0, wm + 0.5 * h * b1, wl + 0.5 * h * b2, tm[i] + fm * d_tm,
-                                    dtm[i] + fm * d_dtm, tl[i] + fm * d_tl, law, mode, values, eps, w_s, columns,
+                                    dtm[i] + fm * d_dtm, tl[i] + fm * d_tl, law, mode, values, eps, w_s, terms, columns,
                                     stage, sens, stage, h, acc, 2.0, by_value)
                 d0, d1, d2 = _stage(x + h * c0, wm + h * c1, wl + h * c2, tm[i] + f1 * d_tm, dtm[i] + f1 * d_dtm,
-                                    tl[i] + f1 * d_tl, law, mode, values, eps, w_s, columns, stage, sens, stage, 0.0,
+                                    tl[i] + f1 * d_tl, law, mode, values, eps, w_s, terms, columns, stage, sens, stage, 0.0,
                                     acc, 1.0, by_value)
                 for r in range(3):
                     for q in range(width):
