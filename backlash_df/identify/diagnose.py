@@ -23,7 +23,7 @@ that fails the rule against the rest (first one whose interval in the joint
 fit includes its null value), until every member passes: two nearly collinear
 effects (Coulomb and viscous friction under a sine speed) are told apart by the
 joint fit, not by which happened to win a forward step.  A member the joint fit
-supported (interval excluding its null value) but the validation part did not,
+supported (its value passing rule 3 below, the size rule) but the validation part did not,
 whose removal moves a kept member's value out of its joint interval, is
 *absorbed* by it: the diagnosis warns and says so (:func:`_absorption`).
 
@@ -50,6 +50,10 @@ The final set's values are refined by a free run where it does not drift
 (:func:`~.calibrate.refine`), kept where they predict the validation part at
 least as well, and their intervals reported; a member whose refined interval
 includes its null value is dropped.
+
+**Speeds.**  Where an angle column measures a speed more finely than its speed column and the two agree
+(:func:`~.calibrate.encoder_speeds`: a fine encoder beside a noisy speed sensor), the fits take the
+encoder's speed, and a warning names the column and both noises.
 
 **Two structures.**  The selection runs twice (:class:`Stage`): for the
 two-mass drive over the whole catalogue, and for the *rigid body* it contains
@@ -86,6 +90,7 @@ from .calibrate import (
     RIGID_PARAMETERS,
     calibrate,
     data_states,
+    encoder_speeds,
     predict,
     refine,
     segment_bounds,
@@ -403,7 +408,8 @@ class Diagnosis:
     residuals_baseline, residuals_extended : ResidualAnalysis
         Residual analysis of the two k-step predictions on the validation part.
     measurements, rig
-        The inputs.
+        The record as fitted (a speed column replaced by its encoder's speed where that is finer,
+        :func:`~.calibrate.encoder_speeds`, which the warnings then name) and the rig.
     estimation, validation : slice
         Sample ranges of the two parts.
     structure : str
@@ -895,7 +901,7 @@ def _backward(search, steps, runners, tried):
         if not failing:
             return final, [(check.added, check.gain) for check, _ in checks]
         without = min(failing, key=lambda item: item[:2])[2]
-        search.absorbed += _absorption(final, without)
+        search.absorbed += _absorption(search, final, without)
         final = without
     if final.effects[0] == alone:
         return final, [(alone, steps[0].gain)]
@@ -911,17 +917,20 @@ def _separated(search, check, reduced):
     over Coulomb friction alone, t -0.5, and without it Coulomb friction is 869 N m, not its joint 465 N m."""
     if check.accepted or not check.gain >= MIN_GAIN or search.size_failures(check.added, check.parameter):
         return False
-    return bool(_absorption(check, reduced))
+    return bool(_absorption(search, check, reduced))
 
 
-def _absorption(joint, reduced):
+def _absorption(search, joint, reduced):
     """``(kept, dropped, warning)`` for a member dropped from ``joint`` (leaving ``reduced``) whose joint
-    interval excluded its null value, where another member's value in ``reduced`` leaves its joint
-    interval: the kept effect absorbs the dropped one (collinear effects, such as Coulomb and viscous
-    friction on a record whose speed magnitude varies little), and its value is not its own."""
+    value passes the size rule (rule 3: its interval excludes its null value, and it is large enough to be
+    named), where another member's value in ``reduced`` leaves its joint interval: the kept effect absorbs
+    the dropped one (collinear effects, such as Coulomb and viscous friction on a record whose speed
+    magnitude varies little), and its value is not its own.  A joint value too small to be named absorbs
+    nothing: fitted from clean speeds, a partner of 0.05 % of the RMS torque may exclude zero and move a
+    kept value by a share of a per cent, beyond its narrow interval."""
     dropped = next(key for key in joint.effects if key not in reduced.effects)
     parameter = joint.calibration.effect_parameter(dropped)
-    if _includes_null(parameter, dropped):
+    if search.size_failures(dropped, parameter):
         return []
     notes = []
     for key in reduced.effects:
@@ -1243,6 +1252,7 @@ def _diagnose(measurements, rig, candidates, estimation_fraction, transient_frac
     estimation = slice(int(round(transient_fraction * n)), int(round(estimation_fraction * n)))
     validation = slice(estimation.stop, n)
     check_excitation(measurements, validation, f"the validation part (the last {100 * (1 - estimation_fraction):g} %)")
+    measurements = encoder_speeds(measurements)
     search = functools.partial(_Search, measurements, rig, estimation, validation, horizon, workers,
                                progress or (lambda label: None))
     rigid = _select(search("rigid_body"), _rigid_keys(keys))
