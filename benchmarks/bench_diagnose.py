@@ -25,10 +25,10 @@
    diagnosis fits (target: each friction within 15 % of the latter).
 4. Breakaway probe: the same sweep over breakaway (Stribeck) friction alone and on top
    of Coulomb friction (the generator's Stribeck speed 5 % of the reference's amplitude,
-   the fit's 5 % of the record's largest speed, which the multisine on top of the
-   3 rad/s reference takes to about 5.8 rad/s: the fit's bump is about twice as wide):
-   what is named where the catalogue's least visible effect is hidden (target >= 10 of
-   12, nothing invented).
+   0.15 rad/s, about 2.6 % of the record's largest speed, which the multisine on top of
+   the 3 rad/s reference takes to about 5.8 rad/s; the fit chooses its own among 1.5 to
+   5 % of that speed): what is named where the catalogue's least visible effect is hidden
+   (target >= 10 of 12, nothing invented).
 
 Run: ``python benchmarks/bench_diagnose.py [--seeds 6] [--processes 2] [--repeat 2] [--duration 4]
 [--encoder-counts 1048576] [--only kuka|timing|sweep|breakaway]``.

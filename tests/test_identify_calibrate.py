@@ -183,6 +183,15 @@ def test_rigid_body_prediction_against_closed_form_and_solve_ivp():
     np.testing.assert_allclose(model.simulated[:, 0], reference.y[0], atol=2e-6)
     np.testing.assert_array_equal(model.simulated[:, 0], model.simulated[:, 1])  # one body, one speed
 
+    # the speeds a diagnosis chooses, given as values: a sharper smoothing and a narrower Stribeck bump
+    eps, w_s = 0.2 * eps, 0.5 * w_s
+    chosen = predict(rough, rig, values | {"coulomb_smoothing": eps, "stribeck_speed": w_s}, horizon=None,
+                     structure="rigid_body")
+    reference = solve_ivp(rate, (0.0, t[-1]), [chosen.simulated[0, 0]], t_eval=t, method="DOP853", rtol=1e-11,
+                          atol=1e-13, max_step=1e-3)
+    np.testing.assert_allclose(chosen.simulated[:, 0], reference.y[0], atol=2e-6)
+    assert np.max(np.abs(chosen.simulated[:, 0] - model.simulated[:, 0])) > 1e-3
+
 
 KUKA = Path(__file__).resolve().parent.parent / "examples" / "kuka"
 

@@ -11,7 +11,10 @@ catalogue's effects (:mod:`.effects`)::
 with the rig's torque law ``T`` (the rubber law (40) when ``rubber_thickness``
 is positive; the exact model (14) is predicted with its static form, the phase
 plane law (23)), the measured commanded torque ``T_m`` and the known load
-torque ``T_l``.  All effect parameters are zero in the nominal structure.
+torque ``T_l``.  All effect parameters are zero in the nominal structure.  The
+smoothing speed ``eps`` and the Stribeck speed ``w_s`` are the values
+``coulomb_smoothing`` and ``stribeck_speed`` where given (a diagnosis chooses them,
+held in the fit), else 1 % and 5 % of the record's largest speed (:mod:`.effects`).
 
 The **rigid-body model** (``structure="rigid_body"``) is the limit of a shaft
 infinitely stiff without play: one inertia ``J = J_m + J_l`` (fitted as
@@ -655,6 +658,17 @@ class TwoMassModel:
         torque = self.measurements.motor_torque
         return np.ascontiguousarray(torque if delay <= 0.0 else np.interp(self.t_rel - delay, self.t_rel, torque))
 
+    def coulomb_smoothing(self, values):
+        """The friction law's smoothing speed ``eps`` (rad/s): ``values["coulomb_smoothing"]`` where a diagnosis
+        chose it, else the catalogue's (:data:`~.effects.COULOMB_SMOOTHING` of the record's largest speed)."""
+        return float(values.get("coulomb_smoothing", self.eps))
+
+    def stribeck_speed(self, values):
+        """The breakaway friction's Stribeck speed ``w_s`` (rad/s): ``values["stribeck_speed"]`` where a
+        diagnosis chose it, else the catalogue's (:data:`~.effects.STRIBECK_SPEED` of the record's largest
+        speed)."""
+        return float(values.get("stribeck_speed", self.w_s))
+
     def run(self, values, starts, stops, corrections=None):
         """Simulate segments from the data's states (plus ``corrections``, shape (segments, 3), the
         multiple-shooting corrections of :class:`Shooting`); (states, torque) on the whole record's
@@ -663,7 +677,7 @@ class TwoMassModel:
         n = self.measurements.n_samples
         states = np.zeros((n, 3))
         torque = np.zeros(n)
-        _segments(_law_code(self.rig.model, values), p, self.eps, self.w_s,
+        _segments(_law_code(self.rig.model, values), p, self.coulomb_smoothing(values), self.stribeck_speed(values),
                   self.motor_torque(values.get("actuator_delay", 0.0)), self.load_torque,
                   starts.astype(np.int64), stops.astype(np.int64), self.initial_states(values, p, starts, corrections),
                   _SUBSTEPS, states, torque)
@@ -755,7 +769,9 @@ class TwoMassModel:
         delay = values.get("actuator_delay", 0.0)
         n, speeds, width = self.measurements.n_samples, len(self.measurements.speed_names), len(columns) + len(initial)
         out = np.zeros((n, 2, width))
-        segment_sensitivities(_law_code(self.rig.model, values), p, self.eps, self.w_s, self.motor_torque(delay),
+        segment_sensitivities(_law_code(self.rig.model, values), p, self.coulomb_smoothing(values),
+                              self.stribeck_speed(values),
+                              self.motor_torque(delay),
                               self.motor_torque_rate(delay) if DELAY in columns else self.load_torque,
                               self.load_torque, starts, stops, z0, _SUBSTEPS, np.array(columns, dtype=np.int64),
                               np.array(initial, dtype=np.int64), np.zeros((11, width)), out)
@@ -804,9 +820,10 @@ class TwoMassModel:
         """``T_s`` of :meth:`_quasi_static_states` at ``starts`` (N m)."""
         jm, jl = p[0], p[1]
         w = self._momentum_speed(p, starts)
-        motor = self.motor_torque(values.get("actuator_delay", 0.0))[starts] + p[12] - _friction_of(w, p[8], p[6],
-                                                                                                   p[10], self)
-        load = self.load_torque[starts] - _friction_of(w, p[9], p[7], p[11], self)
+        eps, w_s = self.coulomb_smoothing(values), self.stribeck_speed(values)
+        motor = (self.motor_torque(values.get("actuator_delay", 0.0))[starts] + p[12]
+                 - _friction_of(w, p[8], p[6], p[10], eps, w_s))
+        load = self.load_torque[starts] - _friction_of(w, p[9], p[7], p[11], eps, w_s)
         return (jl * motor - jm * load) / (jm + jl)
 
     def _quasi_static_by_delay(self, values, p, starts):
@@ -845,7 +862,8 @@ class RigidBodyModel(TwoMassModel):
             w0[0] = values["motor_speed0"]
         n = self.measurements.n_samples
         speed = np.zeros(n)
-        _rigid_segments(p, self.eps, self.w_s, self.measurements.dt, self.motor_torque(values.get("actuator_delay", 0.0)),
+        _rigid_segments(p, self.coulomb_smoothing(values), self.stribeck_speed(values), self.measurements.dt,
+                        self.motor_torque(values.get("actuator_delay", 0.0)),
                         self.load_torque, starts.astype(np.int64), stops.astype(np.int64), w0, _SUBSTEPS, speed)
         states = np.zeros((n, 3))
         states[:, 1] = states[:, 2] = speed
@@ -859,9 +877,9 @@ _INITIAL_STATE_STEP = 1.5e-8
 _INITIAL_STATE_VALUES = ("theta_d0", "encoder_skew", "motor_speed0", "load_speed0")
 
 
-def _friction_of(w, viscous, coulomb, breakaway, model):
+def _friction_of(w, viscous, coulomb, breakaway, eps, w_s):
     """The friction law of the kernel (:func:`_friction`) on an array of speeds, N m."""
-    return viscous * w + (coulomb + breakaway * np.exp(-(w / model.w_s) ** 2)) * np.tanh(w / model.eps)
+    return viscous * w + (coulomb + breakaway * np.exp(-(w / w_s) ** 2)) * np.tanh(w / eps)
 
 
 def _model_of(measurements, rig, structure):

@@ -74,6 +74,7 @@ on a bound of the range the fit allows is named without a value too
 import dataclasses
 import functools
 import html
+import itertools
 import json
 import math
 import warnings
@@ -98,7 +99,7 @@ from .calibrate import (
     single_threaded_blas,
     speed_noise,
 )
-from .effects import EFFECT_NAMES, get_effect
+from .effects import COULOMB_GRID, COULOMB_SMOOTHING, EFFECT_NAMES, STRIBECK_GRID, get_effect
 from .residuals import residual_analysis
 
 __all__ = ["GAIN_DEFINITION", "CandidateResult", "Cause", "Stage", "Diagnosis", "diagnose", "check_speed_units", "check_excitation",
@@ -258,6 +259,9 @@ class Cause:
         False where the two structures disagree on its value beyond their 95 % intervals
         (:attr:`Diagnosis.disagreements`), or where its parameter ends on a bound of the range the fit allows
         (:attr:`on_bound`): the effect is named, its value is not.
+    stribeck_speed : float or None
+        For a breakaway friction, the Stribeck speed ``w_s`` (rad/s) its size goes with, chosen by the estimation
+        part (:meth:`_Search.fit`); None for the other effects.
     """
 
     effect: str
@@ -266,6 +270,7 @@ class Cause:
     gain: float
     structure: str = "two_mass"
     determined: bool = True
+    stribeck_speed: float | None = None
 
     def __post_init__(self):
         if self.on_bound:  # a bound is not an estimate, whatever the caller says
@@ -285,11 +290,12 @@ class Cause:
 
     def to_dict(self):
         """The ``causes`` entry of the ``diagnose`` JSON: effect, side, gain, ``{name: {"value", "ci95", "unit"}}``,
-        structure, determined, on_bound."""
+        structure, determined, on_bound, stribeck_speed."""
         return {"effect": self.effect, "side": self.side, "gain": self.gain,
                 "parameters": {name: {"value": p.value, "ci95": list(p.ci95), "unit": p.unit}
                                for name, p in self.parameters.items()},
-                "structure": self.structure, "determined": self.determined, "on_bound": self.on_bound}
+                "structure": self.structure, "determined": self.determined, "on_bound": self.on_bound,
+                "stribeck_speed": self.stribeck_speed}
 
     def value_text(self, name):
         """Parameter ``name`` as printed: ``value unit (95 % CI low .. high)``; ``not determined`` for the value
@@ -313,8 +319,12 @@ class Cause:
         is not :attr:`determined`, that the drive has it but the record does not determine its size, and why."""
         parameter = self.parameters[self.effect]
         if self.determined:
-            return get_effect(self.key).describe(parameter.value, *parameter.ci95,
-                                                 rigid=self.structure == "rigid_body")
+            sentence = get_effect(self.key).describe(parameter.value, *parameter.ci95,
+                                                     rigid=self.structure == "rigid_body")
+            if self.stribeck_speed is None:
+                return sentence
+            return (f"{sentence} Its Stribeck speed w_s is {self.stribeck_speed:.3g} rad/s; the size holds for that "
+                    f"w_s in -F_s exp(-(w/w_s)^2) sign(w).")
         why = (f"the fit ends on the bound of the range it allows ({parameter.value:.4g} {parameter.unit}) and asks "
                f"for a value beyond it, so the value is a bound, not an estimate; the effect may stand in for "
                f"something outside the catalogue" if self.on_bound
@@ -683,6 +693,25 @@ def check_excitation(measurements, part=slice(None), label="the record"):
                              f"excitation to diagnose; record the drive while it moves")
 
 
+#: The friction law's speeds a diagnosis chooses by the estimation part (:meth:`_Search.fit`): value key, the
+#: effect that needs it, the grid of fractions of the record's largest speed.
+_CHOSEN_SPEEDS = (("coulomb_smoothing", "coulomb_friction", COULOMB_GRID),
+                  ("stribeck_speed", "breakaway_friction", STRIBECK_GRID))
+
+
+#: A breakaway bump is told from the Coulomb smoothing only where its Stribeck speed is at least this many times
+#: the smoothing speed: a narrower bump fills in the step the smoothing rounds off (:meth:`_Search.fit`).
+MIN_BUMP_WIDTH = 3.0
+
+
+def _distinct_bump(values, peak):
+    """Whether the Stribeck speed among ``values`` is at least :data:`MIN_BUMP_WIDTH` times the smoothing speed
+    (the catalogue's, 1 % of ``peak``, where none is given); True without a Stribeck speed."""
+    if "stribeck_speed" not in values:
+        return True
+    return values["stribeck_speed"] >= MIN_BUMP_WIDTH * values.get("coulomb_smoothing", COULOMB_SMOOTHING * peak)
+
+
 class _Search:
     """Scores models of one structure (``two_mass`` or ``rigid_body``) on the validation part; the state of one
     stage of a diagnosis."""
@@ -757,10 +786,32 @@ class _Search:
 
     def fit(self, effects, start_values=None, polish=False, screen=False, workers=None):
         """The scored fit of ``effects`` (:func:`~.calibrate.calibrate`; ``screen``: plant values held), its
-        Jacobian in ``workers`` threads (default: the search's)."""
+        Jacobian in ``workers`` threads (default: the search's).
+
+        The friction law's speeds are chosen, not assumed (:data:`_CHOSEN_SPEEDS`): the smoothing speed of a
+        Coulomb friction among :data:`~.effects.COULOMB_GRID`, the Stribeck speed of a breakaway friction among
+        :data:`~.effects.STRIBECK_GRID` (at least :data:`MIN_BUMP_WIDTH` times the smoothing speed).  Where a
+        friction of the set has no speed among the start values, the set is fitted at every combination of the
+        missing speeds, and the fit with the least estimation residual is returned, its speeds held from then on
+        (they are carried in the values).  The validation part is not looked at."""
+        start_values = dict(start_values or {})
+        names = {get_effect(key).name for key in effects}
+        missing = [(value_key, grid) for value_key, name, grid in _CHOSEN_SPEEDS
+                   if name in names and value_key not in start_values]
+        nested = bool(start_values)
+        if missing:
+            peak = float(np.max(np.abs(self.measurements.speeds)))
+            combinations = [start_values | dict(speeds) for speeds in itertools.product(
+                *[[(key, share * peak) for share in grid] for key, grid in missing])]
+            trials = [self._fit(effects, values, polish, screen, workers, nested) for values in combinations
+                      if _distinct_bump(values, peak)]
+            return min(trials, key=lambda trial: trial.calibration.rss)
+        return self._fit(effects, start_values or None, polish, screen, workers, nested)
+
+    def _fit(self, effects, start_values, polish, screen, workers, nested):
         calibration = calibrate(self.measurements, self.rig, effects, window=(self.estimation.start,
                                 self.estimation.stop), start_values=start_values, horizon=self.horizon,
-                                workers=workers or self.workers, max_nfev=NESTED_NFEV if start_values else None,
+                                workers=workers or self.workers, max_nfev=NESTED_NFEV if nested else None,
                                 polish=polish,
                                 fixed=(PLANT_PARAMETERS + RIGID_PARAMETERS if screen else ()) + self.held,
                                 structure=self.structure)
@@ -993,7 +1044,9 @@ def _causes(extended, order, structure):
     for key, gain in sorted(order, key=lambda item: -item[1]):
         effect = get_effect(key)
         parameter = extended.calibration.effect_parameter(key)
-        causes.append(Cause(effect.name, effect.side, {effect.parameter: parameter}, gain, structure))
+        stribeck = extended.calibration.values.get("stribeck_speed") if effect.name == "breakaway_friction" else None
+        causes.append(Cause(effect.name, effect.side, {effect.parameter: parameter}, gain, structure,
+                            stribeck_speed=stribeck))
     return causes
 
 

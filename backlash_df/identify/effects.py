@@ -20,8 +20,11 @@ effect                   side        unit                extension of the nomina
 =======================  ==========  ==================  ======================================
 
 The smoothing speed ``eps`` (:data:`COULOMB_SMOOTHING`) and the Stribeck speed
-``w_s`` (:data:`STRIBECK_SPEED`) are fixed fractions of the record's largest
-measured speed, so that the catalogue is the same for a lab rig and a robot axis.
+``w_s`` (:data:`STRIBECK_SPEED`) are fractions of the record's largest measured
+speed, so that the catalogue is the same for a lab rig and a robot axis.  A
+breakaway friction's size depends on its Stribeck speed (a wider bump needs less
+height for the same impulse at a reversal): a diagnosis chooses ``w_s`` among
+:data:`STRIBECK_GRID` by the estimation part and reports it with the size.
 """
 
 import dataclasses
@@ -29,12 +32,19 @@ import dataclasses
 import numpy as np
 
 __all__ = ["Effect", "EFFECTS", "EFFECT_NAMES", "get_effect", "COULOMB_SMOOTHING", "STRIBECK_SPEED",
-           "smoothing_speeds"]
+           "STRIBECK_GRID", "COULOMB_GRID", "smoothing_speeds"]
 
 #: Coulomb smoothing speed ``eps`` as a fraction of the record's largest speed: ``F tanh(w / eps)``.
 COULOMB_SMOOTHING = 0.01
-#: Stribeck speed ``w_s`` of the breakaway friction, as a fraction of the record's largest speed.
+#: Stribeck speed ``w_s`` of the breakaway friction, as a fraction of the record's largest speed: the
+#: prediction's default.
 STRIBECK_SPEED = 0.05
+#: The Stribeck speeds a diagnosis tries for a breakaway friction, as fractions of the record's largest speed
+#: (ratio 1.5); the fit holds the one whose estimation residual is least (``diagnose``).
+STRIBECK_GRID = (0.015, 0.0225, 0.034, 0.05)
+#: The Coulomb smoothing speeds a diagnosis tries for a Coulomb friction, as fractions of the record's largest
+#: speed; the fit holds the one whose estimation residual is least (``diagnose``).
+COULOMB_GRID = (0.01, 0.003, 0.001)
 
 
 def smoothing_speeds(measurements):
