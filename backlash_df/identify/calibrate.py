@@ -442,9 +442,9 @@ def speed_noise(measurements):
 
 
 def _white_noise(values):
-    """The white noise's standard deviation in one speed signal (rad/s): its difference from the smoothed
-    signal over the share ``sqrt(1 - h_0)`` of the noise that the smoothing leaves in that difference."""
-    return float(np.std(values - _smoothed(values))) / math.sqrt(1.0 - SMOOTHED_NOISE_SHARE**2)
+    """The white noise's standard deviation in speed signals (columns, rad/s): their difference from the
+    smoothed signals over the share ``sqrt(1 - h_0)`` of the noise that the smoothing leaves in it."""
+    return np.std(values - _smoothed(values), axis=0) / math.sqrt(1.0 - SMOOTHED_NOISE_SHARE**2)
 
 
 def angle_rate(angles, dt):
@@ -507,7 +507,7 @@ def encoder_speeds(measurements):
         if column is None or angles is None:
             continue
         derived = angle_rate(angles, measurements.dt)
-        sigma_column, sigma_encoder = _white_noise(column), _white_noise(derived)
+        sigma_column, sigma_encoder = float(_white_noise(column)), float(_white_noise(derived))
         spread = float(np.std(column - derived))
         if (ENCODER_SPEED_GAIN * sigma_encoder <= sigma_column
                 and spread <= ENCODER_SPEED_AGREEMENT * math.hypot(sigma_column, sigma_encoder)):
@@ -579,7 +579,7 @@ def shaft_resolution(measurements, rig):
     plant = rig.plant
     mode = math.sqrt(plant.stiffness * (1.0 / plant.motor_inertia + 1.0 / plant.load_inertia)) / (2.0 * math.pi)
     rate = 1.0 / measurements.dt
-    noise = float(speed_noise(measurements)[0]) / math.sqrt(1.0 - SMOOTHED_NOISE_SHARE**2)
+    noise = float(_white_noise(measurements.speeds)[0])
     frequency, power = welch(measurements.motor_speed, fs=rate, nperseg=min(measurements.n_samples, round(rate)))
     below = np.flatnonzero(power[1:] < RESOLVED_SNR * 2.0 * noise**2 / rate)
     return ShaftResolution(mode, float(frequency[1 + below[0]] if below.size else frequency[-1]))
@@ -770,8 +770,7 @@ class TwoMassModel:
         n, speeds, width = self.measurements.n_samples, len(self.measurements.speed_names), len(columns) + len(initial)
         out = np.zeros((n, 2, width))
         segment_sensitivities(_law_code(self.rig.model, values), p, self.coulomb_smoothing(values),
-                              self.stribeck_speed(values),
-                              self.motor_torque(delay),
+                              self.stribeck_speed(values), self.motor_torque(delay),
                               self.motor_torque_rate(delay) if DELAY in columns else self.load_torque,
                               self.load_torque, starts, stops, z0, _SUBSTEPS, np.array(columns, dtype=np.int64),
                               np.array(initial, dtype=np.int64), np.zeros((11, width)), out)

@@ -99,7 +99,7 @@ from .calibrate import (
     single_threaded_blas,
     speed_noise,
 )
-from .effects import COULOMB_GRID, COULOMB_SMOOTHING, EFFECT_NAMES, STRIBECK_GRID, get_effect
+from .effects import COULOMB_GRID, EFFECT_NAMES, STRIBECK_GRID, get_effect, peak_speed, smoothing_speeds
 from .residuals import residual_analysis
 
 __all__ = ["GAIN_DEFINITION", "CandidateResult", "Cause", "Stage", "Diagnosis", "diagnose", "check_speed_units", "check_excitation",
@@ -704,12 +704,12 @@ _CHOSEN_SPEEDS = (("coulomb_smoothing", "coulomb_friction", COULOMB_GRID),
 MIN_BUMP_WIDTH = 3.0
 
 
-def _distinct_bump(values, peak):
+def _distinct_bump(values, smoothing):
     """Whether the Stribeck speed among ``values`` is at least :data:`MIN_BUMP_WIDTH` times the smoothing speed
-    (the catalogue's, 1 % of ``peak``, where none is given); True without a Stribeck speed."""
+    (``smoothing``, the catalogue's, where ``values`` give none); True without a Stribeck speed."""
     if "stribeck_speed" not in values:
         return True
-    return values["stribeck_speed"] >= MIN_BUMP_WIDTH * values.get("coulomb_smoothing", COULOMB_SMOOTHING * peak)
+    return values["stribeck_speed"] >= MIN_BUMP_WIDTH * values.get("coulomb_smoothing", smoothing)
 
 
 class _Search:
@@ -800,11 +800,11 @@ class _Search:
                    if name in names and value_key not in start_values]
         nested = bool(start_values)
         if missing:
-            peak = float(np.max(np.abs(self.measurements.speeds)))
+            peak, (smoothing, _) = peak_speed(self.measurements), smoothing_speeds(self.measurements)
             combinations = [start_values | dict(speeds) for speeds in itertools.product(
                 *[[(key, share * peak) for share in grid] for key, grid in missing])]
             trials = [self._fit(effects, values, polish, screen, workers, nested) for values in combinations
-                      if _distinct_bump(values, peak)]
+                      if _distinct_bump(values, smoothing)]
             return min(trials, key=lambda trial: trial.calibration.rss)
         return self._fit(effects, start_values or None, polish, screen, workers, nested)
 

@@ -32,7 +32,8 @@ import dataclasses
 import numpy as np
 
 __all__ = ["Effect", "EFFECTS", "EFFECT_NAMES", "get_effect", "COULOMB_SMOOTHING", "STRIBECK_SPEED",
-           "STRIBECK_GRID", "COULOMB_GRID", "smoothing_speeds"]
+           "STRIBECK_GRID", "COULOMB_GRID", "peak_speed",
+           "smoothing_speeds"]
 
 #: Coulomb smoothing speed ``eps`` as a fraction of the record's largest speed: ``F tanh(w / eps)``.
 COULOMB_SMOOTHING = 0.01
@@ -47,9 +48,15 @@ STRIBECK_GRID = (0.015, 0.0225, 0.034, 0.05)
 COULOMB_GRID = (0.01, 0.003, 0.001)
 
 
+def peak_speed(measurements):
+    """The record's largest measured speed (rad/s; 1 where it never moves): the scale of the friction law's
+    speeds and of a viscous friction's bounds."""
+    return float(np.max(np.abs(measurements.speeds))) or 1.0
+
+
 def smoothing_speeds(measurements):
     """``(eps, w_s)`` in rad/s for a record: Coulomb smoothing and Stribeck speed."""
-    peak = float(np.max(np.abs(measurements.speeds))) or 1.0
+    peak = peak_speed(measurements)
     return COULOMB_SMOOTHING * peak, STRIBECK_SPEED * peak
 
 
@@ -106,7 +113,7 @@ class Effect:
     def bounds(self, rig, measurements):
         """Lower and upper bound of the parameter for this rig and record."""
         torque_scale = float(np.max(np.abs(measurements.motor_torque))) or 1.0
-        speed_scale = float(np.max(np.abs(measurements.speeds))) or 1.0
+        speed_scale = peak_speed(measurements)
         if self.name == "rubber":
             return 0.0, 1.4 * rig.plant.half_gap  # <= 2 alpha for alpha >= 0.7 alpha_nominal
         if self.name in ("coulomb_friction", "breakaway_friction"):

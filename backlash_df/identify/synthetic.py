@@ -231,7 +231,7 @@ def _encoder_angles(states, dt, oversample, counts, rng, skew=0.0):
 
     load = cumulative_trapezoid(states[:, 2], dx=dt, initial=0.0)
     time = np.arange(load.size) * dt
-    late = np.interp(time - skew, time, load)[::oversample]
+    late = np.interp(time[::oversample] - skew, time, load)
     load, twist = load[::oversample], states[::oversample, 0]
     step = 2.0 * np.pi / counts
     zeros = rng.uniform(0.0, 2.0 * np.pi, 2)
