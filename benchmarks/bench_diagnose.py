@@ -21,8 +21,8 @@
    causes and intervals, the encoder skew, baseline against extended validation fits,
    time (target < 15 s), and the independent check: a rigid-body least-squares fit
    ``J dw/dt = T_m - F_c sign(w) - d w - T_0`` of the same record (numerical derivative
-   of the smoothed load speed), over the whole record and over the estimation part the
-   diagnosis fits (target: each friction within 15 % of the latter).
+   of the smoothed load speed), over the whole record and over the part whose fit names the
+   values (the record after its transient; target: each friction within 15 % of the latter).
 4. Breakaway probe: the same sweep over breakaway (Stribeck) friction alone and on top
    of Coulomb friction (the generator's Stribeck speed 5 % of the reference's amplitude,
    0.15 rad/s, about 2.6 % of the record's largest speed, which the multisine on top of
@@ -277,7 +277,7 @@ def kuka(angles):
         print(f"  warning: {warning}")
     inertia = rig.plant.motor_inertia + rig.plant.load_inertia
     for label, window, totals in (("whole record", slice(None), (inertia, 1200.0, 1860.0)),
-                                  ("estimation part", result.estimation, (inertia,))):
+                                  ("fitted part", slice(result.estimation.start, None), (inertia,))):
         for total in totals:
             coulomb, viscous, offset = rigid_body_fit(data, total, window)
             print(f"  rigid-body least squares, {label} (J = {total:.0f} kg m^2): coulomb_friction {coulomb:.4g} N m, "
