@@ -124,6 +124,14 @@ def test_the_causes_values_come_from_the_whole_record(rig):
         assert document["whole_record"]["parameters"][value_key]["value"] == parameter.value
 
 
+def test_the_diagnosis_does_not_depend_on_its_threads(rig):
+    """``workers`` runs independent fits side by side (a selection step's, the friction speeds' trials, the
+    whole record's); a fit's numbers do not depend on its threads, so the JSON is the same to the bit."""
+    record = synthesize(rig, dict.fromkeys(("coulomb_friction@load", "viscous_friction@load")), seed=11, duration=2.0)
+    one, two = (json.dumps(diagnose(record.measurements, rig, workers=workers).to_dict()) for workers in (1, 2))
+    assert one == two
+
+
 def test_a_partner_too_small_to_name_is_not_absorbed(rig):
     """Viscous friction alone, speed columns only (seed 2005 of the benchmark's sweep): the joint fit with
     Coulomb friction supports a Coulomb friction of well under 1 % of the RMS torque, and without it the

@@ -748,12 +748,13 @@ class _Search:
         self.encoder_skew = None  # the baseline's FitParameter of the encoder skew, where the twist is measured
         self.absorbed = []  # (kept key, dropped key, warning) of the backward elimination (:func:`_absorption`)
 
-    def polish(self, candidate):
-        """``candidate`` refined by a free run (:func:`~.calibrate.refine`), scored; the refinement is kept only
-        where it predicts the validation part at least as well (k-step plus ahead RSS): a free run sees slow
-        effects at full size, a k-step fit sees fast ones (delay, rubber) better."""
+    def polish(self, candidate, workers=None):
+        """``candidate`` refined by a free run (:func:`~.calibrate.refine`, its Jacobian in ``workers`` threads,
+        default the search's), scored; the refinement is kept only where it predicts the validation part at least
+        as well (k-step plus ahead RSS): a free run sees slow effects at full size, a k-step fit sees fast ones
+        (delay, rubber) better."""
         refined = self.score(candidate.effects, refine(self.measurements, self.rig, candidate.calibration,
-                                                       self.workers))
+                                                       workers or self.workers))
         self.progress("refine " + self.label(candidate.effects))
         return refined if sum(refined.rss) <= sum(candidate.rss) else candidate
 
@@ -772,11 +773,12 @@ class _Search:
         the viscous friction by 8 %, away from a least-squares fit of the same samples."""
         values = {key: value for key, value in candidate.calibration.values.items()
                   if key not in {value_key for value_key, *_ in _CHOSEN_SPEEDS}}
-        trials = [calibrate(self.measurements, self.rig, candidate.effects,
-                            window=(self.estimation.start, self.measurements.n_samples), start_values=start,
-                            horizon=self.horizon, workers=self.workers, polish=False, fixed=self.held,
-                            structure=self.structure)
-                  for start in self._speed_choices(candidate.effects, values)]
+        trials = self._side_by_side(
+            lambda start, workers: calibrate(self.measurements, self.rig, candidate.effects,
+                                             window=(self.estimation.start, self.measurements.n_samples),
+                                             start_values=start, horizon=self.horizon, workers=workers, polish=False,
+                                             fixed=self.held, structure=self.structure),
+            self._speed_choices(candidate.effects, values), self.workers)
         calibration = min(trials, key=lambda trial: trial.rss)
         self.progress("whole record: " + self.label(candidate.effects))
         return calibration
@@ -840,8 +842,9 @@ class _Search:
         missing speeds, and the fit with the least estimation residual is returned, its speeds held from then on
         (they are carried in the values).  The validation part is not looked at."""
         nested = bool(start_values)
-        trials = [self._fit(effects, values or None, polish, screen, workers, nested)
-                  for values in self._speed_choices(effects, start_values)]
+        trials = self._side_by_side(lambda values, threads: self._fit(effects, values or None, polish, screen, threads,
+                                                                      nested),
+                                    self._speed_choices(effects, start_values), workers or self.workers)
         return min(trials, key=lambda trial: trial.calibration.rss)
 
     def _speed_choices(self, effects, start_values):
@@ -874,10 +877,17 @@ class _Search:
         search's threads (each fit's Jacobian then on one): the same results as one by one, since a fit's
         numbers do not depend on its threads, and near the threads' count times faster (the kernel releases
         the GIL; a single fit's Jacobian leaves the optimiser's own steps serial)."""
-        if self.workers <= 1 or len(jobs) <= 1:
-            return [self.fit(effects, start, screen=screen) for effects, start in jobs]
-        with ThreadPoolExecutor(min(self.workers, len(jobs))) as pool:
-            return list(pool.map(lambda job: self.fit(*job, screen=screen, workers=1), jobs))
+        return self._side_by_side(lambda job, workers: self.fit(*job, screen=screen, workers=workers), jobs,
+                                  self.workers)
+
+    @staticmethod
+    def _side_by_side(run, jobs, workers):
+        """``run(job, threads)`` of every job, in order: side by side in ``workers`` threads, each job then on one,
+        or one by one, each on all of them (the same results: a fit's numbers do not depend on its threads)."""
+        if workers <= 1 or len(jobs) <= 1:
+            return [run(job, workers) for job in jobs]
+        with ThreadPoolExecutor(min(workers, len(jobs))) as pool:
+            return list(pool.map(lambda job: run(job, 1), jobs))
 
     def settle_skew(self, baseline):
         """The baseline with the encoder skew settled as a property of the record: fitted with the nominal
