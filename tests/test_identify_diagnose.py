@@ -243,8 +243,9 @@ def test_kuka_window_whose_validation_part_stands_still_names_both_frictions():
     supported (their intervals exclude zero), and viscous friction lowers the validation RSS by far
     more than 5 %, but its block t test fails (the validation part ends at standstill, where a large
     Coulomb friction holds the axis a hair better); without it Coulomb friction would leave its joint
-    interval.  Both are named at their joint values (they named viscous friction alone, 3574 N m s/rad,
-    before), and the breakaway friction the joint fit also supports is said to be absorbed."""
+    interval.  Both are named, their values (the whole record's) inside their joint intervals (they named
+    viscous friction alone, 3574 N m s/rad, before), and the breakaway friction the joint fit also supports is
+    said to be absorbed."""
     import dataclasses
 
     from backlash_df.identify import load_measurements

@@ -1049,7 +1049,7 @@ def _absorption(search, joint, reduced):
         before, after = joint.calibration.effect_parameter(key), reduced.calibration.effect_parameter(key)
         low, high = before.ci95
         if not low <= after.value <= high:
-            notes.append((key, dropped, f"{key} absorbs {dropped}: fitted together they are {before.value:.4g} ({low:.4g} .. "
+            notes.append((key, dropped, f"{key} absorbs {dropped}: fitted together on the estimation part they are {before.value:.4g} ({low:.4g} .. "
                          f"{high:.4g}) {before.unit} and {parameter.value:.4g} ({parameter.ci95[0]:.4g} .. "
                          f"{parameter.ci95[1]:.4g}) {parameter.unit}, but {dropped} does not improve the validation "
                          f"part enough to be named, and without it {key} is {after.value:.4g} {after.unit}: this "
