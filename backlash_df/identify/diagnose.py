@@ -2,8 +2,8 @@
 
 The record is split in time: the first 5 % are dropped (initial transient), the
 *estimation part* runs to 60 %, the *validation part* is the last 40 %, seen
-by no fit of the search (only by the final one, below).  Every fit is a k-step prediction-error fit
-(:func:`~.calibrate.calibrate`: segments of ``horizon`` seconds, each started
+by no fit of the search (only by the final one, below).  Every fit is a k-step
+prediction-error fit (:func:`~.calibrate.calibrate`: segments of ``horizon`` seconds, each started
 from the data's state), which does not drift on closed-loop data.  Every score
 is a prediction error on the validation part, scaled per speed by its standard
 deviation, in two modes: the k-step prediction (segments of ``horizon``), where
@@ -748,13 +748,12 @@ class _Search:
         self.encoder_skew = None  # the baseline's FitParameter of the encoder skew, where the twist is measured
         self.absorbed = []  # (kept key, dropped key, warning) of the backward elimination (:func:`_absorption`)
 
-    def polish(self, candidate, workers=None):
-        """``candidate`` refined by a free run (:func:`~.calibrate.refine`, its Jacobian in ``workers`` threads,
-        default the search's), scored; the refinement is kept only where it predicts the validation part at least
-        as well (k-step plus ahead RSS): a free run sees slow effects at full size, a k-step fit sees fast ones
-        (delay, rubber) better."""
+    def polish(self, candidate):
+        """``candidate`` refined by a free run (:func:`~.calibrate.refine`), scored; the refinement is kept only
+        where it predicts the validation part at least as well (k-step plus ahead RSS): a free run sees slow
+        effects at full size, a k-step fit sees fast ones (delay, rubber) better."""
         refined = self.score(candidate.effects, refine(self.measurements, self.rig, candidate.calibration,
-                                                       workers or self.workers))
+                                                       self.workers))
         self.progress("refine " + self.label(candidate.effects))
         return refined if sum(refined.rss) <= sum(candidate.rss) else candidate
 
@@ -1049,12 +1048,12 @@ def _absorption(search, joint, reduced):
         before, after = joint.calibration.effect_parameter(key), reduced.calibration.effect_parameter(key)
         low, high = before.ci95
         if not low <= after.value <= high:
-            notes.append((key, dropped, f"{key} absorbs {dropped}: fitted together on the estimation part they are {before.value:.4g} ({low:.4g} .. "
-                         f"{high:.4g}) {before.unit} and {parameter.value:.4g} ({parameter.ci95[0]:.4g} .. "
-                         f"{parameter.ci95[1]:.4g}) {parameter.unit}, but {dropped} does not improve the validation "
-                         f"part enough to be named, and without it {key} is {after.value:.4g} {after.unit}: this "
-                         f"record does not tell the two apart (a longer record, or one whose speed covers a wider "
-                         f"range, would)"))
+            notes.append((key, dropped, f"{key} absorbs {dropped}: fitted together on the estimation part they are "
+                         f"{before.value:.4g} ({low:.4g} .. {high:.4g}) {before.unit} and {parameter.value:.4g} "
+                         f"({parameter.ci95[0]:.4g} .. {parameter.ci95[1]:.4g}) {parameter.unit}, but {dropped} does "
+                         f"not improve the validation part enough to be named, and without it {key} is "
+                         f"{after.value:.4g} {after.unit}: this record does not tell the two apart (a longer record, "
+                         f"or one whose speed covers a wider range, would)"))
     return notes
 
 
