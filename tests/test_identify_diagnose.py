@@ -102,11 +102,11 @@ def test_breakaway_friction_alone_is_named_with_the_stribeck_speed_it_goes_with(
 
 def test_the_causes_values_come_from_the_whole_record(rig):
     """Coulomb and viscous friction on the load, speed columns only (seed 2000 of the benchmark's sweep).  The
-    estimation part holds one period of the speed reference, and its fit, with the widest Coulomb smoothing its
-    residual could not tell from the others, put 14 % of the Coulomb friction into viscous friction (3.479 ->
-    2.993 N m [2.50, 3.48]; 2.204 -> 2.386 N m s/rad).  Once the validation part has named the set, the set is
-    calibrated anew on the whole record after the transient, its smoothing chosen again: both values within
-    5 % of the truth, their intervals narrower than the estimation part's, and the JSON says so."""
+    estimation part holds one period of the speed reference, and its fit put 14 % of the Coulomb friction into
+    viscous friction (3.479 -> 2.993 N m [2.50, 3.48]; 2.204 -> 2.386 N m s/rad).  Once the validation part has
+    named the set, the set is calibrated anew on the whole record after the transient, its smoothing chosen
+    again: both values within 5 % of the truth, their intervals narrower than the estimation part's, and the
+    JSON says so."""
     effects = ("coulomb_friction@load", "viscous_friction@load")
     record = synthesize(rig, dict.fromkeys(effects), seed=2000, duration=4.0)
     result = diagnose(record.measurements, rig, workers=2)

@@ -763,7 +763,8 @@ class _Search:
         the set and scored it; the values a diagnosis names come from all the data, with intervals about 1.3
         times narrower.  The friction law's speeds are chosen again among the same grids, now by the whole
         record's residual: where the estimation part holds few slow reversals its residual does not tell them
-        apart, and a smoothing wider than the drive's moves Coulomb friction into viscous friction.
+        apart, and on the whole record a smoothing wider than the drive's moves viscous friction into Coulomb
+        friction.
 
         No free run refines it: a refinement is kept only where the validation part confirms it
         (:meth:`polish`), for a free run as long as the estimation part; one over the whole record runs longer
