@@ -720,6 +720,12 @@ _CHOSEN_SPEEDS = (("coulomb_smoothing", "coulomb_friction", COULOMB_GRID),
                   ("stribeck_speed", "breakaway_friction", STRIBECK_GRID))
 
 
+def _without_speeds(values):
+    """``values`` without the friction law's chosen speeds (:data:`_CHOSEN_SPEEDS`): a fit from them chooses
+    the speeds again (:meth:`_Search.fit`)."""
+    return {key: value for key, value in values.items() if key not in {value_key for value_key, *_ in _CHOSEN_SPEEDS}}
+
+
 #: A breakaway bump is told from the Coulomb smoothing only where its Stribeck speed is at least this many times
 #: the smoothing speed: a narrower bump fills in the step the smoothing rounds off (:meth:`_Search.fit`).
 MIN_BUMP_WIDTH = 3.0
@@ -771,8 +777,7 @@ class _Search:
         than any that was checked (a free run of closed-loop data drifts the more the longer it runs), and no
         data are left to check it.  On KUKA axis 1 such a free run raised the Coulomb friction by 9 % and lowered
         the viscous friction by 8 %, away from a least-squares fit of the same samples."""
-        values = {key: value for key, value in candidate.calibration.values.items()
-                  if key not in {value_key for value_key, *_ in _CHOSEN_SPEEDS}}
+        values = _without_speeds(candidate.calibration.values)
         trials = self._side_by_side(
             lambda start, workers: calibrate(self.measurements, self.rig, candidate.effects,
                                              window=(self.estimation.start, self.measurements.n_samples),
@@ -957,8 +962,13 @@ def _forward(search, baseline, keys, tried):
     :data:`MAX_REFITS` with the largest screening gains (at least
     :data:`MIN_GAIN`) are refitted in full, and the one with the largest gain
     that passes the rule is added (so that, for example, the side of a
-    friction is chosen by full fits).  The *runners-up* are the keys whose full
-    fit passed the rule in some step but were not added: two nearly collinear
+    friction is chosen by full fits).  The full refits choose the friction
+    law's speeds again (:meth:`_Search.fit`): a screening fit's plant values
+    belong to the set without the candidate, and a Coulomb smoothing chosen so
+    before the rubber was in the set came out at 1 % of the largest speed,
+    where the set with rubber chooses 0.3 %: a rounded step that a breakaway
+    bump then filled in.  The *runners-up* are
+    the keys whose full fit passed the rule in some step but were not added: two nearly collinear
     effects (Coulomb and viscous friction on a record whose speed is mostly a
     sine) pass in the same step with close gains, and the data may say which
     one it is only when both are fitted together (:func:`_backward`).
@@ -972,7 +982,7 @@ def _forward(search, baseline, keys, tried):
         screened = [search.judge(fit, current, key) for fit, key in zip(screens, added)]
         tried += [dataclasses.replace(trial, reason="screening: " + trial.reason) for trial in screened]
         promising = sorted((t for t in screened if t.gain >= MIN_GAIN), key=lambda t: -t.gain)[:MAX_REFITS]
-        fulls = search.fits([(trial.effects, trial.calibration.values) for trial in promising])
+        fulls = search.fits([(trial.effects, _without_speeds(trial.calibration.values)) for trial in promising])
         refits = [search.judge(full, current, trial.added) for full, trial in zip(fulls, promising)]
         tried += refits
         passing = [full for full in refits if full.accepted]
