@@ -436,15 +436,21 @@ def smoothed_speeds(measurements, window=11):
     return _smoothed(measurements.speeds, window)
 
 
+def _residual_noise(values):
+    """Standard deviation of speed signals (columns, rad/s) about their smoothing."""
+    return np.std(values - _smoothed(values), axis=0)
+
+
 def speed_noise(measurements):
     """Standard deviation of each measured speed's noise (rad/s): measured minus smoothed."""
-    return np.std(measurements.speeds - smoothed_speeds(measurements), axis=0)
+    return _residual_noise(measurements.speeds)
 
 
 def _white_noise(values):
     """The white noise's standard deviation in speed signals (columns, rad/s): their difference from the
-    smoothed signals over the share ``sqrt(1 - h_0)`` of the noise that the smoothing leaves in it."""
-    return np.std(values - _smoothed(values), axis=0) / math.sqrt(1.0 - SMOOTHED_NOISE_SHARE**2)
+    smoothed signals (:func:`_residual_noise`) over the share ``sqrt(1 - h_0)`` of the noise that the smoothing
+    leaves in it."""
+    return _residual_noise(values) / math.sqrt(1.0 - SMOOTHED_NOISE_SHARE**2)
 
 
 def angle_rate(angles, dt):
@@ -478,8 +484,8 @@ def encoder_speeds(measurements):
     An encoder's speed is the five-point central difference of its angle column (:func:`angle_rate`).  It
     replaces the speed column where both hold:
 
-    * it is at least :data:`ENCODER_SPEED_GAIN` times less noisy (:func:`speed_noise`'s estimate of each
-      signal's white noise, the signal minus its smoothing): a fine encoder against a speed sensor or a
+    * it is at least :data:`ENCODER_SPEED_GAIN` times less noisy (the estimate of each signal's white noise
+      from the signal minus its smoothing, as :func:`shaft_resolution`'s): a fine encoder against a speed sensor or a
       coarse difference.  Where the motion's own content above the smoothing's band outweighs the noise,
       the estimate cannot tell them apart and the column is kept;
     * the two differ by their noises only, the standard deviation of column minus encoder speed at most

@@ -264,8 +264,8 @@ class Cause:
         (:attr:`Diagnosis.disagreements`), or where its parameter ends on a bound of the range the fit allows
         (:attr:`on_bound`): the effect is named, its value is not.
     stribeck_speed : float or None
-        For a breakaway friction, the Stribeck speed ``w_s`` (rad/s) its size goes with, chosen by the estimation
-        part (:meth:`_Search.fit`); None for the other effects.
+        For a breakaway friction, the Stribeck speed ``w_s`` (rad/s) its size goes with, chosen by the whole
+        record's fit (:meth:`_Search.whole_record`); None for the other effects.
     """
 
     effect: str
@@ -353,9 +353,9 @@ def _model_dict(candidate):
         "parameters": {name: p.to_dict() for name, p in candidate.calibration.parameters.items()}}
 
 
-def _whole_dict(calibration, extended):
+def _whole_dict(calibration):
     """The ``whole_record`` entry of the JSON: the calibrated set's effects and every value with its interval."""
-    return {"effects": list(extended.effects),
+    return {"effects": list(calibration.effects),
             "parameters": {name: p.to_dict() for name, p in calibration.parameters.items()}}
 
 
@@ -404,7 +404,7 @@ class Stage:
         """JSON-ready ``{"structure", "causes", "baseline", "extended", "whole_record", "candidates", "warnings"}``."""
         return json_ready({"structure": self.structure, "causes": [cause.to_dict() for cause in self.causes],
                            "baseline": _model_dict(self.baseline), "extended": _model_dict(self.extended),
-                           "whole_record": _whole_dict(self.whole_record, self.extended),
+                           "whole_record": _whole_dict(self.whole_record),
                            "candidates": [c.to_dict() for c in self.candidates], "warnings": self.warnings})
 
     def __repr__(self):
@@ -437,6 +437,9 @@ class Diagnosis:
         :func:`~.calibrate.encoder_speeds`, which the warnings then name) and the rig.
     estimation, validation : slice
         Sample ranges of the two parts.
+    whole_record : Calibration
+        The two-mass model's selected set calibrated anew on the whole record after the transient
+        (:attr:`Stage.whole_record`): the values :attr:`causes` names where the two-mass model is the answer.
     structure : str
         Whose values :attr:`causes` names: ``two_mass``, or ``rigid_body`` where the record does not
         resolve the shaft's mode (:attr:`shaft`).
@@ -452,9 +455,6 @@ class Diagnosis:
     encoder_skew : FitParameter or None
         How much later the load encoder is read than the motor encoder (s), fitted with the two-mass
         baseline where both angle columns are given (:attr:`Stage.encoder_skew`); None without them.
-    whole_record : Calibration or None
-        The two-mass model's selected set calibrated anew on the whole record after the transient
-        (:attr:`Stage.whole_record`): the values :attr:`causes` names where the two-mass model is the answer.
     """
 
     causes: list
@@ -469,13 +469,13 @@ class Diagnosis:
     rig: object
     estimation: slice
     validation: slice
+    whole_record: object
     structure: str = "two_mass"
     shaft: object = None
     two_mass_causes: list = ()
     rigid_body: Stage | None = None
     disagreements: list = ()
     encoder_skew: object = None
-    whole_record: object = None
 
     @property
     def cause(self):
@@ -509,7 +509,7 @@ class Diagnosis:
             "validation": {"start": float(time[self.validation.start]), "stop": float(time[-1])},
             "baseline": _model_dict(self.baseline),
             "extended": _model_dict(self.extended),
-            "whole_record": _whole_dict(self.whole_record, self.extended) if self.whole_record else None,
+            "whole_record": _whole_dict(self.whole_record),
             "candidates": [candidate.to_dict() for candidate in self.candidates],
             "structure": self.structure,
             "shaft": self.shaft.to_dict() if self.shaft else None,
@@ -608,7 +608,7 @@ class Diagnosis:
                                fits, text_columns=())
         parameter_rows = [[name, f"{p.nominal:.5g}", f"{p.value:.5g}", f"{p.stderr:.3g}",
                            f"{p.ci95[0]:.5g} .. {p.ci95[1]:.5g}", f"{p.lower:.4g} .. {p.upper:.4g}", p.unit]
-                          for name, p in (self.whole_record or self.extended.calibration).parameters.items()]
+                          for name, p in self.whole_record.parameters.items()]
         parameters = table_html(["parameter", "start (rig file)", "fitted", "std. error", "95 % CI", "bounds", "unit"],
                                 parameter_rows, text_columns=(0, 6))
         structures = self._structures_html()
@@ -714,16 +714,17 @@ def check_excitation(measurements, part=slice(None), label="the record"):
                              f"excitation to diagnose; record the drive while it moves")
 
 
-#: The friction law's speeds a diagnosis chooses by the estimation part (:meth:`_Search.fit`): value key, the
-#: effect that needs it, the grid of fractions of the record's largest speed.
+#: The friction law's speeds a diagnosis chooses (:meth:`_Search.fit`): value key, the effect that needs it, the
+#: grid of fractions of the record's largest speed.
 _CHOSEN_SPEEDS = (("coulomb_smoothing", "coulomb_friction", COULOMB_GRID),
                   ("stribeck_speed", "breakaway_friction", STRIBECK_GRID))
+_SPEED_KEYS = frozenset(value_key for value_key, *_ in _CHOSEN_SPEEDS)
 
 
 def _without_speeds(values):
     """``values`` without the friction law's chosen speeds (:data:`_CHOSEN_SPEEDS`): a fit from them chooses
     the speeds again (:meth:`_Search.fit`)."""
-    return {key: value for key, value in values.items() if key not in {value_key for value_key, *_ in _CHOSEN_SPEEDS}}
+    return {key: value for key, value in values.items() if key not in _SPEED_KEYS}
 
 
 #: A breakaway bump is told from the Coulomb smoothing only where its Stribeck speed is at least this many times
@@ -844,8 +845,9 @@ class _Search:
         Coulomb friction among :data:`~.effects.COULOMB_GRID`, the Stribeck speed of a breakaway friction among
         :data:`~.effects.STRIBECK_GRID` (at least :data:`MIN_BUMP_WIDTH` times the smoothing speed).  Where a
         friction of the set has no speed among the start values, the set is fitted at every combination of the
-        missing speeds, and the fit with the least estimation residual is returned, its speeds held from then on
-        (they are carried in the values).  The validation part is not looked at."""
+        missing speeds, and the fit with the least estimation residual is returned, its speeds carried in the
+        values and held by the fits that start from them (the full refit of a forward step and the whole-record
+        fit choose them again, :func:`_without_speeds`).  The validation part is not looked at."""
         nested = bool(start_values)
         trials = self._side_by_side(lambda values, threads: self._fit(effects, values or None, polish, screen, threads,
                                                                       nested),

@@ -24,7 +24,7 @@ The smoothing speed ``eps`` (:data:`COULOMB_SMOOTHING`) and the Stribeck speed
 speed, so that the catalogue is the same for a lab rig and a robot axis.  A
 breakaway friction's size depends on its Stribeck speed (a wider bump needs less
 height for the same impulse at a reversal): a diagnosis chooses ``w_s`` among
-:data:`STRIBECK_GRID` by the estimation part and reports it with the size.
+:data:`STRIBECK_GRID` by the fits' residuals and reports it with the size.
 """
 
 import dataclasses
