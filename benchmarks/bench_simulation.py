@@ -47,8 +47,9 @@ After each case's table: the kernel's time as a cost per call plus a cost per st
 torque and mode recorded, the mode guard :func:`~backlash_df.models.held_mode`) and the
 kernel's time per step against it; and the **profile** of the kernel's run by ``perf``
 (sampled at 4 kHz over 200 runs after the warm-up; numba's code named through a perf map
-written from the compiled libraries): the share of the process of the top three
-functions.  Then the laws of the RK4 kernel (rubber, beta 0.01 and 0.05, and ElastoBacklash on
+written from the compiled libraries, which the worker compiles afresh for their symbols, the
+compile's Python objects then frozen out of the garbage collector's reach, as in a process that
+loads its kernels from the cache): the share of the process of the top three functions.  Then the laws of the RK4 kernel (rubber, beta 0.01 and 0.05, and ElastoBacklash on
 ``load_feedback.toml``, no reference: their time per step only): the same floor row and a
 **4-stage floor**, a numba loop doing RK4's work per step (four stages ``A z + b T``, each with
 the law's torque, the kernel's record of state, torque, theta_b and both modes, the mode
@@ -438,12 +439,16 @@ def print_rk4_rows(repeat):
 
 
 PROFILE_WORKER = """
-import sys, time
+import gc, sys, time
 sys.path.insert(0, {bench!r})
 import bench_simulation as b
 loop = b.ClosedLoop({rig!r}, {law!r})
 b.kernel_run(loop, {split})
 b.write_perf_map()
+# the compile's garbage, kept out of the collector's way: a user's process loads the kernels from
+# numba's cache and holds none of it (unfrozen, a full collection of it was 22 % of the samples)
+gc.collect()
+gc.freeze()
 print("ready", flush=True)
 sys.stdin.readline()
 for _ in range({runs}):

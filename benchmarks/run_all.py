@@ -1,6 +1,6 @@
 """Run every benchmark, print the machine, the commit and the load, and check that the ratios are stable.
 
-    python benchmarks/run_all.py                   # every benchmark once: about 30 minutes on 2 idle cores (estimated)
+    python benchmarks/run_all.py                   # every benchmark once: about 20 minutes on 2 idle cores
     python benchmarks/run_all.py --runs 3          # three times, then the spread of every ratio
     python benchmarks/run_all.py bench_simulation  # a selection (names without .py)
     python benchmarks/run_all.py --runs 3 --saved  # the spread of the outputs kept by earlier runs
@@ -8,11 +8,11 @@
 Every benchmark runs in its own interpreter from the repository root, one after the
 other, with one BLAS thread; its output is printed as it comes and kept in
 ``build/benchmarks/<name>.run<i>.txt``.  The workflow benchmarks run with options that
-keep the whole under about 30 minutes on 2 cores (:data:`OPTIONS`: smaller design maps,
+keep the whole under about 20 minutes on 2 idle cores (:data:`OPTIONS`: smaller design maps,
 fewer diagnosis seeds and verdict rigs than when each runs alone; run a file
-directly for its full size).  The 30 minutes are estimated from each file's own CPU
-times; the whole has not yet been timed end to end (the wall time grows with the
-machine's load: ``bench_simulation`` alone took 25-51 minutes at a load of 6-14).  The speed benchmarks time CPU time of the process
+directly for its full size): 18.5 minutes end to end at f26d3e4 (AMD EPYC, 2 cores, load
+1.0), 11 of them ``bench_simulation``'s work-precision curves.  The wall time grows with
+the machine's load: ``bench_simulation`` alone took 25-51 minutes at a load of 6-14.  The speed benchmarks time CPU time of the process
 (``time.process_time``), best of N: on a shared machine wall time swings with the
 other processes' load, CPU time much less.
 
@@ -35,7 +35,7 @@ from importlib import metadata
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-#: Every benchmark, in the order run, with the options of a whole run (about 30 min on 2 cores).
+#: Every benchmark, in the order run, with the options of a whole run (about 20 min on 2 idle cores).
 OPTIONS = {
     "bench_describing": [],
     "bench_models": [],
@@ -137,11 +137,15 @@ def main():
     print(f"machine: {machine()}")
     print(load())
     found = {name: [] for name in args.names}
+    start = time.perf_counter()
     for index in range(1, args.runs + 1):
         for name in args.names:
             saved = ROOT / "build" / "benchmarks" / f"{name}.run{index}.txt"
             lines = saved.read_text().splitlines(True) if args.saved else run(name, index)
             found[name].append(ratios(lines))
+    if not args.saved:
+        print(f"\n=== {len(args.names)} benchmark(s) x {args.runs} run(s): {time.perf_counter() - start:.0f} s wall; "
+              f"{load()}")
     if args.runs > 1:
         stable = all([spread(name, runs) for name, runs in found.items()])
         print(f"\nevery ratio within {LIMIT}x over the runs: {'yes' if stable else 'NO'}")
