@@ -220,8 +220,10 @@ def frequency_response(part, omega):
     n = part.A.shape[0]
     flat = omega.reshape(-1)
     jw = 1j * flat[:, None, None]
-    mats = jw * np.eye(n) - part.A - np.exp(-jw * part.delay) * (part.e_d @ part.d)
-    z = np.linalg.solve(mats, np.broadcast_to(part.b[:, None], (flat.size, n, 1)).astype(complex))
+    mats = jw * np.eye(n) - part.A
+    if part.e_d.shape[1]:  # the delayed signals' feedback (a loop without them subtracted zeros here)
+        mats = mats - np.exp(-jw * part.delay) * (part.e_d @ part.d)
+    z = np.linalg.solve(mats, np.broadcast_to(part.b.astype(complex)[:, None], (flat.size, n, 1)))
     return (-(z[:, :, 0] @ part.c_x)).reshape(omega.shape)
 
 
