@@ -349,14 +349,14 @@ class Cause:
 
 
 def _model_dict(candidate):
-    return candidate.to_dict() | {
-        "parameters": {name: p.to_dict() for name, p in candidate.calibration.parameters.items()}}
+    return candidate.to_dict() | {"parameters": candidate.calibration.to_dict()["parameters"]}
 
 
 def _whole_dict(calibration):
-    """The ``whole_record`` entry of the JSON: the calibrated set's effects and every value with its interval."""
-    return {"effects": list(calibration.effects),
-            "parameters": {name: p.to_dict() for name, p in calibration.parameters.items()}}
+    """The ``whole_record`` entry of the JSON: the calibrated set's effects and every value with its interval
+    (those of :meth:`~.calibrate.Calibration.to_dict`)."""
+    entry = calibration.to_dict()
+    return {"effects": entry["effects"], "parameters": entry["parameters"]}
 
 
 @dataclasses.dataclass(frozen=True, repr=False)
@@ -969,11 +969,11 @@ def _forward(search, baseline, keys, tried):
     belong to the set without the candidate, and a Coulomb smoothing chosen so
     before the rubber was in the set came out at 1 % of the largest speed,
     where the set with rubber chooses 0.3 %: a rounded step that a breakaway
-    bump then filled in.  The *runners-up* are
-    the keys whose full fit passed the rule in some step but were not added: two nearly collinear
-    effects (Coulomb and viscous friction on a record whose speed is mostly a
-    sine) pass in the same step with close gains, and the data may say which
-    one it is only when both are fitted together (:func:`_backward`).
+    bump then filled in.  The *runners-up* are the keys whose full fit passed
+    the rule in some step but were not added: two nearly collinear effects
+    (Coulomb and viscous friction on a record whose speed is mostly a sine)
+    pass in the same step with close gains, and the data may say which one it
+    is only when both are fitted together (:func:`_backward`).
     """
     current, steps, runners = baseline, [], []
     while True:
