@@ -49,7 +49,8 @@ kernel's time per step against it; and the **profile** of the kernel's run by ``
 (sampled at 4 kHz over 200 runs after the warm-up; numba's code named through a perf map
 written from the compiled libraries, which the worker compiles afresh for their symbols, the
 compile's Python objects then frozen out of the garbage collector's reach, as in a process that
-loads its kernels from the cache): the share of the process of the top three functions.  Then the laws of the RK4 kernel (rubber, beta 0.01 and 0.05, and ElastoBacklash on
+loads its kernels from the cache): the share of the process of the top three functions.  Then
+the laws of the RK4 kernel (rubber, beta 0.01 and 0.05, and ElastoBacklash on
 ``load_feedback.toml``, no reference: their time per step only): the same floor row and a
 **4-stage floor**, a numba loop doing RK4's work per step (four stages ``A z + b T``, each with
 the law's torque, the kernel's record of state, torque, theta_b and both modes, the mode

@@ -12,9 +12,9 @@ keep the whole under about 20 minutes on 2 idle cores (:data:`OPTIONS`: smaller 
 fewer diagnosis seeds and verdict rigs than when each runs alone; run a file
 directly for its full size): 18.5 minutes end to end at f26d3e4 (AMD EPYC, 2 cores, load
 1.0), 11 of them ``bench_simulation``'s work-precision curves.  The wall time grows with
-the machine's load: ``bench_simulation`` alone took 25-51 minutes at a load of 6-14.  The speed benchmarks time CPU time of the process
-(``time.process_time``), best of N: on a shared machine wall time swings with the
-other processes' load, CPU time much less.
+the machine's load: ``bench_simulation`` alone took 25-51 minutes at a load of 6-14.  The
+speed benchmarks time CPU time of the process (``time.process_time``), best of N: on a
+shared machine wall time swings with the other processes' load, CPU time much less.
 
 Printed first: the commit (``git rev-parse --short HEAD``), the CPU model, Python and
 the numeric libraries; after each benchmark the load average (``os.getloadavg()``, 1,
