@@ -39,10 +39,10 @@ _START_PIECE = 0.5 * math.pi  # longest first sub-interval of the adaptive rule
 _KRONROD_TOLERANCE = 1e-9  # accepted |K15 - G7| / int |T| of a sub-interval
 _MAX_LEVEL = 40  # halvings of a sub-interval before it is accepted as it is
 
-# Gauss-Kronrod 7-15 rule on [-1, 1] (Piessens et al., QUADPACK qk15): the Kronrod
-# nodes, their weights, and the weights of the embedded 7-point Gauss rule (zero
-# at the Kronrod-only nodes)
-_KRONROD_HALF = (
+# Gauss-Kronrod 7-15 rule on [-1, 1] (Piessens et al., QUADPACK qk15), one row per node pair
+# +-x (the last row the centre x = 0): x, its Kronrod weight, and its weight in the embedded
+# 7-point Gauss rule (zero at the Kronrod-only nodes)
+KRONROD = np.array((
     (0.991455371120812639206854697526329, 0.022935322010529224963732008058970, 0.0),
     (0.949107912342758524526189684047851, 0.063092092629978553290700663189204, 0.129484966168869693270611432679082),
     (0.864864423359769072789712788640926, 0.104790010322250183839876322541518, 0.0),
@@ -51,8 +51,8 @@ _KRONROD_HALF = (
     (0.405845151377397166906606412076961, 0.190350578064785409913256402421014, 0.381830050505118944950369775488975),
     (0.207784955007898467600689403773245, 0.204432940075298892414161999234649, 0.0),
     (0.0, 0.209482141084727828012999174891714, 0.417959183673469387755102040816327),
-)
-KRONROD = np.array([(-x, wk, wg) for x, wk, wg in _KRONROD_HALF[:-1]] + list(_KRONROD_HALF[::-1]))
+))
+
 
 
 # --------------------------------------------------------------------------- static laws
@@ -116,22 +116,27 @@ def _kronrod(law, m, a, e, amp, omega, bias, k, c, alpha, beta):
     loop is reference-counted on every call (see ``backlash_df._jit.inline``)."""
     half = 0.5 * (e - a)
     centre = a + half
+    sin_centre, cos_centre = math.sin(centre), math.cos(centre)
     k_sin = k_cos = k_one = g_sin = g_cos = g_one = total = 0.0
     for i in range(KRONROD.shape[0]):
-        phi = centre + half * KRONROD[i, 0]
-        sn = math.sin(phi)
-        cs = math.cos(phi)
-        x, v = bias + amp * sn, amp * omega * cs
-        torque = _band_torque(x, v, k, c, alpha, beta) if law == _RUBBER_BAND else mode_torque(law, m, x, v, k, c, alpha, beta)
-        kronrod = KRONROD[i, 1] * torque
-        gauss = KRONROD[i, 2] * torque
-        k_sin += kronrod * sn
-        k_cos += kronrod * cs
-        k_one += kronrod
-        g_sin += gauss * sn
-        g_cos += gauss * cs
-        g_one += gauss
-        total += abs(kronrod)
+        offset = half * KRONROD[i, 0]  # the pair centre +- offset shares one sine and cosine
+        sin_offset, cos_offset = math.sin(offset), math.cos(offset)
+        for side in range(2 if i < KRONROD.shape[0] - 1 else 1):
+            sign = 1.0 - 2.0 * side
+            sn = sin_centre * cos_offset + sign * cos_centre * sin_offset
+            cs = cos_centre * cos_offset - sign * sin_centre * sin_offset
+            x, v = bias + amp * sn, amp * omega * cs
+            torque = (_band_torque(x, v, k, c, alpha, beta) if law == _RUBBER_BAND
+                      else mode_torque(law, m, x, v, k, c, alpha, beta))
+            kronrod = KRONROD[i, 1] * torque
+            gauss = KRONROD[i, 2] * torque
+            k_sin += kronrod * sn
+            k_cos += kronrod * cs
+            k_one += kronrod
+            g_sin += gauss * sn
+            g_cos += gauss * cs
+            g_one += gauss
+            total += abs(kronrod)
     error = max(abs(k_sin - g_sin), abs(k_cos - g_cos), abs(k_one - g_one))
     return half * k_sin, half * k_cos, half * k_one, half * error, half * total
 
@@ -991,10 +996,10 @@ _FRACTION_STEP = math.sqrt(_FRACTION_MAX) / _FRACTION_NODES
 
 
 def _fraction_table():
-    """y = ln u and its first two derivatives in t = sqrt(K) (times the step and its square) on a
-    uniform grid of t: e^y - y - 1 = K solved by bisection (decreasing in y < 0) to the last bit;
+    """u and its first two derivatives in t = sqrt(K) (times the step and its square) on a uniform
+    grid of t.  y = ln u solves e^y - y - 1 = K by bisection (decreasing in y < 0) to the last bit;
     y' = -2 t / (1 - u), y'' = -2 / (1 - u) + 4 t^2 u / (1 - u)^3, at t = 0 -sqrt(2) and -2/3
-    (1 - u = sqrt(2 K) - 2 K / 3 + ...)."""
+    (1 - u = sqrt(2 K) - 2 K / 3 + ...); u' = u y', u'' = u (y'' + y'^2)."""
     t = np.arange(_FRACTION_NODES + 2) * _FRACTION_STEP
     big_k = t * t
     lo, hi = -big_k - 2.0, np.zeros_like(t)
@@ -1008,7 +1013,7 @@ def _fraction_table():
     curvature = np.full_like(t, -2.0 / 3.0)
     slope[1:] = -2.0 * t[1:] / om[1:]
     curvature[1:] = -2.0 / om[1:] + 4.0 * big_k[1:] * u[1:] / om[1:] ** 3
-    return np.stack([log_u, slope * _FRACTION_STEP, curvature * _FRACTION_STEP**2], axis=1)
+    return np.stack([u, u * slope * _FRACTION_STEP, u * (curvature + slope**2) * _FRACTION_STEP**2], axis=1)
 
 
 _FRACTION_TABLE = _fraction_table()
@@ -1017,7 +1022,8 @@ _FRACTION_TABLE = _fraction_table()
 @_jit
 def contact_fraction(big_k):
     """The contact fraction u in (0, 1] with u - ln u = 1 + K, 0 < K <= 40: quintic Hermite
-    interpolation of ln u in sqrt(K); relative error below 1e-15 (1 + K), the ulp of ln u."""
+    interpolation of u in sqrt(K); absolute error below 1e-15, the ulp of 1 (theta* = alpha - s u
+    carries s times it; interpolating ln u instead, relative to u, costs an exp per call)."""
     t = math.sqrt(big_k) / _FRACTION_STEP
     i = min(int(t), _FRACTION_NODES - 1)
     z = t - i
@@ -1027,7 +1033,7 @@ def contact_fraction(big_k):
     c3 = 10.0 * rise - 6.0 * d0 - 4.0 * d1 - 1.5 * e0 + 0.5 * e1
     c4 = -15.0 * rise + 8.0 * d0 + 7.0 * d1 + 1.5 * e0 - e1
     c5 = 6.0 * rise - 3.0 * d0 - 3.0 * d1 - 0.5 * e0 + 0.5 * e1
-    return math.exp(y0 + z * (d0 + z * (0.5 * e0 + z * (c3 + z * (c4 + z * c5)))))
+    return y0 + z * (d0 + z * (0.5 * e0 + z * (c3 + z * (c4 + z * c5))))
 
 
 @_jit
