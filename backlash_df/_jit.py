@@ -3,6 +3,12 @@
 Kernels are compiled on first use and cached beside the source (``cache=True``);
 ``nogil`` lets threads run them side by side.  :func:`on_first_compile` tells a
 caller (the command line) when numba compiles instead of loading its cache.
+
+A constant argument (``0``, ``True``) reaches a compiled callee as a literal type,
+and numba compiles the callee once more, specialised to that value, beside its
+compile for the variable's type (a quarter of a second for the law's mode functions
+under ``_mode_of``).  Where a callee is also called with a variable, a kernel passes
+the constant as ``np.int64(0)`` or ``np.bool_(True)``, whose types are not literal.
 """
 
 import contextlib

@@ -754,7 +754,7 @@ def _elasto_side(amp, omega, bias, k, c, alpha, events):
     else:
         start, sin_start, cos_start = _HALF_PI - hx, cos_hx, sin_hx
         end, sin_end, cos_end = _HALF_PI + hx, cos_hx, -sin_hx
-    n = _add_arc_ends(events, 0, _HALF_PI - psi, cos_psi, sin_psi, hy, cos_hy, sin_hy, start, end)
+    n = _add_arc_ends(events, np.int64(0), _HALF_PI - psi, cos_psi, sin_psi, hy, cos_hy, sin_hy, start, end)
     n = _add_arc_ends(events, n, _HALF_PI + psi, cos_psi, -sin_psi, hy, cos_hy, sin_hy, start, end)
     _sort_events(events, n)
     events[n, 0], events[n, 1], events[n, 2] = end, sin_end, cos_end
@@ -1076,6 +1076,7 @@ def _level_crossings(level, up_mode, down_mode, amp, rate, psi, radius, alpha, c
     """Append every crossing of gamma = level on the rising half (v > 0), with the mode after it
     (up_mode rising through level, down_mode falling)."""
     slope_scale = rate * amp
+    rising, falling = np.bool_(True), np.bool_(False)  # not literals: one compile of _push_crossing (_jit docs)
     # every crossing lies where y' = A sin phi + S cos phi >= alpha + level (from its rise, lo)
     # and x' = A sin phi <= alpha + level (up to hi); gamma < level below y', >= level beyond x'
     h = _arc(0.0, radius, alpha + level)[0]
@@ -1092,7 +1093,7 @@ def _level_crossings(level, up_mode, down_mode, amp, rate, psi, radius, alpha, c
     if lo < 0.0:  # gamma rises on [lo, 0]
         above_end = _top_above(level, amp, slope_scale, alpha) if hi > 0.0 else above_hi
         if above_end and not above:
-            n = _push_crossing(events, n, up_mode, level, lo, min(hi, 0.0), True, amp, slope_scale, alpha)
+            n = _push_crossing(events, n, up_mode, level, lo, min(hi, 0.0), rising, amp, slope_scale, alpha)
         if hi <= 0.0:
             return n
         lo, above = 0.0, above_end
@@ -1101,17 +1102,17 @@ def _level_crossings(level, up_mode, down_mode, amp, rate, psi, radius, alpha, c
         if lo < phi1:  # gamma rises to its maximum
             above1 = crit[2] >= level
             if above1 != above:
-                n = _push_crossing(events, n, up_mode, level, lo, phi1, True, amp, slope_scale, alpha)
+                n = _push_crossing(events, n, up_mode, level, lo, phi1, rising, amp, slope_scale, alpha)
             lo, above = phi1, above1
         if lo < phi2:  # gamma falls to its minimum, or to hi
             above2 = crit[4] >= level if phi2 < hi else above_hi
             if above2 != above:
-                n = _push_crossing(events, n, down_mode, level, lo, min(phi2, hi), False, amp, slope_scale, alpha)
+                n = _push_crossing(events, n, down_mode, level, lo, min(phi2, hi), falling, amp, slope_scale, alpha)
             if phi2 >= hi:
                 return n
             lo, above = phi2, above2
     if above_hi != above:  # gamma rises on [lo, hi]
-        n = _push_crossing(events, n, up_mode, level, lo, hi, True, amp, slope_scale, alpha)
+        n = _push_crossing(events, n, up_mode, level, lo, hi, rising, amp, slope_scale, alpha)
     return n
 
 
@@ -1131,7 +1132,7 @@ def _rubber_side(amp, omega, bias, p, crit, stack, acc, events):
     hy, cos_hy, sin_hy = _arc(bias, radius, alpha)
     contact = (k * radius, _HALF_PI - psi, cos_psi, sin_psi, hy, cos_hy)
     low, high = -0.5 * beta - bias, 0.5 * beta - bias
-    n = _level_crossings(low, 1.0, 0.0, amp, rate, psi, radius, alpha, crit, events, 0)
+    n = _level_crossings(low, 1.0, 0.0, amp, rate, psi, radius, alpha, crit, events, np.int64(0))
     n = _level_crossings(high, 2.0, 1.0, amp, rate, psi, radius, alpha, crit, events, n)
     _sort_events(events, n)
     gamma = -amp - alpha
@@ -1146,7 +1147,7 @@ def _rubber_side(amp, omega, bias, p, crit, stack, acc, events):
     cos_psi2, sin_psi2, psi2 = _rate_geometry(2.0 * rate)  # x + 2 c v / k = bias + R2 sin(phi + psi2)
     hz, cos_hz, sin_hz = _arc(bias, amp * math.sqrt(1.0 + 4.0 * rate * rate), alpha - 0.5 * beta)
     start, end = _HALF_PI, 1.5 * math.pi
-    n = _add_arc_ends(events, 0, _HALF_PI, 1.0, 0.0, hx, cos_hx, sin_hx, start, end)
+    n = _add_arc_ends(events, np.int64(0), _HALF_PI, 1.0, 0.0, hx, cos_hx, sin_hx, start, end)
     n = _add_arc_ends(events, n, _HALF_PI - psi, cos_psi, sin_psi, hy, cos_hy, sin_hy, start, end)
     n = _add_arc_ends(events, n, _HALF_PI - psi2, cos_psi2, sin_psi2, hz, cos_hz, sin_hz, start, end)
     _sort_events(events, n)

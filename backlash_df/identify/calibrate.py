@@ -223,7 +223,7 @@ def _segments(law, p, eps, w_s, tm, tl, starts, stops, z0, substeps, states, tor
     values = (p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12])
     for s in range(starts.shape[0]):
         x, wm, wl = z0[s, 0], z0[s, 1], z0[s, 2]
-        mode = held_mode(law, 0, x, wm - wl, p[2], p[3], p[4], p[5])
+        mode = held_mode(law, np.int64(0), x, wm - wl, p[2], p[3], p[4], p[5])
         for i in range(starts[s], stops[s]):
             states[i, 0], states[i, 1], states[i, 2] = x, wm, wl
             a0, a1, a2, torque[i] = _rates(x, wm, wl, tm[i], tl[i], law, mode, values, eps, w_s)

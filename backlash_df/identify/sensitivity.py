@@ -207,7 +207,7 @@ def segment_sensitivities(law, p, eps, w_s, tm, dtm, tl, starts, stops, z0, subs
         for r in range(3):
             for q in range(width):
                 sens[r, q] = 1.0 if q >= n_columns and initial[q - n_columns] == r else 0.0
-        mode = held_mode(law, 0, x, wm - wl, p[2], p[3], p[4], p[5])
+        mode = held_mode(law, np.int64(0), x, wm - wl, p[2], p[3], p[4], p[5])
         for i in range(starts[s], stops[s]):
             for q in range(width):
                 out[i, 0, q], out[i, 1, q] = sens[1, q], sens[2, q]

@@ -214,8 +214,9 @@ def _command_mode_rk4(mode, cmode, z, t, sys, cmd, law, p, W, hist, dt, work, wv
     if side == 0:
         return 0
     _stage(z, t, mode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, (f_level, f_eps, f_break, f_ws), delay,
-           W, hist, dt, wvals, dvals, work, 5)
-    _command_field(z, 2 * side if integrator >= 0 else side, column, row, limit, integrator, wvals, dvals, work, 5)
+           W, hist, dt, wvals, dvals, work, np.int64(5))
+    _command_field(z, 2 * side if integrator >= 0 else side, column, row, limit, integrator, wvals, dvals, work,
+                   np.int64(5))  # not a literal 5: one compile of _command_field (_jit docs)
     clamped = 0.0
     for j in range(z.shape[0]):
         clamped += row[j] * work[5, j]
@@ -424,7 +425,7 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
     cmode = cmode0
     if first == 0:
         x, v = _xv(z, sys[3], sys[4])
-        mode = _mode_of(law, p, 0, x, v, theta_b)
+        mode = _mode_of(law, p, np.int64(0), x, v, theta_b)
         cmode = 0
         _record(0, z, n, theta_b, mode, cmode, _torque(law, mode, x, v, p), d_rows, Z, T, THETA, MODES, CMODES, hist)
         if cmd[3] > 0.0:  # the command mode of the initial state
@@ -713,7 +714,7 @@ def run_exact(ladders, u_row, e_row, rates, limit, clamps, law, p, W, q, delay, 
     cmode = cmode0
     if first == 0:
         x, v = _xv(q, c_x, c_v)
-        mode = _mode_of(law, p, 0, x, v, q[n])
+        mode = _mode_of(law, p, np.int64(0), x, v, q[n])
         cmode = 0
     events = 0
     first_rows = n + 1 if limit == 0.0 else size  # the rows _step_exactly advances over a whole step
