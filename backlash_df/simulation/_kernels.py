@@ -13,6 +13,10 @@ With a torque limit (:class:`~backlash_df.system.Command`) a run carries a secon
 mode, the command's (:data:`~backlash_df.system.COMMAND_MODES`: linear, saturated,
 integrator clamped, sliding on the limit), switched and located like the backlash's.
 The command is ``cmd = (column, row, error, limit, integrator)``; ``limit = 0``: none.
+:func:`run_exact` takes it as ``command = (u_row, e_row, rates, limit, clamps)`` of
+:func:`~backlash_df.system.command_matrices`, or ``None`` without a limit: numba then
+compiles the kernel without the command's code (it prunes the branches on ``command is
+None`` before typing), a second or more of a first run's compile.
 """
 
 import math
@@ -592,18 +596,19 @@ def _command_mode_exact(mode, cmode, q, u_row, e_row, rates, limit, clamps):
 
 
 @_jit
-def _leaves(law, p, mode, cmode, q, c_x, c_v, u_row, e_row, rates, limit, clamps):
+def _leaves(law, p, mode, cmode, q, c_x, c_v, command):
     """True if ``q``, reached with both modes frozen, lies outside the backlash mode or the command mode."""
     n = c_x.shape[0]
     x, v = _xv(q, c_x, c_v)
     if _must_leave(law, p, mode, x, v, q[n]):
         return True
-    return limit > 0.0 and _command_mode_exact(mode, cmode, q, u_row, e_row, rates, limit, clamps) != cmode
+    if command is None:
+        return False
+    return _command_mode_exact(mode, cmode, q, *command) != cmode
 
 
 @_jit
-def _locate(ladders, which, q, left, law, p, mode, cmode, c_x, c_v, u_row, e_row, rates, limit, clamps, q_lo, trial,
-            q_hi):
+def _locate(ladders, which, q, left, law, p, mode, cmode, c_x, c_v, command, q_lo, trial, q_hi):
     """Bisect for the first time the frozen-mode trajectory must leave its modes; returns it (fraction of dt).
 
     Binary search on the dyadic ladder ``which`` from ``q`` (a sub-step ``dt 2^-j`` is
@@ -619,7 +624,7 @@ def _locate(ladders, which, q, left, law, p, mode, cmode, c_x, c_v, u_row, e_row
         if lo + s >= hi:
             continue
         _apply(ladders, which, j, q_lo, trial, size)
-        if _leaves(law, p, mode, cmode, trial, c_x, c_v, u_row, e_row, rates, limit, clamps):
+        if _leaves(law, p, mode, cmode, trial, c_x, c_v, command):
             _copy_vector(trial, q_hi, size)
             hi = lo + s
         else:
@@ -651,13 +656,12 @@ def _ladder_of(count, mode, cmode):
 
 
 @_jit
-def _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, u_row, e_row, rates, limit, clamps, q_new, q_lo, trial,
-                  q_hi):
+def _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, command, q_new, q_lo, trial, q_hi):
     """Advance ``q`` by one step ``dt``, switching modes at every located event; returns (mode, cmode, events)."""
     n, size = c_x.shape[0], q.shape[0]
     # z and theta_b only: the other entries are constant or reset every step (all of them when the
     # command, which reads the inputs and delayed signals, can switch)
-    first_rows = n + 1 if limit == 0.0 else size
+    first_rows = n + 1 if command is None else size
     left = 1.0  # fraction of the step still to go
     events = 0
     for _ in range(_MAX_EVENTS_PER_STEP):
@@ -666,20 +670,19 @@ def _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, u_row, e_row, rates
             _apply(ladders, which, 0, q, q_new, first_rows)
         else:
             _advance_exactly(ladders, which, q, left, q_new, trial)
-        if not _leaves(law, p, mode, cmode, q_new, c_x, c_v, u_row, e_row, rates, limit, clamps):
+        if not _leaves(law, p, mode, cmode, q_new, c_x, c_v, command):
             _copy_vector(q_new, q, size)
             return mode, cmode, events
         if left == 1.0:
             _apply(ladders, which, 0, q, q_hi, size)
         else:
             _copy_vector(q_new, q_hi, size)
-        h = _locate(ladders, which, q, left, law, p, mode, cmode, c_x, c_v, u_row, e_row, rates, limit, clamps, q_lo,
-                    trial, q_hi)
+        h = _locate(ladders, which, q, left, law, p, mode, cmode, c_x, c_v, command, q_lo, trial, q_hi)
         if law == EXACT and mode == 0:
             q_hi[n] = p[2] if q_hi[n] > 0.0 else -p[2]
         x, v = _xv(q_hi, c_x, c_v)
         new_mode = _mode_of(law, p, mode, x, v, q_hi[n])
-        new_cmode = _command_mode_exact(new_mode, cmode, q_hi, u_row, e_row, rates, limit, clamps) if limit > 0.0 else 0
+        new_cmode = 0 if command is None else _command_mode_exact(new_mode, cmode, q_hi, *command)
         if new_mode == mode and new_cmode == cmode:  # grazing or round-off at a boundary: no real switch
             break
         _copy_vector(q_hi, q, size)
@@ -695,14 +698,15 @@ def _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, u_row, e_row, rates
 
 
 @_jit
-def run_exact(ladders, u_row, e_row, rates, limit, clamps, law, p, W, q, delay, d_rows, c_x, c_v, dt,
-              n_steps, Z, T, THETA, MODES, CMODES, hist, first, mode0, cmode0):
+def run_exact(ladders, command, law, p, W, q, delay, d_rows, c_x, c_v, dt, n_steps, Z, T, THETA, MODES, CMODES, hist,
+              first, mode0, cmode0):
     """Exact-discretisation run on the augmented state ``q`` of :func:`~backlash_df.system.mode_matrices`.
 
     ``ladders`` holds :func:`~backlash_df.system.exp_ladder` of the left-contact,
     free and right-contact matrices (each by command mode with a limit,
     :func:`~backlash_df.system.command_matrices`, whose rows ``u_row, e_row, rates``
-    it switches on).  The run goes from ``q`` at sample ``first`` (0, the modes
+    it switches on; ``command`` holds them, or is None without a limit).  The run goes
+    from ``q`` at sample ``first`` (0, the modes
     found there; or a run's last sample, going on with it, its modes ``mode0`` and
     ``cmode0``, its samples and history ``hist`` up to there filled in) to sample
     ``n_steps``, where ``q`` is left; returns the event count of the steps taken.
@@ -717,7 +721,7 @@ def run_exact(ladders, u_row, e_row, rates, limit, clamps, law, p, W, q, delay, 
         mode = _mode_of(law, p, np.int64(0), x, v, q[n])
         cmode = 0
     events = 0
-    first_rows = n + 1 if limit == 0.0 else size  # the rows _step_exactly advances over a whole step
+    first_rows = n + 1 if command is None else size  # the rows _step_exactly advances over a whole step
     inputs_vary = W.shape[1] > 0 or delay > 0.0
     for i in range(first, n_steps + 1):
         x, v = _xv(q, c_x, c_v)
@@ -726,7 +730,8 @@ def run_exact(ladders, u_row, e_row, rates, limit, clamps, law, p, W, q, delay, 
             break
         if inputs_vary:
             _set_step_inputs(q, i, W, hist, delay, dt, n)
-        if i == 0 and limit > 0.0:  # the command mode of the initial state, its inputs set
+        if i == 0 and command is not None:  # the command mode of the initial state, its inputs set
+            u_row, e_row, _, limit, clamps = command
             cmode = initial_command_mode(_dot(u_row, q), _dot(e_row, q), limit, clamps)
             CMODES[0] = cmode
         # the first try of _step_exactly, here: a step that stays in its modes calls only functions
@@ -734,7 +739,8 @@ def run_exact(ladders, u_row, e_row, rates, limit, clamps, law, p, W, q, delay, 
         _apply(ladders, _ladder_of(ladders.shape[0], mode, cmode), 0, q, q_new, first_rows)
         x, v = _xv(q_new, c_x, c_v)
         stays = not _must_leave(law, p, mode, x, v, q_new[n])
-        if stays and limit > 0.0:
+        if stays and command is not None:
+            u_row, e_row, rates, limit, clamps = command
             u = _dot(u_row, q_new)
             side = _command_side(cmode, u, limit)
             if side == 0:
@@ -745,7 +751,7 @@ def run_exact(ladders, u_row, e_row, rates, limit, clamps, law, p, W, q, delay, 
         if stays:
             _copy_vector(q_new, q, size)
         else:
-            mode, cmode, found = _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, u_row, e_row, rates, limit,
-                                               clamps, q_new, q_lo, trial, q_hi)
+            mode, cmode, found = _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, command, q_new, q_lo, trial,
+                                               q_hi)
             events += found
     return events

@@ -186,11 +186,11 @@ def _simulate_exactly(system, model, w, dt, n_steps, outputs, start, first):
     constant = np.delete(w[0], varying)
     matrices = mode_matrices(system, model, law, varying, constant)
     size = matrices.shape[1]
-    rows, limit, clamps = (np.zeros(size), np.zeros(size), np.zeros((3, 2, 2, size))), 0.0, False
+    command = None  # the kernel compiled without the command's code (simulation._kernels)
     if system.command is not None:
         per_mode, u_row, e_row, rates = command_matrices(system, matrices, varying, constant)
         matrices = per_mode.reshape(-1, size, size)
-        rows, limit, clamps = (u_row, e_row, rates), system.command.limit, system.command.integrator >= 0
+        command = (u_row, e_row, rates, float(system.command.limit), system.command.integrator >= 0)
     ladders = np.stack([exp_ladder(m_aug, dt, LEVELS) for m_aug in matrices])
     if first == 0:
         n = system.A.shape[0]
@@ -199,7 +199,7 @@ def _simulate_exactly(system, model, w, dt, n_steps, outputs, start, first):
     else:
         q = start.state.copy()
     events = run_exact(
-        ladders, *rows, float(limit), clamps, law, _law_params(model), np.ascontiguousarray(w[:, varying]), q,
+        ladders, command, law, _law_params(model), np.ascontiguousarray(w[:, varying]), q,
         float(system.delay), system.d, system.c_x, system.c_v, dt, n_steps, states, torque, theta_b, modes, cmodes,
         hist, first, start.mode, start.cmode,
     )
