@@ -705,7 +705,8 @@ def run_exact(ladders, command, law, p, W, q, delay, d_rows, c_x, c_v, dt, n_ste
     ``ladders`` holds :func:`~backlash_df.system.exp_ladder` of the left-contact,
     free and right-contact matrices (each by command mode with a limit,
     :func:`~backlash_df.system.command_matrices`, whose rows ``u_row, e_row, rates``
-    it switches on; ``command`` holds them, or is None without a limit).  The run goes
+    it switches on; ``command`` holds them, or is None without a limit).  ``W`` is None
+    where neither an input varies nor a signal is delayed.  The run goes
     from ``q`` at sample ``first`` (0, the modes
     found there; or a run's last sample, going on with it, its modes ``mode0`` and
     ``cmode0``, its samples and history ``hist`` up to there filled in) to sample
@@ -722,13 +723,12 @@ def run_exact(ladders, command, law, p, W, q, delay, d_rows, c_x, c_v, dt, n_ste
         cmode = 0
     events = 0
     first_rows = n + 1 if command is None else size  # the rows _step_exactly advances over a whole step
-    inputs_vary = W.shape[1] > 0 or delay > 0.0
     for i in range(first, n_steps + 1):
         x, v = _xv(q, c_x, c_v)
         _record(i, q, n, q[n], mode, cmode, _torque(law, mode, x, v, p), d_rows, Z, T, THETA, MODES, CMODES, hist)
         if i == n_steps or _diverged(i, q, n, Z, T, THETA, MODES, CMODES):
             break
-        if inputs_vary:
+        if W is not None:
             _set_step_inputs(q, i, W, hist, delay, dt, n)
         if i == 0 and command is not None:  # the command mode of the initial state, its inputs set
             u_row, e_row, _, limit, clamps = command

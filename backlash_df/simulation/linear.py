@@ -198,8 +198,10 @@ def _simulate_exactly(system, model, w, dt, n_steps, outputs, start, first):
         q[:n], q[n], q[n + 1] = start.state[:n], start.state[n], 1.0
     else:
         q = start.state.copy()
+    # None: nothing varies over a step, and the kernel is compiled without the inputs' code
+    inputs = np.ascontiguousarray(w[:, varying]) if varying or system.delay > 0.0 else None
     events = run_exact(
-        ladders, command, law, _law_params(model), np.ascontiguousarray(w[:, varying]), q,
+        ladders, command, law, _law_params(model), inputs, q,
         float(system.delay), system.d, system.c_x, system.c_v, dt, n_steps, states, torque, theta_b, modes, cmodes,
         hist, first, start.mode, start.cmode,
     )
