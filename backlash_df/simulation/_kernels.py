@@ -12,11 +12,11 @@ by bisection (:mod:`backlash_df.simulation` explains both):
 With a torque limit (:class:`~backlash_df.system.Command`) a run carries a second
 mode, the command's (:data:`~backlash_df.system.COMMAND_MODES`: linear, saturated,
 integrator clamped, sliding on the limit), switched and located like the backlash's.
-The command is ``cmd = (column, row, error, limit, integrator)``; ``limit = 0``: none.
-:func:`run_exact` takes it as ``command = (u_row, e_row, rates, limit, clamps)`` of
-:func:`~backlash_df.system.command_matrices`, or ``None`` without a limit: numba then
-compiles the kernel without the command's code (it prunes the branches on ``command is
-None`` before typing), a second or more of a first run's compile.
+:func:`run_rk4` takes the command as ``cmd = (column, row, error, limit, integrator)``,
+:func:`run_exact` as ``command = (u_row, e_row, rates, limit, clamps)`` of
+:func:`~backlash_df.system.command_matrices`; both ``None`` without a limit: numba then
+compiles the kernel without the command's code (it prunes the branches on ``is None``
+before typing), one to two seconds of a first run's compile.
 """
 
 import math
@@ -179,11 +179,11 @@ def _stage(z, t, mode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, fri
 
 
 @_inline
-def _rk4(z, t, h, mode, cmode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction, delay, column, u_row,
-         limit, integrator, W, hist, dt, k, tmp, wvals, dvals, out):
+def _rk4(z, t, h, mode, cmode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction, delay, cmd, W, hist,
+         dt, k, tmp, wvals, dvals, out):
     """One classical RK4 step ``h`` from ``(z, t)``, both modes frozen, into ``out``; stages in rows 0-3 of ``k``.
 
-    ``column, u_row, limit, integrator`` the command's (module docs), read in command modes other than 0.
+    ``cmd`` the command (module docs), read in command modes other than 0.
     """
     n = z.shape[0]
     _copy_vector(z, tmp, n)
@@ -191,7 +191,8 @@ def _rk4(z, t, h, mode, cmode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_
     for stage in range(4):
         _stage(tmp, stage_t, mode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction, delay, W, hist,
                dt, wvals, dvals, k, stage)
-        if cmode != 0:
+        if cmd is not None and cmode != 0:
+            column, u_row, _, limit, integrator = cmd
             _command_field(tmp, cmode, column, u_row, limit, integrator, wvals, dvals, k, stage)
         if stage < 3:
             ahead = h if stage == 2 else 0.5 * h
@@ -206,10 +207,8 @@ def _rk4(z, t, h, mode, cmode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_
 def _command_mode_rk4(mode, cmode, z, t, sys, cmd, law, p, W, hist, dt, work, wvals, dvals, ahead):
     """The command mode of state ``z`` at ``t`` reached in ``cmode`` (``du/dt`` by the clamped field
     and by differences of the inputs and delayed signals over half a step; ``ahead`` holds the signals
-    half a step on, inputs then delayed ones)."""
+    half a step on, inputs then delayed ones); ``cmd`` a command, not None."""
     column, row, error, limit, integrator = cmd
-    if limit == 0.0:
-        return 0
     a_mat, b_t, e_mat, c_x, c_v, _, e_d, delay, f_row, e_f, f_level, f_eps, f_break, f_ws = sys
     _signals(t, delay, W, hist, dt, wvals, dvals)
     u = _row_value(row, z, wvals, dvals)
@@ -291,14 +290,17 @@ def _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
     loop does not see the integrator.
     """
     a_mat, b_t, e_mat, c_x, c_v, _, e_d, delay, f_row, e_f, f_level, f_eps, f_break, f_ws = sys
-    column, row, _, limit, integrator = cmd
     _rk4(z, t, h, mode, cmode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, (f_level, f_eps, f_break, f_ws),
-         delay, column, row, limit, integrator, W, hist, dt, work, tmp, wvals, dvals, z_out)
-    if abs(cmode) == 3:
-        _signals(t + h, delay, W, hist, dt, wvals, dvals)
-        z_out[integrator] += ((limit if cmode > 0 else -limit) - _row_value(row, z_out, wvals, dvals)) / row[integrator]
-    command_leaves = limit > 0.0 and _command_mode_rk4(mode, cmode, z_out, t + h, sys, cmd, law, p, W, hist, dt,
-                                                       work, wvals, dvals, ahead) != cmode
+         delay, cmd, W, hist, dt, work, tmp, wvals, dvals, z_out)
+    command_leaves = False
+    if cmd is not None:
+        _, row, _, limit, integrator = cmd
+        if abs(cmode) == 3:
+            _signals(t + h, delay, W, hist, dt, wvals, dvals)
+            gap = (limit if cmode > 0 else -limit) - _row_value(row, z_out, wvals, dvals)
+            z_out[integrator] += gap / row[integrator]
+        command_leaves = _command_mode_rk4(mode, cmode, z_out, t + h, sys, cmd, law, p, W, hist, dt, work, wvals,
+                                           dvals, ahead) != cmode
     x0, v0 = _xv(z, c_x, c_v)
     x1, v1 = _xv(z_out, c_x, c_v)
     theta_new, backlash_leaves = _backlash_after(law, p, mode, theta_b, x0, v0, x1, v1, h)
@@ -358,7 +360,7 @@ def _diverged(i, z, n, Z, T, THETA, MODES, CMODES):
 
 
 @_borrowing
-def _free_steps(i, z, theta_b, mode, cmode, limit, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction,
+def _free_steps(i, z, theta_b, mode, cmode, limited, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction,
                 delay, W, hist, dt, n_steps, d_rows, k, tmp, wvals, dvals, z_new, Z, T, THETA, MODES, CMODES):
     """Sample ``i`` recorded, then, without a torque limit, the steps that stay in their modes, each sample recorded.
 
@@ -376,7 +378,7 @@ def _free_steps(i, z, theta_b, mode, cmode, limit, law, p, a_mat, b_t, e_mat, c_
         _record(i, z, n, theta_b, mode, cmode, torque, d_rows, Z, T, THETA, MODES, CMODES, hist)
         if i == n_steps or _diverged(i, z, n, Z, T, THETA, MODES, CMODES):
             return i, theta_b, True
-        if limit != 0.0:
+        if limited:
             return i, theta_b, False
         t = i * dt
         _copy_vector(z, tmp, n)
@@ -432,7 +434,7 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
         mode = _mode_of(law, p, np.int64(0), x, v, theta_b)
         cmode = 0
         _record(0, z, n, theta_b, mode, cmode, _torque(law, mode, x, v, p), d_rows, Z, T, THETA, MODES, CMODES, hist)
-        if cmd[3] > 0.0:  # the command mode of the initial state
+        if cmd is not None:  # the command mode of the initial state
             _signals(0.0, sys[7], W, hist, dt, wvals, dvals)
             cmode = initial_command_mode(_row_value(cmd[1], z, wvals, dvals), _row_value(cmd[2], z, wvals, dvals),
                                          cmd[3], cmd[4] >= 0)
@@ -441,10 +443,10 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
     # unpacked once: a tuple of arrays passed on, even to an inlined helper, is reference-counted member by member
     a_mat, b_t, e_mat, c_x, c_v, _, e_d, delay, f_row, e_f, f_level, f_eps, f_break, f_ws = sys
     friction = (f_level, f_eps, f_break, f_ws)
-    limit = cmd[3]
+    limited = cmd is not None
     i = first
     while True:
-        i, theta_b, ended = _free_steps(i, z, theta_b, mode, cmode, limit, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d,
+        i, theta_b, ended = _free_steps(i, z, theta_b, mode, cmode, limited, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d,
                                         e_f, f_row, friction, delay, W, hist, dt, n_steps, d_rows, work, tmp, wvals,
                                         dvals, z_new, Z, T, THETA, MODES, CMODES)
         if ended:
@@ -477,8 +479,8 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
             if law == EXACT and mode == 0:
                 theta_try = p[2] if theta_try > 0.0 else -p[2]
             new_mode = _mode_of(law, p, mode, x, v, theta_try)
-            new_cmode = _command_mode_rk4(new_mode, cmode, z_try, t + h, sys, cmd, law, p, W, hist, dt, work, wvals,
-                                          dvals, ahead)
+            new_cmode = 0 if cmd is None else _command_mode_rk4(new_mode, cmode, z_try, t + h, sys, cmd, law, p, W,
+                                                                hist, dt, work, wvals, dvals, ahead)
             if new_mode == mode and new_cmode == cmode:  # grazing or round-off at a boundary: no real switch
                 break
             _copy_vector(z_try, z, n)

@@ -219,11 +219,11 @@ def _law_params(model):
 
 
 def _command_arrays(system):
-    """The command as the RK4 kernel takes it: ``(column, row, error, limit, integrator)``, limit 0 for none."""
+    """The command as the RK4 kernel takes it: ``(column, row, error, limit, integrator)``, None without a limit
+    (the kernel then compiled without the command's code)."""
     command = system.command
     if command is None:
-        width = system.n_states + system.E.shape[1] + system.n_delayed
-        return np.zeros(system.n_states), np.zeros(width), np.zeros(width), 0.0, -1
+        return None
     return command.column, command.row, command.error, float(command.limit), int(command.integrator)
 
 
