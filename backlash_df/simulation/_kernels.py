@@ -16,7 +16,7 @@ integrator clamped, sliding on the limit), switched and located like the backlas
 :func:`run_exact` as ``command = (u_row, e_row, rates, limit, clamps)`` of
 :func:`~backlash_df.system.command_matrices`; both ``None`` without a limit: numba then
 compiles the kernel without the command's code (it prunes the branches on ``is None``
-before typing), one to two seconds of a first run's compile.
+before typing): 1 s of the exact kernel's first compile, 2.5 s of the RK4 kernel's.
 """
 
 import math
