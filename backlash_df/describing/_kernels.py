@@ -54,7 +54,6 @@ KRONROD = np.array((
 ))
 
 
-
 # --------------------------------------------------------------------------- static laws
 
 
@@ -940,21 +939,22 @@ def _first_contact(level, lo, hi, amp, rate, alpha, crit):
     gamma < level at lo, y' = A sin phi + S cos phi >= alpha + level on [lo, hi] and
     hi <= the phase where x' = A sin phi reaches alpha + level (there gamma >= level)."""
     slope_scale = rate * amp
+    rising = np.bool_(True)  # not a literal: one compile of _contact_root (_jit docs)
     sin_x = (alpha + level) / amp
     reaches = sin_x < 1.0 and hi >= math.asin(max(sin_x, -1.0))  # gamma(hi) >= level
     if lo < 0.0 < hi:
         if _top_above(level, amp, slope_scale, alpha):
-            return (True,) + _contact_root(level, lo, 0.0, True, amp, slope_scale, alpha)
+            return (True,) + _contact_root(level, lo, 0.0, rising, amp, slope_scale, alpha)
         lo = 0.0
     elif hi <= 0.0 and not reaches:
         return False, 0.0, 0.0, 0.0
-    if lo >= 0.0 and critical_points(amp, rate, alpha, crit, False) and crit[1] <= hi:
+    if lo >= 0.0 and critical_points(amp, rate, alpha, crit, np.bool_(False)) and crit[1] <= hi:
         if lo < crit[1] and crit[2] >= level:  # the first rise of gamma crosses level
-            return (True,) + _contact_root(level, lo, crit[1], True, amp, slope_scale, alpha)
+            return (True,) + _contact_root(level, lo, crit[1], rising, amp, slope_scale, alpha)
         lo = max(lo, crit[1])  # beyond phi1 gamma falls, then rises once through level if it reaches it
     if not reaches:
         return False, 0.0, 0.0, 0.0
-    return (True,) + _contact_root(level, lo, hi, True, amp, slope_scale, alpha)
+    return (True,) + _contact_root(level, lo, hi, rising, amp, slope_scale, alpha)
 
 
 @_jit
@@ -1097,7 +1097,7 @@ def _level_crossings(level, up_mode, down_mode, amp, rate, psi, radius, alpha, c
         if hi <= 0.0:
             return n
         lo, above = 0.0, above_end
-    if critical_points(amp, rate, alpha, crit, True) and crit[1] < hi:
+    if critical_points(amp, rate, alpha, crit, np.bool_(True)) and crit[1] < hi:
         phi1, phi2 = crit[1], crit[3]
         if lo < phi1:  # gamma rises to its maximum
             above1 = crit[2] >= level
@@ -1322,4 +1322,4 @@ def exact_balance(p, amp, omega, bias, scan_step, n_out, mean_out):
             n_out[i] = complex(acc[0] * scale / a, acc[1] * scale / a)
             mean_out[i] = 0.5 * acc[2] * scale
         else:
-            n_out[i], mean_out[i] = _closed_form_point(DEAD_ZONE, p, a, w, b)
+            n_out[i], mean_out[i] = _closed_form_point(np.int64(DEAD_ZONE), p, a, w, b)
