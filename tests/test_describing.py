@@ -119,10 +119,10 @@ def test_gauss_kronrod_rule_is_exact_to_its_degrees():
     # (odd degrees vanish by symmetry: the even ones tell)
     from backlash_df.describing._kernels import KRONROD
 
-    pairs, kronrod_pairs, gauss_pairs = KRONROD.T  # rows +-x, the last the centre
-    nodes = np.concatenate([pairs, -pairs[:-1]])
-    kronrod, gauss = np.concatenate([kronrod_pairs, kronrod_pairs[:-1]]), np.concatenate([gauss_pairs, gauss_pairs[:-1]])
+    pairs, kronrod, gauss = KRONROD.T  # rows +-x, the last the centre x = 0
     assert pairs[-1] == 0.0 and np.all(pairs[:-1] > 0.0)
+    nodes = np.concatenate([pairs, -pairs[:-1]])
+    kronrod, gauss = (np.concatenate([weights, weights[:-1]]) for weights in (kronrod, gauss))
     for degree in range(0, 26, 2):
         exact = 2.0 / (degree + 1)
         assert (abs(kronrod @ nodes**degree - exact) < 1e-15) == (degree <= 23)
@@ -528,16 +528,14 @@ def test_critical_points_of_x_minus_theta_star_match_a_dense_sampling(rate):
 
 
 def test_contact_fraction_of_the_band_torque_matches_lambert_w():
-    # theta* = alpha - s u, u - ln u = 1 + K (K = 2 alpha k / (c v)), u = -W0(-exp(-1 - K)), in (0, 1]:
-    # interpolated in sqrt(K) to an absolute error of a few ulps of 1 (theta* to s times it)
+    # theta* = alpha - s u, u - ln u = 1 + K (K = 2 alpha k / (c v)), u = -W0(-exp(-1 - K));
+    # ln u ~ -1 - K carries an ulp of 1.1e-16 (1 + K)
     from backlash_df.describing._kernels import contact_fraction
 
-    worst = 0.0
     for big_k in np.concatenate([np.geomspace(1e-10, 40.0, 400), np.linspace(0.01, 40.0, 400)]):
         with mpmath.workdps(30):
             u = -mpmath.lambertw(-mpmath.exp(-1 - mpmath.mpf(big_k)))
-            worst = max(worst, float(abs(contact_fraction(big_k) - u)))
-    assert worst <= 5e-16
+            assert abs(contact_fraction(big_k) - u) <= 1e-15 * (1.0 + big_k) * u
 
 
 def test_grid_on_threads_equals_the_serial_kernel():
