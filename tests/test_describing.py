@@ -201,6 +201,19 @@ def test_rubber_tends_to_the_phase_plane_law_as_beta_goes_to_zero():
     assert errors[0] > errors[1] > errors[2] and errors[2] < 1e-3
 
 
+def test_a_rubber_band_far_thinner_than_the_amplitude_gives_the_phase_plane_law():
+    # beta / A down to 1e-11, at high amplitude and rate: x - theta* + beta / 2 keeps beta / (eps A) of its
+    # digits, the band torque is round-off to the quadrature's tolerance, and its adaptive rule stops at
+    # _MAX_PANELS sub-intervals (before, these six points took seconds to a minute each); the band's share
+    # of N is of order beta, so N is the phase plane law's
+    amplitude = ALPHA * np.array([166.9213314214236, 83.45978308842672, 30.0])[:, None]
+    omega = np.array([2.8770933466367272, 0.8646511722700639])[None, :] * K / C
+    phase = describing_function(model("phase-plane"), amplitude, omega)
+    for beta in (1e-6 * ALPHA, 1e-9 * ALPHA):
+        rubber = describing_function(model("rubber", rubber_thickness=beta), amplitude, omega)
+        assert np.max(np.abs(rubber - phase) / np.abs(phase)) < 1e-12
+
+
 def test_exact_and_phase_plane_agree_where_the_shaft_relaxes_between_contacts():
     # reading notes item 10: agreement when c w A / (k alpha) is small
     ratio = np.geomspace(1.05, 100.0, 20)[:, None]

@@ -38,6 +38,9 @@ _MAX_PIECE = 0.25 * math.pi  # longest sub-interval of the fixed reference rule
 _START_PIECE = 0.5 * math.pi  # longest first sub-interval of the adaptive rule
 _KRONROD_TOLERANCE = 1e-9  # accepted |K15 - G7| / int |T| of a sub-interval
 _MAX_LEVEL = 40  # halvings of a sub-interval before it is accepted as it is
+# Sub-intervals one adaptive integration evaluates at most (QUADPACK's ``limit``); the rubber law's
+# sets of 10^4 points use at most 13 (beta / alpha from 1e-3 to 1.9)
+_MAX_PANELS = 200
 
 # Gauss-Kronrod 7-15 rule on [-1, 1] (Piessens et al., QUADPACK qk15), one row per node pair
 # +-x (the last row the centre x = 0): x, its Kronrod weight, and its weight in the embedded
@@ -150,10 +153,17 @@ def integrate_adaptive(law, m, a, e, amp, omega, bias, p, stack, acc):
     order ``|K15 - G7|^(23/14)`` (degrees of exactness 23 and 13), below 1e-14
     relative at that tolerance.  Affine modes, sinusoids along phi, pass on
     intervals of pi/2; the rubber band, with theta*(v), is refined where needed.
+
+    After ``_MAX_PANELS`` sub-intervals every further one is accepted as it is: where the
+    integrand's own round-off exceeds the tolerance no halving meets it, and the halvings
+    would grow as 2^level.  A rubber band thinner than about 1e-7 of the amplitude is such
+    an integrand (``x - theta* + beta / 2`` keeps ``beta / (eps A)`` of its digits); it took
+    seconds to a minute a point before this bound.
     """
     n_start = int(math.ceil((e - a) / _START_PIECE))
     width = (e - a) / n_start
     top = 0
+    panels = 0
     for s in range(n_start):  # pushed last to first: integrated in order of phase
         stack[top, 0] = e - (s + 1) * width
         stack[top, 1] = e - s * width
@@ -163,7 +173,9 @@ def integrate_adaptive(law, m, a, e, amp, omega, bias, p, stack, acc):
         top -= 1
         lo, hi, level = stack[top, 0], stack[top, 1], stack[top, 2]
         k_sin, k_cos, k_one, error, total = _kronrod(law, m, lo, hi, amp, omega, bias, p[0], p[1], p[2], p[3])
-        if error <= _KRONROD_TOLERANCE * total or level >= _MAX_LEVEL or top + 2 > stack.shape[0]:
+        panels += 1
+        if (error <= _KRONROD_TOLERANCE * total or level >= _MAX_LEVEL or top + 2 > stack.shape[0]
+                or panels >= _MAX_PANELS):
             acc[0] += k_sin
             acc[1] += k_cos
             acc[2] += k_one
