@@ -71,6 +71,9 @@ __all__ = [
 
 _NEWTON_TOL = 1e-11
 _FD_STEP = 1e-6
+# Relative difference of |1 + G N| below which two values count as equal: a flat of the
+# residual (the gear in contact, N independent of A) varies by round-off only, ~1e-13.
+_FLAT_TOL = 1e-9
 
 
 @dataclasses.dataclass(frozen=True)
@@ -334,34 +337,40 @@ class _Problem:
                 return None
         return (p, q) if abs(f) < 1e3 * _NEWTON_TOL else None
 
-    def closest(self, p, q, box):
+    def closest(self, p, q, box, flat=False):
         """Local minimum of |F| from (p, q) inside ``box``: (p, q, |F|).
 
         A trust-region least-squares solve on (Re F, Im F) with the
         finite-difference Jacobian: it follows the narrow curved valleys of
         nearly tangent loci down to the closest approach (or to a root).  The
         Jacobian of each point where F was evaluated is kept for the solver's
-        call at that point.
+        call at that point.  On a ``flat`` (F does not depend on p) the solve
+        runs in q alone: a step in p there is round-off's choice.
         """
         from scipy import optimize  # lazy: scipy.optimize takes a fraction of a second to import
 
         known = {}
+        free = slice(1, 2) if flat else slice(0, 2)
+
+        def point(y):
+            return (p, y[0]) if flat else (y[0], y[1])
 
         def residual(y):
-            f, known[y.tobytes()] = self.answer(self.values([self.request(y[0], y[1])])[0])
+            f, known[y.tobytes()] = self.answer(self.values([self.request(*point(y))])[0])
             return _split(f)
 
         def jacobian(y):
             jac = known.pop(y.tobytes(), None)
-            return self.jacobian(y[0], y[1]) if jac is None else jac
+            return (self.jacobian(*point(y)) if jac is None else jac)[:, free]
 
-        lower, upper = (box[0][0], box[1][0]), (box[0][1], box[1][1])
-        start = np.clip([p, q], lower, upper)
+        lower, upper = np.array([box[0][0], box[1][0]])[free], np.array([box[0][1], box[1][1]])[free]
+        start = np.clip(np.array([p, q])[free], lower, upper)
         found = optimize.least_squares(
             residual, start, jac=jacobian,
             bounds=(lower, upper), method="trf", xtol=1e-13, ftol=1e-15, gtol=1e-15, max_nfev=200,
         )
-        return found.x[0], found.x[1], float(np.hypot(*found.fun))
+        p, q = point(found.x)
+        return p, q, float(np.hypot(*found.fun))
 
 
 def _neighbours(p, q, centre=False):
@@ -415,13 +424,20 @@ def _winding_cells(values):
 
 
 def _local_minima(magnitude):
-    """Interior grid points whose |F| is below all 8 neighbours."""
+    """Interior grid points whose |F| no neighbour of the 8 undercuts by more than ``_FLAT_TOL`` relative.
+
+    On a flat of |F| (the gear in contact: N does not depend on A) neighbours differ by
+    round-off only; a strict comparison would keep or drop the flat's points as the CPU's
+    rounding falls, so values within ``_FLAT_TOL`` count as equal and every point of the
+    flat's floor is a minimum (:func:`_deepest_per_valley` keeps one per valley).
+    """
     core = magnitude[1:-1, 1:-1]
     is_min = np.ones(core.shape, dtype=bool)
     for di in (-1, 0, 1):
         for dj in (-1, 0, 1):
             if di or dj:
-                is_min &= core < magnitude[1 + di:magnitude.shape[0] - 1 + di, 1 + dj:magnitude.shape[1] - 1 + dj]
+                neighbour = magnitude[1 + di:magnitude.shape[0] - 1 + di, 1 + dj:magnitude.shape[1] - 1 + dj]
+                is_min &= core <= neighbour * (1.0 + _FLAT_TOL)
     return np.argwhere(is_min) + 1
 
 
@@ -441,8 +457,8 @@ def _deepest_per_valley(indices, magnitude, reach=2):
     _, valley = connected_components(near, directed=False)
     depth = magnitude[points[:, 0], points[:, 1]]
     deepest = {}
-    for a, label in enumerate(valley):  # the first of equally deep minima is kept
-        if label not in deepest or depth[a] < depth[deepest[label]]:
+    for a, label in enumerate(valley):  # the first of minima equally deep to _FLAT_TOL is kept
+        if label not in deepest or depth[a] < depth[deepest[label]] * (1.0 - _FLAT_TOL):
             deepest[label] = a
     return [indices[a] for a in sorted(deepest.values())]
 
@@ -504,21 +520,22 @@ def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range,
     magnitude = np.abs(values)
     seeds = [(0.5 * (ps[i] + ps[i + 1]), 0.5 * (qs[j] + qs[j + 1])) for i, j in _winding_cells(values)]
     lowest = _local_minima(magnitude)
-    minima = [(ps[i], qs[j]) for i, j in lowest]
+    seeded = [k for k, (i, j) in enumerate(lowest) if not _on_flat(magnitude, i, j)]  # a flat has no Newton step
+    minima = [(ps[lowest[k][0]], qs[lowest[k][1]]) for k in seeded]
     roots, rooted = [], set()  # rooted: the minima whose Newton solve ends on a root
     found = _run_together(problem, [problem.newton(p0, q0, box) for p0, q0 in seeds + minima])
     for k, root in enumerate(found):
         if root is None or not (box[0][0] <= root[0] <= box[0][1] and box[1][0] <= root[1] <= box[1][1]):
             continue
         if k >= len(seeds):
-            rooted.add(k - len(seeds))
+            rooted.add(seeded[k - len(seeds)])
         if all(abs(root[0] - p) > 1e-6 or abs(root[1] - q) > 1e-6 for p, q in roots):
             roots.append(root)
     cycles = sorted((_cycle(problem, p, q) for p, q in roots), key=lambda c: (c.amplitude, c.omega))
     near = []
     open_minima = [index for k, index in enumerate(lowest) if k not in rooted]
-    starts = [(ps[i], qs[j]) for i, j in _deepest_per_valley(open_minima, magnitude)]
-    for p, q, distance in (_closest_on_flat(p0, q0, box, problem) for p0, q0 in starts):
+    starts = [(ps[i], qs[j], _on_flat(magnitude, i, j)) for i, j in _deepest_per_valley(open_minima, magnitude)]
+    for p, q, distance in (_closest_on_flat(p0, q0, box, problem, on) for p0, q0, on in starts):
         at_edge = min(p - box[0][0], box[0][1] - p, q - box[1][0], box[1][1] - q) < 1e-6
         at_root = any(abs(p - pr) < 1e-3 and abs(q - qr) < 1e-3 for pr, qr in roots)
         if distance < 1e-6 or distance > near_miss_cutoff or at_edge or at_root:
@@ -529,9 +546,20 @@ def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range,
     return cycles, sorted(near, key=lambda m: m.distance)
 
 
-def _closest_on_flat(p, q, box, problem):
-    """:meth:`_Problem.closest` from (p, q), moved to the top of a flat (:func:`_flat_top`): (p, q, |F|)."""
-    p, q, distance = problem.closest(p, q, box)
+def _on_flat(magnitude, i, j):
+    """Whether grid point (i, j) lies on a flat of |F| in p: both neighbours in p equal to ``_FLAT_TOL``."""
+    centre = magnitude[i, j]
+    return all(abs(magnitude[i + di, j] - centre) <= _FLAT_TOL * centre for di in (-1, 1))
+
+
+def _closest_on_flat(p, q, box, problem, flat=False):
+    """:meth:`_Problem.closest` from (p, q), moved to the top of a flat (:func:`_flat_top`): (p, q, |F|).
+
+    A start on a ``flat`` of the grid is minimised in q alone and then moved to the flat's top:
+    a Newton or least-squares step in p there is decided by round-off (F does not depend on p),
+    and could end on the flat's top or slide past it into a root beyond, as the CPU rounds.
+    """
+    p, q, distance = problem.closest(p, q, box, flat=flat)
     return _flat_top(problem, p, q, distance, box[0][1]), q, distance
 
 
