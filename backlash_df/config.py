@@ -247,6 +247,19 @@ class Rig:
         """
         return _model(self.source, self.plant, name or self.model)
 
+    def with_law(self, law):
+        """A copy whose shaft is ``law``'s and whose default model is ``law.name``.
+
+        The plant's stiffness, damping, half gap and rubber thickness become the law's
+        (a :class:`~backlash_df.models.BacklashModel` built with values of its own), so
+        that every stage that reads the rig (the search box, the disturbances in gaps,
+        the simulation) works with the law's shaft.  The rig itself when they agree.
+        """
+        shaft = law.plant_params
+        if shaft == self.plant.shaft and law.name == self.model:
+            return self
+        return dataclasses.replace(self, plant=dataclasses.replace(self.plant, **shaft), model=law.name)
+
     def require_controller(self):
         """The controller, or a :class:`RigError` saying the rig has none."""
         if self.controller is None:

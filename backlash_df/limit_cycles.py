@@ -206,6 +206,14 @@ class LimitCyclePrediction:
         Why the describing function could not be applied to this loop (then
         ``cycles`` and ``near_misses`` are empty and the verdict rests on the
         simulations); ``""`` otherwise.
+    law : BacklashModel or None
+        The torque law the cycles are of, as an object: later stages simulate
+        and shoot with it.  None for a user's ``describing`` without a named law.
+    rig : Rig
+        The rig the loop was built from, its shaft the law's
+        (:meth:`~backlash_df.config.Rig.with_law`).
+    user_linear : control.LTI, callable or None
+        The user's linear part, None for the rig's own loop.
     """
 
     model: str
@@ -219,6 +227,34 @@ class LimitCyclePrediction:
     describing: object = dataclasses.field(repr=False, default=None)
     half_gap: float = dataclasses.field(repr=False, default=0.0)
     note: str = ""
+    law: object = dataclasses.field(repr=False, default=None)
+    rig: object = dataclasses.field(repr=False, default=None)
+    user_linear: object = dataclasses.field(repr=False, default=None)
+
+    def loop(self, rig=None, linear=None):
+        """``(rig, law, user_linear)``: what a later stage simulates, the prediction's own.
+
+        A later stage (verification, the verdict, the exact orbits) takes them from
+        here, never rebuilds them.  A ``rig`` or ``linear`` handed to that stage must
+        be the prediction's (a rig with the law's shaft, the same linear object):
+        anything else is refused in one line, as is a prediction without a law to
+        simulate (a user's describing function for which no law was named).
+
+        Raises
+        ------
+        ValueError
+            As above.
+        """
+        if self.law is None:
+            raise ValueError(f"the prediction '{self.model}' used a describing function with no torque law named: "
+                             f"pass model= (the law whose DF it is) to predict_limit_cycles to simulate it")
+        if rig is not None and self.rig is not None and rig.with_law(self.law) != self.rig:
+            raise ValueError(f"the rig given ({rig.source}) is not the one the '{self.model}' prediction was "
+                             f"computed for ({self.rig.source}, with the law's shaft): predict on this rig first")
+        if linear is not None and not isinstance(linear, DriveLoop) and linear is not self.user_linear:
+            raise ValueError(f"the linear part given is not the one the '{self.model}' prediction was computed "
+                             f"with: predict with linear= this system first")
+        return (self.rig if self.rig is not None else rig), self.law, self.user_linear
 
     @property
     def stable_cycles(self):
@@ -637,9 +673,12 @@ def predict_limit_cycles(rig, model=None, linear=None, amplitude_range=None, ome
     rig : Rig
         Plant, ``[controller]`` (unless ``linear`` is given) and default model.
     model : str or BacklashModel, optional
-        Torque law (default: the rig's ``[model] backlash``).
+        Torque law (default: the rig's ``[model] backlash``).  A law built with shaft
+        values of its own stands for the rig's shaft (:meth:`~backlash_df.config.Rig.with_law`):
+        the search box, and every later stage, use its gap.
     linear : DriveLoop, control.LTI or callable, optional
-        The linear part G (shaft torque -> -theta_d); default the rig's PI loop.
+        The linear part G (shaft torque -> -theta_d); default the rig's PI loop.  The
+        result keeps it: later stages need not (and must not) be given another.
     amplitude_range, omega_range : (float, float), optional
         Search box in rad and rad/s (default :func:`default_ranges`; under a load
         the amplitudes reach down to alpha / 50).
@@ -648,7 +687,9 @@ def predict_limit_cycles(rig, model=None, linear=None, amplitude_range=None, ome
     grid : (int, int)
         Scan points in A and w.
     describing : callable, optional
-        ``N(A, w)`` to use instead of the law's describing function.
+        ``N(A, w)`` to use instead of the law's describing function.  The result is
+        labelled ``"<law> (user DF)"`` and later stages simulate the law named by
+        ``model``; without ``model`` it is labelled ``"user DF"`` and they refuse.
     near_miss_cutoff : float
         Largest ``|1 + G N|`` reported as a near miss.
     load_torque : float, optional
@@ -668,10 +709,17 @@ def predict_limit_cycles(rig, model=None, linear=None, amplitude_range=None, ome
     reports ``U`` and whether it exceeds the limit.  Under a load torque the
     saturation's DC balance is not solved: the prediction says so in ``note``.
     """
+    named = model is not None
     if not isinstance(model, BacklashModel):
         model = rig.make_model(model)
+    rig = rig.with_law(model)
+    user_linear = None if linear is None or isinstance(linear, DriveLoop) else linear
     linear = drive_loop(rig) if linear is None else linear
     default_a, default_w = default_ranges(rig)
+    label, law = model.name, model
+    if describing is not None:
+        label, law = (f"{model.name} (user DF)", model) if named else ("user DF", None)
+    carried = dict(law=law, rig=rig, user_linear=user_linear)
     balanced = describing is None and bias == 0.0 and (load_torque is not None or rig.load.torque != 0.0)
     if balanced:
         n_of = BiasedDescribing(model, rig.load.torque if load_torque is None else float(load_torque))
@@ -685,8 +733,8 @@ def predict_limit_cycles(rig, model=None, linear=None, amplitude_range=None, ome
     limited = part is not None and part.command is not None
     if limited and balanced:
         return LimitCyclePrediction(
-            model=model.name, cycles=(), near_misses=(), amplitude_range=amplitude_range, omega_range=omega_range,
-            linear=linear, describing=n_of, half_gap=half_gap,
+            model=label, cycles=(), near_misses=(), amplitude_range=amplitude_range, omega_range=omega_range,
+            linear=linear, describing=n_of, half_gap=half_gap, **carried,
             note="the describing function of a torque-limited loop under a load torque (the saturation's DC balance) "
                  "is not implemented; the simulations decide",
         )
@@ -706,8 +754,9 @@ def predict_limit_cycles(rig, model=None, linear=None, amplitude_range=None, ome
         cycles = [dataclasses.replace(c, command_amplitude=u, saturated=bool(u > part.command.limit))
                   for c, u in ((c, float(g_of_w.command_amplitude(c.amplitude, c.omega))) for c in cycles)]
     return LimitCyclePrediction(
-        model=model.name, cycles=tuple(cycles), near_misses=tuple(near), amplitude_range=amplitude_range,
+        model=label, cycles=tuple(cycles), near_misses=tuple(near), amplitude_range=amplitude_range,
         omega_range=omega_range, linear=g_of_w if limited else linear, describing=n_of, half_gap=half_gap,
+        **carried,
     )
 
 
@@ -786,9 +835,11 @@ def verify_limit_cycles(rig, prediction, linear=None, kick=None, t_end=None, max
     Parameters
     ----------
     rig : Rig
+        The prediction's rig (refused if it is another: :meth:`LimitCyclePrediction.loop`).
     prediction : LimitCyclePrediction
+        Its law and linear part are simulated.
     linear : control.LTI, optional
-        The user's linear part, if the prediction used one.
+        The prediction's own linear part (it is read from the prediction; another is refused).
     kick : float, optional
         Initial dtheta_d (rad/s) when no stable cycle is predicted (default
         ``2 alpha w_n``, w_n the shaft mode of :func:`default_ranges`).
@@ -803,8 +854,7 @@ def verify_limit_cycles(rig, prediction, linear=None, kick=None, t_end=None, max
     LimitCyclePrediction
         A copy with ``simulated`` filled in and ``simulation`` set.
     """
-    model = rig.make_model(prediction.model)
-    user_linear = linear if linear is not None and not isinstance(linear, DriveLoop) else None
+    rig, model, user_linear = prediction.loop(rig, linear)
     cycles = []
     first = None
     for cycle in prediction.cycles:

@@ -609,7 +609,9 @@ def _hermite_max(v0, v1, d0, d1):
 
 
 def _resolve_model(rig, model):
-    return model if isinstance(model, BacklashModel) else rig.make_model(model)
+    """``(rig, law)``: the law (the rig's by name, or as given) and the rig with the law's shaft."""
+    law = model if isinstance(model, BacklashModel) else rig.make_model(model)
+    return rig.with_law(law), law
 
 
 # --------------------------------------------------------------------------- results
@@ -794,7 +796,7 @@ def orbit_state_names(rig, model=None, *, pade_order=DEFAULT_PADE_ORDER):
         The loop's states, then ``pade_1 ..`` (dead time; ``pade1_1 .. pade2_p`` for
         the two measured signals of a cascade), then ``theta_b`` (exact model).
     """
-    return _loop(rig, _resolve_model(rig, model), pade_order).names
+    return _loop(*_resolve_model(rig, model), pade_order).names
 
 
 def orbit_residual(rig, model, unknowns, *, pade_order=DEFAULT_PADE_ORDER):
@@ -825,7 +827,7 @@ def orbit_residual(rig, model, unknowns, *, pade_order=DEFAULT_PADE_ORDER):
     OrbitNotFound
         The flow chatters at a boundary, grazes it, or ``T <= 0``.
     """
-    loop = _loop(rig, _resolve_model(rig, model), pade_order)
+    loop = _loop(*_resolve_model(rig, model), pade_order)
     unknowns = np.asarray(unknowns, dtype=float)
     if unknowns.shape != (loop.size + 1,):
         raise ValueError(f"orbit_residual: unknowns must hold {loop.size} states ({', '.join(loop.names)}) "
@@ -1014,7 +1016,7 @@ def periodic_orbit(rig, model=None, seed=None, *, tol=1e-10, max_iter=50, pade_o
     >>> round(orbit.amplitude, 4), round(orbit.omega, 2), orbit.stable
     (0.1505, 95.86, True)
     """
-    model = _resolve_model(rig, model)
+    rig, model = _resolve_model(rig, model)
     loop = _loop(rig, model, pade_order)
     if seed is None:
         cycles = predict_limit_cycles(rig, model).cycles
@@ -1193,7 +1195,10 @@ def exact_orbits(rig, prediction, simulated=None, *, pade_order=DEFAULT_PADE_ORD
         By increasing amplitude; orbits with periods within 1e-6 and amplitudes
         within 1e-5 (relative) are one.  Seeds from which shooting fails are skipped.
     """
-    model = rig.make_model(prediction.model)
+    rig, model, user_linear = prediction.loop(rig)
+    if user_linear is not None:
+        raise ValueError(f"exact orbits of the '{prediction.model}' prediction: shooting takes the rig's own loop, "
+                         f"not a user's linear part")
     seeds = list(prediction.cycles) + list(prediction.near_misses[:near_misses])
     if simulated is not None and (not hasattr(simulated, "found") or simulated.found):
         seeds.append(simulated)

@@ -148,7 +148,7 @@ def prediction_verdict(rig, prediction):
         lowest = stable[0].amplitude
         below = any(not cycle.stable and cycle.amplitude < lowest for cycle in prediction.cycles)
         return "bistable" if below else "limit cycle"
-    model = rig.make_model(prediction.model)
+    rig, model, _ = prediction.loop(rig)
     if linear_stability(drive_loop(rig).linear_part(), model.stiffness, model.damping).status == "unstable":
         return "unstable"
     return "undetermined" if prediction.cycles else "no oscillation"

@@ -65,7 +65,7 @@ import warnings
 
 from .disturbances import KINDS, TWIST, Disturbance, kind_words, standard_disturbances
 from .equilibria import PADE_ORDER, LinearStability, contact_shaft, linear_stability, loop_rests
-from .loops import DriveLoop, drive_loop
+from .loops import drive_loop
 from .models import BacklashModel
 from .orbits import exact_orbits, periodic_orbit
 from .plotting import ResultPlot, axes_or_new, legend_beside, log_scale
@@ -602,7 +602,7 @@ def _exact(rig, prediction, probes, t_end, max_t_end, dt=None, near_misses=1):
     cycling = [p for p in probes if p.measured.periodic]
     if cycling:  # the run again, for a state on the cycle
         first = cycling[0]
-        _, seed = simulated_limit_cycle(rig, prediction.model, t_end=t_end, max_t_end=max_t_end, dt=dt,
+        _, seed = simulated_limit_cycle(rig, prediction.law, t_end=t_end, max_t_end=max_t_end, dt=dt,
                                         initial=first.rest.initial(first.disturbance), theta_b0=first.rest.theta_b)
     try:
         orbits = exact_orbits(rig, prediction, simulated=seed, near_misses=near_misses)
@@ -616,7 +616,7 @@ def _separatrix(rig, prediction, orbits, cycle):
     below = [o for o in orbits if not o.stable and o.amplitude < cycle.amplitude]
     for seed in () if below else [c for c in prediction.cycles if not c.stable]:
         try:
-            orbit = periodic_orbit(rig, prediction.model, seed)
+            orbit = periodic_orbit(rig, prediction.law, seed)
         except ValueError:  # shooting failed, or a law it does not handle
             continue
         if not orbit.stable and orbit.amplitude < cycle.amplitude:
@@ -631,11 +631,13 @@ def judge_loop(rig, prediction, linear=None, t_end=10.0, max_t_end=320.0, distur
     Parameters
     ----------
     rig : Rig
+        The prediction's rig (another is refused: :meth:`~backlash_df.limit_cycles.LimitCyclePrediction.loop`).
     prediction : LimitCyclePrediction
         Verified (:func:`~backlash_df.limit_cycles.verify_limit_cycles`) or not:
-        the probes are the same.
+        the probes are the same.  Its law and linear part are the ones judged.
     linear : control.LTI, optional
-        The user's linear part, if the prediction used one (twists only: it has no motor speed).
+        The prediction's own linear part (read from the prediction; another is refused;
+        twists only: it has no motor speed).
     t_end, max_t_end : float
         First and largest simulated time of each probe, s; a probe still unsettled at
         ``max_t_end`` runs again from its start, for ``2 max_t_end`` and ``LONGER max_t_end``.
@@ -656,8 +658,7 @@ def judge_loop(rig, prediction, linear=None, t_end=10.0, max_t_end=320.0, distur
     -------
     LoopVerdict
     """
-    model = rig.make_model(prediction.model)
-    user_linear = linear if linear is not None and not isinstance(linear, DriveLoop) else None
+    rig, model, user_linear = prediction.loop(rig, linear)
     part = drive_loop(rig).linear_part() if user_linear is None else lti_linear_part(user_linear)
     contact = linear_stability(part, *contact_shaft(model), "contact")
     opened = linear_stability(part, 0.0, 0.0, "open")
