@@ -323,15 +323,39 @@ def test_diagnose_refuses_bad_input(work, no_computation, csv_text, rig, words):
     assert_refused(result, words, work)
 
 
-def _misspelled_rubber_record(folder):
+def _misspelled_rubber_record(folder, old="load_torque", new="load_trq"):
     """examples/diagnose_rubber.csv with ``load_torque`` spelt ``load_trq`` (issue 23), as data.csv."""
     text = (EXAMPLES / "diagnose_rubber.csv").read_text()
     assert text.startswith("time,motor_torque,motor_speed,load_speed,load_torque\n")
-    (folder / "data.csv").write_text(text.replace("load_torque", "load_trq", 1))
+    (folder / "data.csv").write_text(text.replace(old, new, 1))
     (folder / "rig.toml").write_text((EXAMPLES / "diagnose_rig.toml").read_text())
 
 
 NOTICE = "data.csv: load_trq: not a known column; did you mean load_torque?"
+
+
+@pytest.mark.parametrize("old, new", [("load_speed", "load_sped"), ("load_torque", "load_trq")])
+def test_diagnose_refuses_a_misspelled_column_in_one_line(work, no_computation, old, new):
+    """Issue 49: with load_speed spelt load_sped the diagnosis ran without the load speed (cause: none)."""
+    _misspelled_rubber_record(work, old, new)
+    result = CliRunner().invoke(main, ["diagnose", "data.csv", "--rig", "rig.toml", "--json", "d.json",
+                                       "--report", "d.html"])
+    assert_refused(result, [f"data.csv: column '{new}' looks like a misspelling of '{old}'",
+                            "--allow-unknown-columns"], work)
+
+
+def _diagnosis_reached(measurements, rig, **options):
+    raise ValueError(f"diagnosis reached with {', '.join(measurements.columns())}")
+
+
+def test_diagnose_only_notes_an_unrelated_unknown_column(work, monkeypatch):
+    _misspelled_rubber_record(work, "load_torque", "temperature")
+    monkeypatch.setattr(backlash_df.cli.diagnose, "run_diagnosis", _diagnosis_reached)
+    result = CliRunner().invoke(main, ["diagnose", "data.csv", "--rig", "rig.toml"])
+    assert result.stderr.splitlines() == [
+        "note: data.csv: temperature: not a known column; known: time, motor_torque, motor_speed, load_speed, "
+        "load_torque, motor_angle, load_angle",
+        "backlash-df: error: diagnosis reached with time, motor_torque, motor_speed, load_speed"]
 
 
 def test_diagnose_strict_refuses_a_misspelled_column_in_one_line(work, no_computation):
@@ -340,9 +364,10 @@ def test_diagnose_strict_refuses_a_misspelled_column_in_one_line(work, no_comput
     assert_refused(result, [f"backlash-df: error: {NOTICE}"], work)
 
 
-def test_diagnose_names_a_misspelled_column_and_goes_on(work):
+def test_diagnose_allowing_unknown_columns_names_a_misspelled_column_and_goes_on(work):
     _misspelled_rubber_record(work)
-    result = CliRunner().invoke(main, ["diagnose", "data.csv", "--rig", "rig.toml", "--json", "d.json"])
+    result = CliRunner().invoke(main, ["diagnose", "data.csv", "--rig", "rig.toml", "--allow-unknown-columns",
+                                       "--json", "d.json"])
     assert result.exit_code == 0, result.output
     assert f"note: {NOTICE}" in result.stderr.splitlines()
     assert result.stdout.startswith("cause: ")  # the diagnosis ran
@@ -370,7 +395,8 @@ def test_diagnose_help_has_the_contract_table_of_columns():
     text = " ".join(result.output.split())
     for words in ("gear_ratio n (torque times n, speed and angle divided by n)", "positive motor_torque drives the "
                   "motor forward", "positive load_torque drives the load forward", "derivative of its angle",
-                  "did you mean load_torque?", "--strict"):
+                  "did you mean load_torque?", "--strict", "looks like a misspelling of an optional column",
+                  "--allow-unknown-columns"):
         assert words in text, words
 
 

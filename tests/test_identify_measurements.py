@@ -292,7 +292,8 @@ def test_extra_columns_are_not_read_even_text_and_are_named_in_a_note(tmp_path):
     assert loaded.notes == (f"{path}: note: not a known column; known: {known}",)
 
 
-# ---- unknown columns: one notice line with the closest known name; strict=True refuses with that line
+# ---- unknown columns: one notice line with the closest known name; strict=True refuses with that line;
+# ---- a misspelt optional column refuses the file unless allow_unknown_columns=True
 
 
 def _misspelled(tmp_path, old, new):
@@ -308,7 +309,7 @@ def _misspelled(tmp_path, old, new):
 def test_a_misspelled_column_is_named_with_the_closest_known_name(tmp_path):
     path = _misspelled(tmp_path, "load_torque", "load_trq")
     right = load_measurements(EXAMPLES / "diagnose_rubber.csv")
-    loaded = load_measurements(path)
+    loaded = load_measurements(path, allow_unknown_columns=True)
     line = f"{path}: load_trq: not a known column; did you mean load_torque?"
     assert right.notes == () and loaded.notes == (line,)
     assert loaded.load_torque is None and right.load_torque is not None  # the column is not read
@@ -324,13 +325,54 @@ def test_several_unknown_columns_are_one_line(tmp_path):
     columns = _columns()
     columns = {"Load_Speed" if name == "load_speed" else name: values for name, values in columns.items()}
     path = _write(tmp_path / "odd.csv", columns | {"temperature": np.full(N, 20.0), "": np.zeros(N)})
-    (note,) = load_measurements(path).notes
+    (note,) = load_measurements(path, allow_unknown_columns=True).notes
     assert note == (f"{path}: not known columns: Load_Speed (did you mean load_speed?), temperature, column 9 "
                     "(no name); known: time, motor_torque, motor_speed, load_speed, load_torque, motor_angle, "
                     "load_angle")
     with pytest.raises(ValueError) as info:
         load_measurements(path, strict=True)
     assert str(info.value) == note
+
+
+@pytest.mark.parametrize("old, new", [("load_speed", "load_sped"), ("load_torque", "load_trq"),
+                                      ("load_speed", "Load_Speed"), ("load_torque", "loadtorque")])
+def test_a_misspelled_optional_column_refuses_the_file_in_one_line(tmp_path, old, new):
+    path = _misspelled(tmp_path, old, new)
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(path))}: column '{new}' looks like a misspelling of "
+                                         rf"'{old}' \(pass --allow-unknown-columns, or allow_unknown_columns=True "
+                                         r"in Python, to read such a column as an unknown one\)$"):
+        load_measurements(path)
+
+
+def test_allow_unknown_columns_reads_a_misspelled_column_as_an_unknown_one(tmp_path):
+    path = _misspelled(tmp_path, "load_speed", "load_sped")
+    loaded = load_measurements(path, allow_unknown_columns=True)
+    assert loaded.notes == (f"{path}: load_sped: not a known column; did you mean load_speed?",)
+    assert loaded.load_speed is None and loaded.load_torque is not None
+
+
+def test_strict_refuses_a_misspelled_column_with_the_notice(tmp_path):
+    path = _misspelled(tmp_path, "load_speed", "load_sped")
+    for allow in (False, True):
+        with pytest.raises(ValueError, match=r"load_sped: not a known column; did you mean load_speed\?$"):
+            load_measurements(path, strict=True, allow_unknown_columns=allow)
+
+
+def test_several_misspelled_columns_are_one_refusal(tmp_path):
+    columns = {"load_sped" if name == "load_speed" else "load_trq" if name == "load_torque" else name: values
+               for name, values in _columns().items()}
+    path = _write(tmp_path / "two.csv", columns)
+    with pytest.raises(ValueError, match=r"columns look like misspellings: 'load_sped' of 'load_speed', "
+                                         r"'load_trq' of 'load_torque' \(pass --allow-unknown-columns"):
+        load_measurements(path)
+
+
+@pytest.mark.parametrize("name", ["temperature", "current", "motor_current", "load_tq", "note"])
+def test_an_unrelated_unknown_column_is_only_noted(tmp_path, name):
+    # motor_current: 0.64 like motor_torque, below the cutoff; load_tq: 0.78 like load_torque, a suggestion only
+    columns = {name if key == "load_torque" else key: values for key, values in _columns().items()}
+    (note,) = load_measurements(_write(tmp_path / "unrelated.csv", columns)).notes
+    assert note.startswith(f"{tmp_path / 'unrelated.csv'}: {name}: not a known column; ")
 
 
 def test_a_known_name_present_is_not_suggested(tmp_path):

@@ -1,15 +1,19 @@
-"""What every command shares: one-line errors with exit code 2, option types, plain-text tables."""
+"""What every command shares: one-line errors with exit code 2, option types, plain-text tables, progress bars."""
 
 import math
 import sys
+import threading
+import time
 from pathlib import Path
 
 import click
+from tqdm import tqdm
 
 from .._jit import on_first_compile
 from ..models import MODEL_NAMES
 
-__all__ = ["Group", "fail", "FINITE", "MODEL", "COMPILING_NOTICE", "stderr_is_terminal", "numbers", "echo_table", "read_text"]
+__all__ = ["Group", "fail", "FINITE", "MODEL", "COMPILING_NOTICE", "stderr_is_terminal", "progress_bar", "StageLine",
+           "numbers", "echo_table", "read_text"]
 
 
 def fail(message, code=2):
@@ -66,6 +70,95 @@ def _compiling_notice():
 def stderr_is_terminal():
     """True where standard error is a terminal."""
     return sys.stderr.isatty()
+
+
+def progress_bar(desc, total=None, unit="it"):
+    """The progress of one stage of a command: a bar on a terminal, one line in a log.
+
+    Parameters
+    ----------
+    desc : str
+        The stage's name, shown before the count (``"diagnose: fits"``).
+    total : int, optional
+        The count at which the stage is complete (None: unknown).
+    unit : str
+        What is counted, singular (``"fit"``).
+
+    Returns
+    -------
+    tqdm or StageLine
+        Where standard error is a terminal, a tqdm bar on it that leaves nothing behind
+        when closed; elsewhere (a file, a pipe, CI, a notebook) a :class:`StageLine`,
+        which draws no frames.  Both count with ``update(n)`` and hold ``n`` and a
+        settable ``total``, take ``set_postfix_str``, ``close()`` and ``with``.
+    """
+    if stderr_is_terminal():
+        return tqdm(desc=desc, total=total, unit=unit, file=sys.stderr, leave=False)
+    return StageLine(desc, total, unit)
+
+
+class StageLine:
+    """A progress bar's stand-in off a terminal: one stderr line when its stage ends, nothing before.
+
+    The stage ends when its count reaches ``total`` or, at the latest, when it is
+    closed; the line then says ``DESC: N UNITs, S s`` (``diagnose: fits: 57 fits,
+    3.2 s``).  A stage ended by an exception says nothing: the error line does.
+    ``update`` may be called from several threads.
+
+    Parameters
+    ----------
+    desc : str
+        The stage's name.
+    total : int, optional
+        The count at which the stage is complete (None: unknown); may be set later.
+    unit : str
+        What is counted, singular.
+
+    Attributes
+    ----------
+    n : int
+        The count so far.
+    """
+
+    def __init__(self, desc, total=None, unit="it"):
+        self.desc, self.total, self.unit = desc, total, unit
+        self.n = 0
+        self._start = time.perf_counter()
+        self._lock = threading.Lock()
+        self._ended = False
+
+    def update(self, n=1):
+        """Count ``n`` more; the stage ends when the count reaches ``total``."""
+        with self._lock:
+            self.n += n
+            complete = self.total is not None and self.n >= self.total
+        if complete:
+            self.close()
+
+    def set_postfix_str(self, s="", refresh=True):
+        """Ignored: a log gets no running detail (the signature is tqdm's)."""
+
+    def close(self):
+        """End the stage with its one line (once; later calls do nothing)."""
+        if self._end():
+            plural = "" if self.n == 1 else "s"
+            click.echo(f"{self.desc}: {self.n} {self.unit}{plural}, {time.perf_counter() - self._start:.1f} s",
+                       err=True)
+
+    def _end(self):
+        """Mark the stage ended; True the first time only."""
+        with self._lock:
+            first, self._ended = not self._ended, True
+        return first
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, kind, value, traceback):
+        if kind is None:
+            self.close()
+        else:
+            self._end()
 
 
 #: A torque-law name (``--model``).

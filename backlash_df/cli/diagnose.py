@@ -2,15 +2,14 @@
 
 import json
 import os
-import sys
 
 import click
-from tqdm import tqdm
 
 from ..config import load_rig
 from ..identify import diagnose as run_diagnosis
 from ..identify import load_measurements
 from ..identify.diagnose import GAIN_DEFINITION
+from .common import progress_bar
 from .outputs import Outputs
 
 __all__ = ["diagnose_command"]
@@ -23,7 +22,10 @@ __all__ = ["diagnose_command"]
 @click.option("--report", "report_out", type=click.Path(dir_okay=False), default=None,
               help="Write a self-contained HTML report.")
 @click.option("--strict", is_flag=True, help="Refuse a CSV whose header names a column not listed above.")
-def diagnose_command(data, rig_file, json_out, report_out, strict):
+@click.option("--allow-unknown-columns", is_flag=True,
+              help="Read a column that looks like a misspelt one of the list above (load_sped) as an unknown "
+                   "column: not read, with a note.")
+def diagnose_command(data, rig_file, json_out, report_out, strict, allow_unknown_columns):
     """Name the physical cause of what the rig's model gets wrong in the measurement CSV DATA.
 
     DATA: UTF-8, comma-separated with a decimal point, one header row naming the
@@ -45,14 +47,17 @@ def diagnose_command(data, rig_file, json_out, report_out, strict):
     twist is theta_d = motor_angle / n - load_angle.  A header name not in this
     list is not read: a note names it with the closest known column
     (load_trq: not a known column; did you mean load_torque?); --strict refuses
-    the file instead.
+    the file instead.  A name that looks like a misspelling of an optional
+    column the header lacks (load_sped, load_trq, Load_Speed) refuses the file
+    unless --allow-unknown-columns is given.
     """
     outputs = Outputs({"--json": json_out, "--report": report_out})
     rig = load_rig(rig_file)
-    measurements = load_measurements(data, gear_ratio=rig.plant.gear_ratio, strict=strict)
+    measurements = load_measurements(data, gear_ratio=rig.plant.gear_ratio, strict=strict,
+                                     allow_unknown_columns=allow_unknown_columns)
     for note in measurements.notes:
         click.echo(f"note: {note}", err=True)
-    with tqdm(desc="diagnose: fits", unit="fit", file=sys.stderr, leave=False) as bar:
+    with progress_bar("diagnose: fits", unit="fit") as bar:
         result = run_diagnosis(measurements, rig, workers=min(2, os.cpu_count() or 1),
                                progress=lambda label: (bar.set_postfix_str(label[:40]), bar.update()))
     shaft = result.shaft

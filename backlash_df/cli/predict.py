@@ -2,14 +2,12 @@
 
 import contextlib
 import json
-import sys
 
 import click
-from tqdm import tqdm
 
 from ..analysis import analyse_loop, loop_models
 from ..config import load_rig
-from .common import MODEL, echo_table, read_text
+from .common import MODEL, echo_table, progress_bar, read_text
 from .outputs import Outputs
 from .warmup import warm_kernels
 
@@ -39,8 +37,7 @@ def predict_command(rig_file, models, json_out, report_out, exact):
 
         def progress(done, total):  # the bar opens with the first simulation: bad input prints no bar
             if not bars:
-                bars.append(stack.enter_context(tqdm(total=total, desc="simulating", unit="run", file=sys.stderr,
-                                                     leave=False)))
+                bars.append(stack.enter_context(progress_bar("simulating", total=total, unit="run")))
             bars[0].update(done - bars[0].n)
 
         analysis = analyse_loop(rig, models, exact=exact, progress=progress)

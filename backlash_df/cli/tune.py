@@ -2,14 +2,12 @@
 
 import contextlib
 import json
-import sys
 
 import click
-from tqdm import tqdm
 
 from ..config import load_rig
 from ..tuning import TUNABLE, tune
-from .common import MODEL, echo_table, read_text
+from .common import MODEL, echo_table, progress_bar, read_text
 from .executors import checkpoint_for, checkpoint_options, executor_for, executor_options, stopped_note
 from .outputs import Outputs
 
@@ -63,7 +61,7 @@ def tune_command(rig_file, vary, tolerance, model_name, workers, dask, scheduler
 
         def progress(stage, done, total):
             if stage not in bars and stage != "done":
-                bars[stage] = stack.enter_context(tqdm(desc=stage, unit="tuning", file=sys.stderr, leave=False))
+                bars[stage] = stack.enter_context(progress_bar(stage, unit="tuning"))
             if stage in bars:
                 bars[stage].total = total
                 bars[stage].update(done - bars[stage].n)

@@ -28,11 +28,15 @@ ratio than the rig's.  With gear ratio 1 (the default) nothing changes.
 Encoders are zeroed independently, so it holds up to a constant offset.
 
 A file with bad rows is refused with one line naming the file, the column and the
-file lines; it is never silently trimmed.  A header name that is no column of the
-table above is not read: one line in :attr:`Measurements.notes` lists every such
-name with the closest known one (``load_trq: not a known column; did you mean
-load_torque?``), and ``load_measurements(..., strict=True)`` refuses the file with
-that line instead.  A record longer than
+file lines; it is never silently trimmed.  A header name that looks like a
+misspelt optional column absent from the header (``load_sped``, ``load_trq``,
+``Load_Speed``: :data:`MISSPELLING_CUTOFF`) refuses the file in one line naming
+both, unless ``load_measurements(..., allow_unknown_columns=True)``.  Any other
+header name that is no column of the table above is not read: one line in
+:attr:`Measurements.notes` lists every such name with the closest known one
+(``load_trq: not a known column; did you mean load_torque?``), and
+``load_measurements(..., strict=True)`` refuses the file with that line instead.
+A record longer than
 :data:`MAX_SAMPLES` is decimated by block means, with a note in
 :attr:`Measurements.notes`, or refused when decimation would sample it too slowly.
 """
@@ -64,6 +68,7 @@ __all__ = [
     "MAX_DECIMATED_INTERVAL",
     "MAX_PLAUSIBLE_SPEED",
     "ANGLE_TOLERANCE",
+    "MISSPELLING_CUTOFF",
 ]
 
 REQUIRED_COLUMNS = ("time", "motor_torque", "motor_speed")
@@ -82,6 +87,10 @@ MAX_DECIMATED_INTERVAL = 0.004
 MAX_PLAUSIBLE_SPEED = 1000.0
 #: Largest mismatch between an angle and its integrated speed, relative to the angle's range.
 ANGLE_TOLERANCE = 0.05
+#: Least similarity (:class:`difflib.SequenceMatcher` ratio, case ignored) at which an unknown column is taken
+#: for a misspelt known one absent from the header: ``load_sped`` (0.95) and ``load_trq`` (0.84) are,
+#: ``motor_current`` (0.64 to ``motor_torque``) and ``temperature`` are not.
+MISSPELLING_CUTOFF = 0.8
 _UNIFORM_TOLERANCE = 0.01  # relative deviation of a time step from the median step
 _ANGLE_SPEEDS = {"motor_angle": "motor_speed", "load_angle": "load_speed"}
 _UNITS = {"time": "s", "motor_torque": "N m", "load_torque": "N m", "motor_speed": "rad/s",
@@ -473,6 +482,35 @@ def _unknown_columns_text(header):
     return f"not known columns: {names}" + (f"; {known}" if None in unknown.values() else "")
 
 
+def _misspellings(header):
+    """The header's unknown names that look like a misspelt known column absent from it, each with that column."""
+    return {name: match for name, match in _unknown_columns(header).items()
+            if match and difflib.SequenceMatcher(None, name.lower(), match).ratio() >= MISSPELLING_CUTOFF}
+
+
+def _check_misspellings(header, path):
+    """Refuse a header with a name that looks like a misspelt known column (:data:`MISSPELLING_CUTOFF`).
+
+    Examples
+    --------
+    >>> _check_misspellings(["time", "motor_torque", "motor_speed", "load_sped"], "data.csv")
+    Traceback (most recent call last):
+    ...
+    ValueError: data.csv: column 'load_sped' looks like a misspelling of 'load_speed' (pass ...)
+    """
+    misspelt = _misspellings(header)
+    if not misspelt:
+        return
+    if len(misspelt) == 1:
+        ((name, match),) = misspelt.items()
+        what = f"column '{name}' looks like a misspelling of '{match}'"
+    else:
+        what = "columns look like misspellings: " + ", ".join(f"'{name}' of '{match}'"
+                                                              for name, match in misspelt.items())
+    raise ValueError(f"{path}: {what} (pass --allow-unknown-columns, or allow_unknown_columns=True in Python, "
+                     f"to read such a column as an unknown one)")
+
+
 def _check_header(header, path):
     """Refuse a header without the required columns (naming a close unknown name) or with a name twice."""
     missing = [name for name in REQUIRED_COLUMNS if name not in header]
@@ -525,13 +563,18 @@ def read_columns(path):
     Returns
     -------
     dict of str to ndarray
-        The columns of the module docs that the header holds, in file units.
+        The columns of the module docs that the header holds, in file units (an
+        unknown column, misspelt or not, is left out).
     """
-    return _read_table(path, strict=False)[0]
+    return _read_table(path, strict=False, allow_unknown_columns=True)[0]
 
 
-def _read_table(path, strict):
-    """The known columns (as :func:`read_columns`) and the notice on unknown ones, refused first if ``strict``."""
+def _read_table(path, strict, allow_unknown_columns):
+    """The known columns (as :func:`read_columns`) and the notice on unknown ones.
+
+    With ``strict`` an unknown column refuses the file with the notice; else, without
+    ``allow_unknown_columns``, a misspelt known one refuses it (:func:`_check_misspellings`).
+    """
     with path.open(newline="", encoding="utf-8-sig") as handle:
         header = [name.strip() for name in next(csv.reader([handle.readline()]), [])]
         _check_header(header, path)
@@ -539,6 +582,8 @@ def _read_table(path, strict):
         notice = f"{path}: {unknown}" if unknown else ""
         if notice and strict:
             raise ValueError(notice)
+        if not allow_unknown_columns:
+            _check_misspellings(header, path)
         known = [name for name in REQUIRED_COLUMNS + OPTIONAL_COLUMNS if name in header]
         try:
             with warnings.catch_warnings():
@@ -554,7 +599,7 @@ def _read_table(path, strict):
             return _parse_rows(reader, header, known, path), notice
 
 
-def load_measurements(path, gear_ratio=1.0, max_samples=MAX_SAMPLES, strict=False):
+def load_measurements(path, gear_ratio=1.0, max_samples=MAX_SAMPLES, strict=False, allow_unknown_columns=False):
     """Read and check a measurement CSV file and reflect it to the load side.
 
     Parameters
@@ -572,6 +617,10 @@ def load_measurements(path, gear_ratio=1.0, max_samples=MAX_SAMPLES, strict=Fals
         Refuse a header name that is no known column.  Otherwise such a column is
         not read, and :attr:`Measurements.notes` starts with one line naming
         every such column and the closest known name (the module docs).
+    allow_unknown_columns : bool
+        Read a header name that looks like a misspelt optional column absent from
+        the header (``load_sped`` for ``load_speed``, :data:`MISSPELLING_CUTOFF`) as
+        an unknown column, with the note.  By default such a file is refused.
 
     Returns
     -------
@@ -583,12 +632,14 @@ def load_measurements(path, gear_ratio=1.0, max_samples=MAX_SAMPLES, strict=Fals
     ValueError
         One line naming the file and the problem: unreadable or not UTF-8,
         missing or duplicated columns (a missing one with the close unknown
-        name, if any), an unknown column with ``strict``, a cell that is not a
-        number, and every problem :func:`measurements_from_arrays` names.
+        name, if any), an unknown column with ``strict``, a misspelt optional
+        column without ``allow_unknown_columns`` (``data.csv: column 'load_sped'
+        looks like a misspelling of 'load_speed' (pass ...)``), a cell that is
+        not a number, and every problem :func:`measurements_from_arrays` names.
     """
     path = Path(path)
     try:
-        columns, notice = _read_table(path, strict)
+        columns, notice = _read_table(path, strict, allow_unknown_columns)
     except OSError as error:
         raise ValueError(f"{path}: cannot read measurement file ({error.strerror})") from None
     except UnicodeDecodeError as error:
