@@ -662,7 +662,10 @@ def make_model(name, **plant_params):
     Raises
     ------
     ValueError
-        Unknown model name, or a parameter negative, non-finite or out of range.
+        Unknown model name, a parameter negative, non-finite or out of range, or
+        ``rubber`` without a ``rubber_thickness`` (with beta = 0 the rubber law (40)
+        is the phase plane law (23), and a result labelled ``rubber`` would silently
+        be that one; the rig loader refuses it likewise).
     TypeError
         A keyword that is not a shaft parameter.
 
@@ -680,6 +683,9 @@ def make_model(name, **plant_params):
     missing = [key for key in ("stiffness", "half_gap") if key not in plant_params]
     if missing:
         raise ValueError(f"missing shaft parameter(s): {', '.join(missing)}")
+    if name == "rubber" and plant_params.get("rubber_thickness", 0.0) == 0.0:
+        raise ValueError("model 'rubber' needs rubber_thickness > 0 (beta, rad); with beta = 0 the rubber law (40) "
+                         "is the phase plane law (23): set beta or choose 'phase-plane'")
     if name == "exact":
         return ExactModel(**plant_params)
     return StaticModel(name, **plant_params)

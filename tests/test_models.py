@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from scipy.optimize import brentq
 
 from backlash_df import MODEL_NAMES, make_model, theta_star
+from backlash_df.models import StaticModel
 
 STATIC = [name for name in MODEL_NAMES if name != "exact"]
 
@@ -30,8 +31,16 @@ def shafts(draw, rubber=True):
     alpha = draw(half_gap)
     params = dict(stiffness=k, damping=draw(ratio) * k, half_gap=alpha)
     if rubber:
-        params["rubber_thickness"] = draw(st.floats(0.0, 2.0)) * alpha
+        params["rubber_thickness"] = draw(st.floats(1e-6, 2.0)) * alpha  # beta = 0, the phase plane law: see law()
     return params
+
+
+def law(name, **params):
+    """:func:`make_model`, but the rubber law without rubber built as itself (make_model refuses it as a
+    user's choice: with beta = 0 it is the phase plane law (23)), for the laws' limits at beta = 0."""
+    if name == "rubber" and not params.get("rubber_thickness"):
+        return StaticModel(name, **params)
+    return make_model(name, **params)
 
 
 def scaled_point(params, xs, vs):
@@ -270,7 +279,7 @@ def test_laws_tend_to_classical_dead_zone_as_damping_vanishes(name):
     reference = dead_zone(x, k, alpha)
     errors = []
     for c in (1e-1, 1e-2, 1e-3, 1e-4):
-        model = make_model(name, stiffness=k, damping=c, half_gap=alpha)
+        model = law(name, stiffness=k, damping=c, half_gap=alpha)
         errors.append(np.abs(model.torque(x, v) - reference).max())
         assert errors[-1] <= 2.0 * c * 2.0 + 1e-15  # |T - k D| <= 2 c |v|max
     assert errors[-1] < 2e-3 * errors[0]
@@ -404,3 +413,15 @@ def test_non_finite_state_is_rejected():
     model = make_model("dead-zone", stiffness=1.0, half_gap=0.1)
     with pytest.raises(ValueError, match="theta_d must be finite"):
         model.torque([0.0, np.nan], 0.0)
+
+
+def test_rubber_without_rubber_is_refused_as_the_rig_loader_refuses_it():
+    """With beta = 0 the rubber law (40) is the phase plane law (23): a result labelled rubber would be that."""
+    with pytest.raises(ValueError, match=r"model 'rubber' needs rubber_thickness > 0"):
+        make_model("rubber", stiffness=5895.0, damping=3.0, half_gap=0.05)
+    with pytest.raises(ValueError, match=r"model 'rubber' needs rubber_thickness > 0"):
+        make_model("rubber", stiffness=5895.0, damping=3.0, half_gap=0.05, rubber_thickness=0.0)
+    law = StaticModel("rubber", stiffness=5895.0, damping=3.0, half_gap=0.05)
+    x, v = np.meshgrid(np.linspace(-0.2, 0.2, 41), np.linspace(-5.0, 5.0, 21))
+    phase = make_model("phase-plane", stiffness=5895.0, damping=3.0, half_gap=0.05)
+    assert np.array_equal(law.torque(x, v), phase.torque(x, v))

@@ -132,3 +132,21 @@ def test_the_old_module_path_of_the_simulation_warns_and_works(monkeypatch):
         warnings.simplefilter("error")  # calling backlash_df.simulate stays quiet
         result = bd.simulate(rig, "phase-plane", t_end=0.1)
     assert np.all(np.isfinite(result.theta_d))
+
+
+def test_the_readme_names_exactly_the_results_that_plot():
+    """README.md lists the result classes with ``.plot()``: the list is the package's, no more, no less."""
+    from conftest import ROOT
+
+    text = " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())
+    listed = text.split("have a `.plot()` that returns a `ResultPlot` (`.figure`, `.axes`):")[1].split(";")[0]
+    named = {word.strip("`, .") for word in listed.split() if word.startswith("`")} - {"and"}
+    plotting = set()
+    for info in pkgutil.walk_packages(bd.__path__, "backlash_df."):
+        if info.name.startswith("backlash_df.cli") or any(part.startswith("_") for part in info.name.split(".")):
+            continue
+        module = importlib.import_module(info.name)
+        plotting |= {name for name in getattr(module, "__all__", ())
+                     if inspect.isclass(item := getattr(module, name)) and callable(getattr(item, "to_dict", None))
+                     and callable(getattr(item, "plot", None))}
+    assert named == plotting
