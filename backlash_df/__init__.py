@@ -28,9 +28,6 @@ from .sweeps import DesignMap, design_map
 from .continuation import Branch, continue_limit_cycles
 from .reproduce import TableOne, TorqueComparison, compare_torques, integrated_torque, table1
 from .identify import Diagnosis, Measurements, diagnose, load_measurements
-from ._deprecated import install_simulate_module_alias
-
-install_simulate_module_alias()
 
 __all__ = [
     "__version__",

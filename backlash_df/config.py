@@ -211,11 +211,6 @@ class Controller:
         """True for a position loop around the speed loop."""
         return self.structure == "cascade"
 
-    @property
-    def has_integrator(self):
-        """True for the built-in PI with finite ti (the clamped integrator of the torque limit)."""
-        return self.speed_controller is None and math.isfinite(self.ti)
-
 
 @dataclasses.dataclass(frozen=True)
 class Load:

@@ -40,7 +40,6 @@ import dataclasses
 import functools
 import html
 import math
-import warnings
 
 import numpy as np
 
@@ -193,9 +192,6 @@ class LimitCyclePrediction:
         After :func:`verify_limit_cycles`: what the time simulation settled to
         (started on the first stable predicted cycle, or from the default kick
         when none is predicted).
-    verdict : LoopVerdict or None
-        Deprecated: set only by the deprecated :func:`backlash_df.verdict.judge`;
-        :func:`backlash_df.judge_loop` returns the verdict, which holds its prediction.
     linear : object
         The linear part (DriveLoop, LTI or callable), for plots.
     describing : callable
@@ -222,7 +218,6 @@ class LimitCyclePrediction:
     amplitude_range: tuple
     omega_range: tuple
     simulation: object = None
-    verdict: object = None
     linear: object = dataclasses.field(repr=False, default=None)
     describing: object = dataclasses.field(repr=False, default=None)
     half_gap: float = dataclasses.field(repr=False, default=0.0)
@@ -271,12 +266,6 @@ class LimitCyclePrediction:
     def cycle_dicts(self):
         """The ``limit_cycles`` entries of the ``predict`` JSON (contract page): one per cycle."""
         return [{"model": self.model, **cycle.to_dict()} for cycle in self.cycles]
-
-    def to_dicts(self):
-        """Deprecated alias of :meth:`cycle_dicts`."""
-        warnings.warn("LimitCyclePrediction.to_dicts() is deprecated: use cycle_dicts() (the predict JSON's "
-                      "limit_cycles entries) or to_dict()", DeprecationWarning, stacklevel=2)
-        return self.cycle_dicts()
 
     def to_dict(self):
         """JSON-ready: the cycles, near misses, what the simulation settled to and the searched box."""

@@ -17,7 +17,6 @@ the values given (:func:`cell_edges`), and a parametric curve sampled densely wh
 it turns in the view (:func:`adaptive_curve`, the G(jw) of the Nyquist overlay).
 """
 
-import warnings
 
 import numpy as np
 
@@ -36,13 +35,6 @@ class ResultPlot:
         one row per torque law).
     legend : matplotlib.legend.Legend or None
         The figure's legend, where the plot placed one outside the axes.
-
-    Notes
-    -----
-    Until version 0.2 a ``.plot()`` returned its Axes, or an ndarray of them.  For
-    one release a ResultPlot still behaves like those: indexing, iteration and
-    ``len`` reach :attr:`axes`, and an Axes method called on a one-panel plot
-    reaches that Axes; each use warns with a ``DeprecationWarning``.
     """
 
     def __init__(self, figure, axes, legend=None):
@@ -59,31 +51,6 @@ class ResultPlot:
         width, height = self.figure.get_size_inches()
         shape = " x ".join(str(n) for n in self.axes.shape)
         return f"<ResultPlot: {shape} axes in a {width:.3g} x {height:.3g} in figure>"
-
-    # ---------------------------------------------------------------- the old returns, for one release
-
-    def _old(self, what):
-        warnings.warn(f"{what} of what .plot() returns: it is a ResultPlot now; use .axes (or .ax, .figure)",
-                      DeprecationWarning, stacklevel=3)
-
-    def __getitem__(self, index):
-        self._old("indexing")
-        return self.axes[index]
-
-    def __iter__(self):
-        self._old("iterating")
-        return iter(self.axes)
-
-    def __len__(self):
-        self._old("len()")
-        return len(self.axes)
-
-    def __getattr__(self, name):
-        axes = self.__dict__.get("axes")
-        if name.startswith("_") or axes is None or axes.size != 1 or not hasattr(axes.flat[0], name):
-            raise AttributeError(f"'ResultPlot' object has no attribute {name!r}")
-        self._old(f"the Axes method {name!r}")
-        return getattr(axes.flat[0], name)
 
 
 def axes_or_new(ax, shape=None, **subplots):

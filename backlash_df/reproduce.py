@@ -36,10 +36,8 @@ drives the drive integrates to ``-T_preload x period`` (item 9).
 import csv
 import dataclasses
 import io
-import json
 import math
 import textwrap
-import warnings
 
 import numpy as np
 
@@ -468,12 +466,6 @@ class TableOne:
                   for c in self.comparisons]
         units = {"integral": "N m s", "error_percent": "%", "rms_error": "N m", "rms_error_percent": "%"}
         return dict(quantity=_WHAT, units=units, setups=setups, rows=self.rows)
-
-    def to_json(self):
-        """Deprecated: :meth:`to_dict` as JSON text (``json.dumps(table.to_dict(), indent=2)``)."""
-        warnings.warn("TableOne.to_json() is deprecated: use json.dumps(table.to_dict(), indent=2)",
-                      DeprecationWarning, stacklevel=2)
-        return json.dumps(self.to_dict(), indent=2) + "\n"
 
     def __repr__(self):
         return f"<TableOne: {len(self.comparisons)} setups ({', '.join(c.setup.name for c in self.comparisons)})>"

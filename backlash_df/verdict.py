@@ -60,7 +60,6 @@ for a prediction verified by simulation (``predict``) as for one that is not.
 
 import dataclasses
 import math
-import warnings
 
 
 from .disturbances import KINDS, TWIST, Disturbance, kind_words, standard_disturbances
@@ -74,7 +73,7 @@ from .simulation import confirm_across_starts, default_step, longest_run, simula
 from .system import lti_linear_part
 
 __all__ = ["VERDICTS", "LONGER", "LinearStability", "Probe", "LoopVerdict", "linear_stability", "probe", "ladder",
-           "judge_loop", "judge", "verdict_rows", "orbit_rows", "VERDICT_NOTE", "ORBIT_NOTE", "PADE_ORDER"]
+           "judge_loop", "verdict_rows", "orbit_rows", "VERDICT_NOTE", "ORBIT_NOTE", "PADE_ORDER"]
 
 VERDICTS = ("no oscillation", "limit cycle", "bistable", "unstable", "undetermined")
 
@@ -702,18 +701,6 @@ def _confirmed_across_starts(probes):
     """The probes, an oscillation that held its level confirmed by another probe's at its swing (:func:`confirm_across_starts`)."""
     measured = confirm_across_starts([p.measured for p in probes])
     return tuple(dataclasses.replace(p, measured=m) for p, m in zip(probes, measured))
-
-
-def judge(rig, prediction, **kwargs):
-    """Deprecated: a copy of ``prediction`` carrying its :class:`LoopVerdict` as ``prediction.verdict``.
-
-    Use :func:`judge_loop` (the verdict holds its prediction) or
-    :func:`backlash_df.analyse_loop` (predict, verify and judge in one call).
-    Keyword arguments go to :func:`judge_loop`.
-    """
-    warnings.warn("backlash_df.verdict.judge is deprecated: use judge_loop(rig, prediction) (the verdict holds "
-                  "its prediction) or backlash_df.analyse_loop", DeprecationWarning, stacklevel=2)
-    return dataclasses.replace(prediction, verdict=judge_loop(rig, prediction, **kwargs))
 
 
 # --------------------------------------------------------------------------- tables

@@ -14,18 +14,16 @@ import importlib
 import inspect
 import json
 import pkgutil
-import warnings
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from matplotlib.axes import Axes  # noqa: E402
 
 import backlash_df as bd  # noqa: E402
-from conftest import PLOTS, REPORTS, example_rig  # noqa: E402
+from conftest import PLOTS, REPORTS  # noqa: E402
 
 RIG_TEXT = "[plant]\n# a <b>rig</b> & its text\n"
 
@@ -97,41 +95,21 @@ def test_report_html_shows_title_and_rig_text(results, name):
     plt.close("all")
 
 
-def test_the_old_plot_returns_still_work_with_a_warning(results):
-    drawn = results["SimulationResult"].plot()
-    with pytest.warns(DeprecationWarning, match="ResultPlot"):
-        first = drawn[0]
-    assert first is drawn.axes[0]
-    one = results["LimitCyclePrediction"].plot()
-    with pytest.warns(DeprecationWarning, match="Axes method 'get_xlabel'"):
-        assert one.get_xlabel() == "real part (rad/(N m))"
-    assert one.figure is one.axes[0].figure  # .figure, as an Axes had it, without a warning
+def test_the_removed_shims_are_gone(results):
+    """0.2 removed the old returns and aliases (changelog): each fails as any missing name does."""
+    with pytest.raises(TypeError):
+        results["SimulationResult"].plot()[0]
+    with pytest.raises(AttributeError):
+        results["LimitCyclePrediction"].plot().get_xlabel
+    for result, name in ((results["LimitCyclePrediction"], "to_dicts"), (results["Diagnosis"], "to_json"),
+                         (results["TableOne"], "to_json")):
+        assert not hasattr(result, name)
+    with pytest.raises(TypeError):
+        results["Diagnosis"].causes[0]["effect"]
+    with pytest.raises(ModuleNotFoundError):
+        import backlash_df.simulate  # noqa: F401
+    assert not hasattr(bd.verdict, "judge")
     plt.close("all")
-
-
-def test_the_old_result_methods_warn_and_give_the_same_data(results):
-    prediction, diagnosis = results["LimitCyclePrediction"], results["Diagnosis"]
-    with pytest.warns(DeprecationWarning, match="cycle_dicts"):
-        assert prediction.to_dicts() == prediction.cycle_dicts()
-    with pytest.warns(DeprecationWarning, match="json.dumps"):
-        assert json.loads(diagnosis.to_json()) == json.loads(json.dumps(diagnosis.to_dict()))
-    with pytest.warns(DeprecationWarning, match="attributes"):
-        assert diagnosis.causes[0]["effect"] == diagnosis.causes[0].effect
-
-
-def test_the_old_module_path_of_the_simulation_warns_and_works(monkeypatch):
-    import sys
-
-    monkeypatch.setattr(bd, "simulate", bd.simulate)  # the import rebinds the name; restored after the test
-    monkeypatch.delitem(sys.modules, "backlash_df.simulate", raising=False)
-    with pytest.warns(DeprecationWarning, match="backlash_df.simulation"):
-        from backlash_df.simulate import measure_limit_cycle
-    assert measure_limit_cycle is bd.simulation.measure_limit_cycle
-    rig = example_rig("motor_feedback")
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")  # calling backlash_df.simulate stays quiet
-        result = bd.simulate(rig, "phase-plane", t_end=0.1)
-    assert np.all(np.isfinite(result.theta_d))
 
 
 def test_the_readme_names_exactly_the_results_that_plot():

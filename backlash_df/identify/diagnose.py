@@ -79,9 +79,7 @@ import dataclasses
 import functools
 import html
 import itertools
-import json
 import math
-import warnings
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -340,12 +338,6 @@ class Cause:
         values = ", ".join(f"{name} = {self.value_text(name)}" for name in self.parameters)
         return f"<Cause {self.key} ({_STRUCTURE_NAMES[self.structure]}): {values}; gain {100 * self.gain:.1f} %>"
 
-    def __getitem__(self, key):
-        """Deprecated: the JSON entry's fields (``cause["effect"]``); use the attributes or :meth:`to_dict`."""
-        warnings.warn("indexing a Cause like the JSON dict it was is deprecated: use its attributes "
-                      "(cause.effect, cause.parameters[name].value) or cause.to_dict()", DeprecationWarning,
-                      stacklevel=2)
-        return self.to_dict()[key]
 
 
 def _model_dict(candidate):
@@ -538,12 +530,6 @@ class Diagnosis:
         return (f"No encoder skew shows ({1e3 * skew.value:.2g} ms, 95 % CI {low:.2g} to {high:.2g} ms: its interval "
                 f"holds zero, or its twist is below {100 * MIN_SKEW_SHARE:g} % of the measured twist's spread): the "
                 f"twist is taken as measured.")
-
-    def to_json(self):
-        """Deprecated: :meth:`to_dict` as indented JSON text (``json.dumps(d.to_dict(), indent=2)``)."""
-        warnings.warn("Diagnosis.to_json() is deprecated: use json.dumps(diagnosis.to_dict(), indent=2)",
-                      DeprecationWarning, stacklevel=2)
-        return json.dumps(self.to_dict(), indent=2)
 
     def plot(self, ax=None):
         """Measured against the k-step predictions (validation part) of the two-mass baseline and extended model,

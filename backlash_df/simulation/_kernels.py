@@ -556,15 +556,6 @@ def _dot(row, q):
 
 
 @_jit
-def _dot_rate(rates, b, s, r, q):
-    """``rates[b, s, r] . q``."""
-    acc = 0.0
-    for j in range(q.shape[0]):
-        acc += rates[b, s, r, j] * q[j]
-    return acc
-
-
-@_jit
 def _command_side(cmode, u, limit):
     """The limit a command mode is held at or, from linear, crossed: 1 upper, -1 lower, 0 inside."""
     if cmode != 0:
