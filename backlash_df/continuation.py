@@ -178,20 +178,24 @@ class Branch:
     def tables(self):
         """The terminal's tables: ``[(title, header, rows), ...]``, the exact orbits, then the DF's cycles.
 
-        Biases that are round-off of a zero mean print as 0 (:func:`~backlash_df.report.bias_text`).
+        Every header names its unit, the parameter's that of the rig file
+        (:func:`~backlash_df.sweeps.value_label`: ``kp (N m s/rad)``).  Biases that
+        are round-off of a zero mean print as 0 (:func:`~backlash_df.report.bias_text`).
         """
+        parameter = value_label(self.parameter)
         orbits = [[f"{point.parameter:.6g}", f"{point.orbit.amplitude:.5g}", f"{point.orbit.omega:.5g}",
-                   bias_text(point.orbit.bias, point.orbit.amplitude), f"{point.orbit.max_multiplier:.4f}",
-                   "stable" if point.orbit.stable else "unstable"] for point in self.points]
+                   f"{point.orbit.period:.5g}", bias_text(point.orbit.bias, point.orbit.amplitude),
+                   f"{point.orbit.max_multiplier:.4f}", "stable" if point.orbit.stable else "unstable"]
+                  for point in self.points]
         cycles = []
         for value, prediction in self.df:
             cycles += [[f"{value:.6g}", f"{cycle.amplitude:.5g}", f"{cycle.omega:.5g}",
                         bias_text(cycle.bias, cycle.amplitude), "stable" if cycle.stable else "unstable"]
                        for cycle in prediction.cycles] or [[f"{value:.6g}", "none", "", "", ""]]
-        return [("exact periodic orbits (shooting; stability by Floquet multipliers):",
-                 [self.parameter, "A (rad)", "w (rad/s)", "bias (rad)", "|mu| max", "Floquet"], orbits),
+        return [(f"exact periodic orbits of the {self.model} law (shooting; stability by Floquet multipliers):",
+                 [parameter, "A (rad)", "w (rad/s)", "period (s)", "bias (rad)", "|mu| max", "Floquet"], orbits),
                 (f"describing function at {len(self.df)} values (stability by Loeb's criterion):",
-                 [self.parameter, "A DF (rad)", "w DF (rad/s)", "bias (rad)", "Loeb"], cycles)]
+                 [parameter, "A DF (rad)", "w DF (rad/s)", "bias (rad)", "Loeb"], cycles)]
 
     def sentences(self):
         """One line per special point: kind, where, and what happened."""
@@ -237,7 +241,7 @@ class Branch:
         if rig_text:
             sections.append(("Rig", f"<pre>{html.escape(rig_text)}</pre>"))
         sections += [("Branch", figure_html(figure, f"A and w against {self.parameter}")),
-                     ("Special points", table_html(["kind", self.parameter, "A (rad)", "detail"], rows,
+                     ("Special points", table_html(["kind", value_label(self.parameter), "A (rad)", "detail"], rows,
                                                    text_columns=(0, 3)))]
         return html_page(title or "Continuation", sections)
 

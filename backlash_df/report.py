@@ -9,8 +9,8 @@ import html
 import io
 import math
 
-__all__ = ["figure_png", "figure_html", "table_html", "html_page", "signed_percent", "ROUNDOFF", "roundoff_zero",
-           "bias_text", "text_table"]
+__all__ = ["figure_png", "figure_bytes", "FIGURE_FORMATS", "figure_html", "table_html", "html_page", "signed_percent",
+           "ROUNDOFF", "roundoff_zero", "resolved", "below_text", "bias_text", "text_table"]
 
 #: Relative size below which a computed value is round-off: printed as 0 (the JSON keeps the value).
 ROUNDOFF = 1e-12
@@ -27,14 +27,36 @@ figcaption { font-size: 0.9em; color: #555; }
 """
 
 
-def figure_png(fig, dpi=110):
-    """A matplotlib figure as PNG bytes (tight bounding box); closes the figure."""
+#: The file formats a figure is written in, by the suffix that names each.
+FIGURE_FORMATS = {".png": "png", ".pdf": "pdf", ".svg": "svg"}
+
+
+def figure_bytes(fig, format="png", dpi=110):
+    """A matplotlib figure as the bytes of a file of ``format`` (tight bounding box); closes the figure.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    format : {"png", "pdf", "svg"}
+        The file format (:data:`FIGURE_FORMATS`).
+    dpi : float
+        Resolution of the PNG, and of any raster part of a PDF or SVG.
+
+    Returns
+    -------
+    bytes
+    """
     import matplotlib.pyplot as plt
 
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", dpi=dpi, bbox_inches="tight")
     plt.close(fig)
     return buffer.getvalue()
+
+
+def figure_png(fig, dpi=110):
+    """A matplotlib figure as PNG bytes (tight bounding box); closes the figure."""
+    return figure_bytes(fig, "png", dpi)
 
 
 def figure_html(fig, caption="", dpi=110):
@@ -70,8 +92,18 @@ def html_page(title, sections):
 
 
 def signed_percent(value):
-    """A relative value as ``+1.23 %``; ``""`` where it is not finite (no value to show)."""
-    return "" if not math.isfinite(value) else f"{100.0 * value:+.2f} %"
+    """A relative value as ``+1.23 %``; ``0.00 %``, without a sign, where it rounds to zero; ``""`` where it is
+    not finite (no value to show).
+
+    Examples
+    --------
+    >>> signed_percent(0.0123), signed_percent(-0.0123), signed_percent(-4e-6), signed_percent(float("nan"))
+    ('+1.23 %', '-1.23 %', '0.00 %', '')
+    """
+    if not math.isfinite(value):
+        return ""
+    text = f"{100.0 * value:+.2f}"
+    return f"{'0.00' if float(text) == 0.0 else text} %"
 
 
 def roundoff_zero(value, scale):
@@ -91,6 +123,47 @@ def roundoff_zero(value, scale):
     (0.0, -0.0208, 0.0)
     """
     return 0.0 if abs(value) <= ROUNDOFF * abs(scale) else float(value)
+
+
+def resolved(value, resolution):
+    """``value``, or 0.0 where it is below the resolution of the computation that made it (for the text only).
+
+    :func:`roundoff_zero` is the case of an exact computation, whose resolution is
+    floating point's; a measured value (the mean of a simulated cycle) is resolved
+    only as finely as its measurement, which its caller states.
+
+    Parameters
+    ----------
+    value : float
+    resolution : float
+        The smallest magnitude the computation resolves, same unit; ``|value| <=
+        resolution`` prints as 0.
+
+    Examples
+    --------
+    >>> resolved(3.25e-07, 1.5e-4), resolved(-0.0208, 1.5e-4), resolved(float("nan"), 1.0)
+    (0.0, -0.0208, nan)
+    """
+    return 0.0 if abs(value) <= abs(resolution) else float(value)
+
+
+def below_text(value, bound, decimals=1):
+    """``value`` with ``decimals`` decimals, or as many more as it takes to read below ``bound``.
+
+    For a sentence that says a value is below a bound: rounded to the bound, ``1.96``
+    would print ``t 2.0 below 2``.  A value at or above ``bound``, or not finite, gets
+    ``decimals`` decimals.
+
+    Examples
+    --------
+    >>> below_text(1.96, 2.0), below_text(1.5, 2.0), below_text(1.99996, 2.0), below_text(2.04, 2.0)
+    ('1.96', '1.5', '1.99996', '2.0')
+    """
+    text = f"{value:.{decimals}f}"
+    while value < bound and float(text) >= bound:
+        decimals += 1
+        text = f"{value:.{decimals}f}"
+    return text
 
 
 def text_table(header, rows):

@@ -24,6 +24,7 @@ from click.testing import CliRunner
 import backlash_df.analysis
 import backlash_df.cli.diagnose
 import backlash_df.cli.sweeps
+import backlash_df.cli.tune
 import backlash_df.reproduce
 from backlash_df.cli import main
 from backlash_df.cli.common import COMPILING_NOTICE
@@ -67,6 +68,7 @@ def no_computation(monkeypatch):
     monkeypatch.setattr(backlash_df.reproduce, "figure2_maps", _never)
     monkeypatch.setattr(backlash_df.cli.sweeps, "design_map", _never)
     monkeypatch.setattr(backlash_df.cli.sweeps, "continue_limit_cycles", _never)
+    monkeypatch.setattr(backlash_df.cli.tune, "tune", _never)
 
 
 def rig_with(old, new):
@@ -194,6 +196,27 @@ OUTPUT_CASES = {
     "reproduce table as text": (["reproduce", "table1", "--out", "t.txt"], ["--out t.txt", ".csv or .json"]),
     "reproduce figure as csv": (["reproduce", "figure3", "--out", "f.csv"], ["--out f.csv", ".png"]),
     "reproduce out is a directory": (["reproduce", "figure2", "--out", "folder"], ["'--out'", "is a directory"]),
+    "reproduce figure of unknown format": (["reproduce", "figure2", "--out", "f.jpg"],
+                                           ["--out f.jpg: figure2 is written as .png, .pdf or .svg"]),
+    # issue 49: a suffix names the format; --json and --report refuse that of another kind of file
+    "predict json as html": (["predict", "rig.toml", "--json", "p.html"],
+                             ["--json p.html: --json writes JSON, not an HTML report (use .json)"]),
+    "predict report as json": (["predict", "rig.toml", "--report", "r.json"],
+                               ["--report r.json: --report writes an HTML report, not JSON (use .html or .htm)"]),
+    "predict report as png, upper case": (["predict", "rig.toml", "--json", "p.json", "--report", "r.PNG"],
+                                          ["--report r.PNG: --report writes an HTML report, not a figure"]),
+    "df json as csv": (["df", "--rig", "rig.toml", "--amplitude", "0.1", "--omega", "10", "--json", "df.csv"],
+                       ["--json df.csv: --json writes JSON, not CSV (use .json)"]),
+    "df json over a rig file": (["df", "--rig", "rig.toml", "--amplitude", "0.1", "--omega", "10", "--json",
+                                 "rig.toml"], ["--json rig.toml: --json writes JSON, not a rig file"]),
+    "diagnose json as pdf": (["diagnose", "data.csv", "--rig", "rig.toml", "--json", "d.pdf"],
+                             ["--json d.pdf: --json writes JSON, not a figure"]),
+    "diagnose report as json": (["diagnose", "data.csv", "--rig", "rig.toml", "--report", "d.json"],
+                                    ["--report d.json: --report writes an HTML report, not JSON"]),
+    "tune report as svg": (["tune", "rig.toml", "--vary", "kp", "1,100", "--report", "t.svg"],
+                           ["--report t.svg: --report writes an HTML report, not a figure"]),
+    "tune json as htm": (["tune", "rig.toml", "--vary", "kp", "1,100", "--json", "t.htm"],
+                         ["--json t.htm: --json writes JSON, not an HTML report"]),
 }
 
 
@@ -403,6 +426,11 @@ def test_diagnose_help_has_the_contract_table_of_columns():
 MAP_CASES = {
     "json in missing dir": (["--json", "nodir/m.json"], ["--json nodir/m.json", "does not exist"]),
     "plot is a directory": (["--plot", "folder"], ["'--plot'", "is a directory"]),
+    "plot of unknown format": (["--plot", "m.xyz"],
+                               ["--plot m.xyz: unknown plot format '.xyz' (use .png, .pdf or .svg)"]),
+    "plot as json": (["--json", "m.json", "--plot", "m2.json"], ["--plot m2.json: unknown plot format '.json'"]),
+    "report as png": (["--report", "m.png"], ["--report m.png: --report writes an HTML report, not a figure"]),
+    "json as svg": (["--json", "m.svg"], ["--json m.svg: --json writes JSON, not a figure (use .json)"]),
     "unknown model": (["--model", "coulomb"], ["'--model'", "'coulomb' is not one of"]),
     "rubber without beta": (["--model", "rubber"], ["rig.toml", "rubber_thickness > 0"]),
     "bad grid": (["--x", "kp", "5:60"], ["--x '5:60'", "START:STOP:N"]),
@@ -422,6 +450,10 @@ CONTINUE_CASES = {
     "unknown model": (["--from", "1", "--to", "5", "--model", "foo"], ["'--model'", "'foo' is not one of"]),
     "too few DF values": (["--from", "1", "--to", "5", "--df-values", "1"], ["'--df-values'", "x>=2"]),
     "no end": (["--from", "1"], ["Missing option '--to'"]),
+    "plot of unknown format": (["--from", "1", "--to", "5", "--plot", "c.jpeg"],
+                               ["--plot c.jpeg: unknown plot format '.jpeg' (use .png, .pdf or .svg)"]),
+    "report as csv": (["--from", "1", "--to", "5", "--report", "c.csv"],
+                      ["--report c.csv: --report writes an HTML report, not CSV"]),
 }
 
 
@@ -497,6 +529,18 @@ def test_accepted_predict_run_writes_both_outputs_and_the_report_reads_as_text(w
     assert "<b>damped-dead-zone</b>" in report
     assert "limit cycle: A = " in report
     assert not re.search(r"\b[A-Z][A-Za-z]+\([a-z_]+=", report), re.search(r"\b[A-Z][A-Za-z]+\([a-z_]+=.{0,40}", report)
+
+
+@pytest.mark.parametrize("name, magic", [("m.pdf", b"%PDF-"), ("m.svg", b"<?xml"), ("m.PNG", b"\x89PNG\r\n\x1a\n"),
+                                         ("m", b"\x89PNG\r\n\x1a\n")])
+def test_plot_is_written_in_the_format_its_suffix_names(work, name, magic):
+    """Issue 49: ``--plot m.pdf`` wrote a PNG named m.pdf (the quickest command with --plot: a map, no simulation)."""
+    result = CliRunner().invoke(main, ["map", "rig.toml", "--x", "kp", "20,30", "--y", "ti", "0.5", "--no-simulate",
+                                       "--plot", name])
+    assert result.exit_code == 0, result.output
+    data = (work / name).read_bytes()
+    assert data.startswith(magic), data[:16]
+    assert name != "m.svg" or b"<svg" in data
 
 
 def test_reproduce_figure2_writes_a_png(work):

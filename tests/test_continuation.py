@@ -1,6 +1,7 @@
 """Continuation: every point an orbit, the branch against simulation, folds and births where they are, no step lost."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -156,10 +157,13 @@ def test_continue_prints_the_df_values_it_computed_and_round_off_bias_as_zero(tm
                                        "--from", "25", "--to", "35", "--df-values", "3", "--json",
                                        str(tmp_path / "b.json")])
     assert result.exit_code == 0, result.output
-    lines = result.output.splitlines()
-    orbits = lines.index("exact periodic orbits (shooting; stability by Floquet multipliers):")
+    lines = result.stdout.splitlines()
+    # issue 49: the output starts with the table (no repr line before it), every header with its unit
+    assert lines[0] == "exact periodic orbits of the phase-plane law (shooting; stability by Floquet multipliers):"
+    assert re.split(r"\s{2,}", lines[1]) == ["kp (N m s/rad)", "A (rad)", "w (rad/s)", "period (s)", "bias (rad)",
+                                             "|mu| max", "Floquet"]
     df = lines.index("describing function at 3 values (stability by Loeb's criterion):")
-    assert lines[df + 1].split() == ["kp", "A", "DF", "(rad)", "w", "DF", "(rad/s)", "bias", "(rad)", "Loeb"]
+    assert re.split(r"\s{2,}", lines[df + 1]) == ["kp (N m s/rad)", "A DF (rad)", "w DF (rad/s)", "bias (rad)", "Loeb"]
     model = RIG.make_model("phase-plane")
     rows = [line.split() for line in lines[df + 2:df + 5]]
     assert [float(row[0]) for row in rows] == [25.0, 30.0, 35.0]
@@ -169,7 +173,9 @@ def test_continue_prints_the_df_values_it_computed_and_round_off_bias_as_zero(tm
         n = bd.describing_function(model, float(amplitude), np.array([float(omega)]))
         assert abs(1 + g * n)[0] < 3e-4 and (bias, loeb) == ("0", "stable")
     data = json.loads((tmp_path / "b.json").read_text())
-    printed = [line.split()[3] for line in lines[orbits + 2:orbits + 2 + len(data["points"])]]
+    printed_rows = [line.split() for line in lines[2:2 + len(data["points"])]]
+    assert [float(row[3]) for row in printed_rows] == [float(f"{point['period']:.5g}") for point in data["points"]]
+    printed = [row[4] for row in printed_rows]
     # the computed bias of these symmetric orbits is round-off (|bias| < 1e-12 A): the JSON keeps it, the text says 0
     assert any(point["bias"] != 0.0 for point in data["points"])
     assert all(abs(point["bias"]) < 1e-12 * point["amplitude"] for point in data["points"])

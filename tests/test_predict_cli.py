@@ -195,3 +195,19 @@ def test_text_under_load_shows_the_bias_of_the_df_and_of_the_orbits(predicted):
     orbits = data["models"][0]["exact_orbits"]
     assert [row["bias (rad)"] for row in rows] == [f"{orbit['bias']:.4g}" for orbit in orbits]
     assert all(orbit["bias"] < -0.01 for orbit in orbits)
+
+
+def test_a_df_error_that_rounds_to_zero_prints_without_a_sign(predicted):
+    """Issue 49: the unstable orbit of motor_lag_feedback and its DF cycle differ in w by -0.004 %, printed
+    ``-0.00 %``; a percentage that rounds to zero prints ``0.00 %``."""
+    text, data = predicted("motor_lag_feedback")
+    header, rows = text_tables(text)["A exact (rad)"]
+    orbits = data["models"][0]["exact_orbits"]
+    assert "-0.00 %" not in text and "+0.00 %" not in text
+    for orbit, row in zip(orbits, rows, strict=True):
+        same = [cycle for cycle in data["limit_cycles"] if cycle["stable"] == orbit["stable"]]
+        df = min(same, key=lambda cycle: abs(math.log(cycle["amplitude"] / orbit["amplitude"])))
+        error = 100.0 * (df["omega"] / orbit["omega"] - 1.0)
+        assert row["w DF error"] == ("0.00 %" if abs(error) < 0.005 else f"{error:+.2f} %")
+    assert any(-0.005 < 100.0 * (c["omega"] / o["omega"] - 1.0) < 0.0  # the case of the issue is still here
+               for o in orbits for c in data["limit_cycles"] if c["stable"] == o["stable"])

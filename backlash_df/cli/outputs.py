@@ -3,7 +3,9 @@
 :class:`Outputs` holds the paths of one command's options (``--json``, ``--report``,
 ``--plot``, ``--out``); :meth:`Outputs.write` stages every file beside its target and
 renames them into place only when all are written, restoring what it replaced if a
-step fails.
+step fails.  A path's suffix names its format (:data:`SUFFIXES`): ``--plot`` writes the
+figure format its suffix names (:func:`plot_format`), and ``--json`` and ``--report``
+refuse a suffix of another kind of file.
 """
 
 import contextlib
@@ -16,7 +18,60 @@ import tempfile
 import uuid
 from pathlib import Path
 
-__all__ = ["Outputs", "check_output_path"]
+from ..report import FIGURE_FORMATS
+
+__all__ = ["Outputs", "check_output_path", "check_suffix", "plot_format", "SUFFIXES"]
+
+#: The suffixes (lower case) of each kind of file the commands read or write.
+SUFFIXES = {"JSON": (".json",), "an HTML report": (".html", ".htm"), "a figure": tuple(FIGURE_FORMATS),
+            "CSV": (".csv",), "a rig file": (".toml",)}
+#: The kind each option writes.
+_KINDS = {"--json": "JSON", "--report": "an HTML report", "--plot": "a figure"}
+
+
+def _suffix(path):
+    """The suffix of ``path``, lower case (``""`` for none)."""
+    return Path(str(path)).suffix.lower()
+
+
+def _listed(suffixes):
+    """``.png, .pdf or .svg``."""
+    return " or ".join(filter(None, [", ".join(suffixes[:-1]), suffixes[-1]]))
+
+
+def check_suffix(path, option):
+    """Check that ``path``'s suffix fits what ``option`` writes, before anything is computed.
+
+    ``--plot`` takes a figure suffix (:data:`~backlash_df.report.FIGURE_FORMATS`) or
+    none (PNG, as on a stream: ``-``); ``--json`` and ``--report`` take any suffix but
+    that of another kind of file (:data:`SUFFIXES`: ``--json m.html``, ``--report
+    r.json``).  Another option is not checked here.
+
+    Raises
+    ------
+    ValueError
+        One line naming ``option``, ``path`` and the suffixes to use.
+    """
+    kind, suffix = _KINDS.get(option), _suffix(path)
+    if kind is None or not suffix or suffix in SUFFIXES[kind]:
+        return
+    if kind == "a figure":
+        raise ValueError(f"{option} {path}: unknown plot format '{suffix}' (use {_listed(SUFFIXES[kind])})")
+    other = next((name for name, suffixes in SUFFIXES.items() if suffix in suffixes), None)
+    if other is not None:
+        raise ValueError(f"{option} {path}: {option} writes {kind}, not {other} (use {_listed(SUFFIXES[kind])})")
+
+
+def plot_format(path):
+    """The figure format a ``--plot`` path names by its suffix (:func:`check_suffix`): ``"png"``, ``"pdf"`` or
+    ``"svg"``; ``"png"`` without a suffix.
+
+    Examples
+    --------
+    >>> plot_format("map.PDF"), plot_format("-")
+    ('pdf', 'png')
+    """
+    return FIGURE_FORMATS.get(_suffix(path), "png")
 
 
 def check_output_path(path, option="output"):
@@ -169,8 +224,9 @@ class Outputs:
     Raises
     ------
     ValueError
-        A path that cannot be written (:func:`check_output_path`), or one file
-        named by two options.
+        A suffix the option does not write (:func:`check_suffix`), a path that
+        cannot be written (:func:`check_output_path`), or one file named by two
+        options.
 
     Examples
     --------
@@ -186,6 +242,7 @@ class Outputs:
         self.paths = {option: path for option, path in paths.items() if path is not None}
         seen = {}
         for option, path in self.paths.items():
+            check_suffix(path, option)
             check_output_path(path, option)
             target, stream = _target(path)
             if target in seen and not stream and _descriptor(path) is None:

@@ -6,8 +6,8 @@ from pathlib import Path
 import click
 
 from .. import reproduce as paper
-from ..report import figure_png
-from .outputs import Outputs
+from ..report import FIGURE_FORMATS, figure_bytes
+from .outputs import Outputs, plot_format
 
 __all__ = ["reproduce_command"]
 
@@ -15,7 +15,8 @@ __all__ = ["reproduce_command"]
 @click.command("reproduce")
 @click.argument("what", type=click.Choice(["figure2", "figure3", "table1"]))
 @click.option("--out", "out", type=click.Path(dir_okay=False), default=None,
-              help="Write the result: PNG for figure2/figure3, .csv or .json for table1.")
+              help="Write the result: .png, .pdf or .svg for figure2/figure3 (the format the suffix names), "
+                   ".csv or .json for table1.")
 @click.option("--setup", default="one-sided", show_default=True, type=click.Choice(list(paper.SETUPS)),
               help="figure3: the Table I setup to plot.")
 @click.option("--driver", default="phase-plane", show_default=True, type=click.Choice(paper.LAW_NAMES),
@@ -31,18 +32,18 @@ def reproduce_command(what, out, setup, driver, dt):
     each column's unit (integral_N_m_s, error_percent, rms_error_N_m,
     rms_error_percent); --out table.json lists them under "units".
     """
-    suffixes = {"figure2": (".png",), "figure3": (".png",), "table1": (".csv", ".json")}[what]
+    suffixes = {"figure2": tuple(FIGURE_FORMATS), "figure3": tuple(FIGURE_FORMATS), "table1": (".csv", ".json")}[what]
     if out is not None and Path(out).suffix.lower() not in suffixes:
-        raise ValueError(f"--out {out}: {what} is written as {' or '.join(suffixes)}")
+        raise ValueError(f"--out {out}: {what} is written as {', '.join(suffixes[:-1])} or {suffixes[-1]}")
     outputs = Outputs({"--out": out})
     if what == "figure2":
         maps = paper.figure2_maps()
         click.echo(paper.figure2_summary(maps))
-        text = figure_png(paper.figure2(maps=maps)[0], dpi=120) if out else None
+        text = figure_bytes(paper.figure2(maps=maps)[0], plot_format(out), dpi=120) if out else None
     elif what == "figure3":
         comparison = paper.compare_torques(setup, driver=driver, dt=dt)
         click.echo(paper.TableOne((comparison,)).to_text())
-        text = figure_png(comparison.plot().figure, dpi=120) if out else None
+        text = figure_bytes(comparison.plot().figure, plot_format(out), dpi=120) if out else None
     else:
         table = paper.table1(driver=driver, dt=dt)
         click.echo(table.to_text())

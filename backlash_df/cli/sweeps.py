@@ -7,11 +7,11 @@ import numpy as np
 
 from ..config import load_rig
 from ..continuation import continue_limit_cycles
-from ..report import figure_png
+from ..report import figure_bytes
 from ..sweeps import design_map, rig_with
 from .common import FINITE, MODEL, echo_table, read_text
 from .executors import checkpoint_for, checkpoint_options, executor_for, executor_options, stopped_note
-from .outputs import Outputs
+from .outputs import Outputs, plot_format
 
 __all__ = ["map_command", "continue_command", "parse_values"]
 
@@ -39,14 +39,15 @@ def parse_values(option, text):
 
 
 def _write_results(outputs, rig_file, result, title):
-    """Write the requested ``--json``, ``--report`` and ``--plot`` of a map or a branch, all or none."""
+    """Write the requested ``--json``, ``--report`` and ``--plot`` (in the format its suffix names) of a map or a
+    branch, all or none."""
     texts = {}
     if "--json" in outputs:
         texts["--json"] = json.dumps({"rig": str(rig_file), **result.to_dict()}, indent=2) + "\n"
     if "--report" in outputs:
         texts["--report"] = result.report_html(title=title, rig_text=read_text(rig_file))
     if "--plot" in outputs:
-        texts["--plot"] = figure_png(result.plot().figure, dpi=110)
+        texts["--plot"] = figure_bytes(result.plot().figure, plot_format(outputs.paths["--plot"]), dpi=110)
     outputs.write(texts)
 
 
@@ -63,7 +64,8 @@ def _write_results(outputs, rig_file, result, title):
 @checkpoint_options
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), help="Write the map as JSON.")
 @click.option("--report", "report_out", type=click.Path(dir_okay=False), help="Write a self-contained HTML report.")
-@click.option("--plot", "plot_out", type=click.Path(dir_okay=False), help="Save the figure (PNG).")
+@click.option("--plot", "plot_out", type=click.Path(dir_okay=False),
+              help="Save the figure: .png, .pdf or .svg, the format the suffix names.")
 def map_command(rig_file, x_spec, y_spec, models, no_simulate, workers, dask, scheduler, checkpoint_path, resume,
                 json_out, report_out, plot_out):
     """Design map of RIG_FILE over two rig values: DF verdicts and simulation side by side.
@@ -114,7 +116,8 @@ def map_command(rig_file, x_spec, y_spec, models, no_simulate, workers, dask, sc
 @checkpoint_options
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), help="Write the branch as JSON.")
 @click.option("--report", "report_out", type=click.Path(dir_okay=False), help="Write a self-contained HTML report.")
-@click.option("--plot", "plot_out", type=click.Path(dir_okay=False), help="Save the figure (PNG).")
+@click.option("--plot", "plot_out", type=click.Path(dir_okay=False),
+              help="Save the figure: .png, .pdf or .svg, the format the suffix names.")
 def continue_command(rig_file, parameter, start, stop, model_name, df_values, workers, dask, scheduler,
                      checkpoint_path, resume, json_out, report_out, plot_out):
     """Branch of exact periodic orbits of RIG_FILE's loop over one rig value, the DF beside it.
@@ -135,7 +138,6 @@ def continue_command(rig_file, parameter, start, stop, model_name, df_values, wo
     with stopped_note(checkpoint, "steps"), executor_for(workers, dask, scheduler) as executor:
         branch = continue_limit_cycles(rig, parameter, (start, stop), model_name, df_values=df_values,
                                        executor=executor, checkpoint=checkpoint)
-    click.echo(repr(branch))
     for title, header, rows in branch.tables():
         click.echo(title)
         echo_table(header, rows)

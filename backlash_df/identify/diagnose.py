@@ -86,7 +86,7 @@ import numpy as np
 
 from .._json import json_ready
 from ..plotting import ResultPlot, axes_or_new, legend_beside
-from ..report import figure_html, html_page, table_html
+from ..report import below_text, figure_html, html_page, table_html
 from .calibrate import (
     DEFAULT_HORIZON,
     PLANT_PARAMETERS,
@@ -935,7 +935,7 @@ class _Search:
         if not gain >= MIN_GAIN:
             failures.append(f"gain {100 * gain:.1f} % ({label}) below {100 * MIN_GAIN:g} %")
         if not t_stat >= MIN_T:
-            failures.append(f"t {t_stat:.1f} ({label}) below {MIN_T:g}")
+            failures.append(f"t {below_text(t_stat, MIN_T)} ({label}) below {MIN_T:g}")
         failures += self.size_failures(added, parameter)
         reason = "; ".join(failures) if failures else f"gain {100 * gain:.1f} % ({label}), t {t_stat:.1f}, CI excludes 0"
         return dataclasses.replace(candidate, added=added, gain=gain, t_statistic=t_stat, accepted=not failures,
