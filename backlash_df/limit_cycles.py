@@ -47,7 +47,7 @@ from ._json import json_ready
 from .describing import BiasedDescribing, describing_function, saturation_describing_function
 from .loops import DriveLoop, drive_loop, frequency_response_of
 from .models import BacklashModel
-from .plotting import ResultPlot, adaptive_curve, axes_or_new, legend_below, legend_beside
+from .plotting import ResultPlot, adaptive_curve, axes_or_new, legend_below, legend_under, scaled_ticks
 from .report import figure_html, html_page, roundoff_zero, signed_percent, table_html, text_table
 from .simulation import simulated_limit_cycle
 from .system import command_channels, frequency_response
@@ -883,7 +883,10 @@ def limit_cycle_plot(predictions, ax=None, n_loci=7, n_amplitudes=200, g_omega=N
     frequency.  Cycles (o stable, x unstable by Loeb's criterion) and near
     misses (diamonds) are listed with A, w and distance in the legend, so no
     label covers another.  Both axes are in rad/(N m): G maps the shaft torque
-    to theta_d, and a cycle solves G(jw) = -1/N(A, w).  G is sampled where it
+    to theta_d, and a cycle solves G(jw) = -1/N(A, w).  The view is centred on
+    the cycles and near misses, its height fitted to what is drawn across its
+    width (no empty half), its tick labels share a scale factor
+    (:func:`~backlash_df.plotting.scaled_ticks`), and G is sampled where it
     turns in the view (:func:`~backlash_df.plotting.adaptive_curve`), so that it
     stays smooth through the shaft's resonance.
 
@@ -892,8 +895,10 @@ def limit_cycle_plot(predictions, ax=None, n_loci=7, n_amplitudes=200, g_omega=N
     predictions : sequence of LimitCyclePrediction
         Same linear part; one colour per model.
     ax : matplotlib Axes, optional
-        Draw into these axes; by default a new figure with constrained layout
-        and the legend below the axes (nothing is cut off by ``savefig``).
+        Draw into these axes, the legend under them
+        (:func:`~backlash_df.plotting.legend_under`); by default a new figure with
+        constrained layout, its height fitted to the view, and the legend below the
+        axes (nothing is cut off by ``savefig``).
     n_loci : int
         Loci per model across the frequency band.
     n_amplitudes : int
@@ -905,23 +910,31 @@ def limit_cycle_plot(predictions, ax=None, n_loci=7, n_amplitudes=200, g_omega=N
     Returns
     -------
     ResultPlot
-        One panel; the legend below it in a new figure, beside it (outside the
-        data) in the axes given.
+        One panel and its legend.
     """
     import matplotlib.pyplot as plt
 
-    own_figure = ax is None
-    figure, axes = axes_or_new(ax, figsize=(8, 7.5), layout="constrained")
-    ax = axes[0]
+
     first = predictions[0]
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     loci = [_loci(prediction, colors[index % len(colors)], n_loci, n_amplitudes)
             for index, prediction in enumerate(predictions)]
-    view = _zoom(predictions, [locus[np.isfinite(locus)] for model in loci for locus, *_ in model])
-    if g_omega is None:
-        _, g = adaptive_curve(lambda w: frequency_response_of(first.linear, w), *first.omega_range, view)
-    else:
-        g = frequency_response_of(first.linear, np.asarray(g_omega, dtype=float))
+    curves = [locus[np.isfinite(locus)] for model in loci for locus, *_ in model]
+
+    def g_in(view):
+        if g_omega is not None:
+            return frequency_response_of(first.linear, np.asarray(g_omega, dtype=float))
+        return adaptive_curve(lambda w: frequency_response_of(first.linear, w), *first.omega_range, view)[1]
+
+    square = _zoom(predictions, curves)
+    g = g_in(square)
+    view = _zoom(predictions, curves, drawn=curves + [g])
+    if g_omega is None and view != square:  # sampled again where it turns in the view drawn
+        g = g_in(view)
+    own_figure = ax is None
+    panel = (view[3] - view[2]) / (view[1] - view[0])  # the view's height over its width
+    figure, axes = axes_or_new(ax, figsize=(8, 2.6 + 6.6 * min(max(panel, 0.5), 0.9)), layout="constrained")
+    ax = axes[0]
     ax.plot(g.real, g.imag, color="k", lw=1.6, label="G(jw)")
     for prediction, model in zip(predictions, loci):
         for k, (locus, _, color, bold) in enumerate(model):
@@ -933,13 +946,15 @@ def limit_cycle_plot(predictions, ax=None, n_loci=7, n_amplitudes=200, g_omega=N
     _label_loci(ax, [(locus, omega, color) for model in loci for locus, omega, color, bold in model if not bold])
     ax.axhline(0.0, color="0.7", lw=0.5)
     ax.axvline(0.0, color="0.7", lw=0.5)
+    scaled_ticks(ax.xaxis)
+    scaled_ticks(ax.yaxis)
     ax.set_xlabel("real part (rad/(N m))")
     ax.set_ylabel("imaginary part (rad/(N m))")
     ax.set_title("G(jw) and -1/N(A, w); thin loci labelled with w (rad/s)", fontsize="medium")
     if own_figure:
         legend = legend_below(figure, fontsize=8)
     else:
-        legend = legend_beside(ax, fontsize=7)
+        legend = legend_under(ax, fontsize=7)
     return ResultPlot(figure, axes, legend)
 
 
@@ -987,8 +1002,17 @@ def _label_loci(ax, loci, gap=(0.06, 0.025)):
                     fontsize=7, color=color)
 
 
-def _zoom(predictions, loci):
-    """``(x0, x1, y0, y1)``: a square view around the cycles and near misses (or the loci's ends)."""
+def _zoom(predictions, loci, drawn=None, margin=0.06, flattest=0.25):
+    """``(x0, x1, y0, y1)``: the view around the cycles and near misses (or the loci's ends).
+
+    The real part spans a square around the marks: centred on them, half its side
+    the larger of their spread and half the largest ``|-1/N|`` among them.  Without
+    ``drawn`` the imaginary part spans the same square.  With ``drawn`` (the curves
+    to show: loci and G, complex arrays) it spans what of them lies inside the
+    square (a curve that only passes beyond it does not count), and the marks, plus
+    ``margin`` of that height each side: no empty half of the panel.  The height is
+    at least ``flattest`` times the width, around the data.
+    """
     marks = []
     for prediction in predictions:
         for item in list(prediction.cycles) + list(prediction.near_misses[:3]):
@@ -996,7 +1020,32 @@ def _zoom(predictions, loci):
     marks = np.array(marks if marks else [locus[-1] for locus in loci if locus.size])
     span = max(np.ptp(marks.real), np.ptp(marks.imag), 0.5 * np.abs(marks).max())
     center = 0.5 * (marks.real.min() + marks.real.max()) + 0.5j * (marks.imag.min() + marks.imag.max())
-    return center.real - span, center.real + span, center.imag - span, center.imag + span
+    x0, x1, y0, y1 = center.real - span, center.real + span, center.imag - span, center.imag + span
+    if drawn is None:
+        return x0, x1, y0, y1
+    low, high = marks.imag.min(), marks.imag.max()
+    for curve in drawn:
+        seen = _inside_band(np.asarray(curve, dtype=complex), x0, x1).imag
+        seen = seen[(seen >= y0) & (seen <= y1)]
+        if seen.size:
+            low, high = min(low, seen.min()), max(high, seen.max())
+    height = max(high - low, flattest * (x1 - x0) / (1.0 + 2.0 * margin))
+    middle = 0.5 * (low + high)
+    half = 0.5 * height * (1.0 + 2.0 * margin)
+    return x0, x1, float(middle - half), float(middle + half)
+
+
+def _inside_band(curve, x0, x1):
+    """The points of a polyline with ``x0 <= Re <= x1``, and where its segments cross those two lines."""
+    curve = curve[np.isfinite(curve)]
+    inside = curve[(curve.real >= x0) & (curve.real <= x1)]
+    crossings = [inside]
+    a, b = curve[:-1], curve[1:]
+    for edge in (x0, x1):
+        crossing = (a.real - edge) * (b.real - edge) < 0.0
+        t = (edge - a.real[crossing]) / (b.real[crossing] - a.real[crossing])
+        crossings.append(a[crossing] + t * (b[crossing] - a[crossing]))
+    return np.concatenate(crossings)
 
 
 # --------------------------------------------------------------------------- tables and report
@@ -1056,6 +1105,13 @@ def _simulated_cells(simulated):
 def prediction_sections(predictions, rig_text="", notes=None):
     """The HTML sections of a prediction report: summary, rig, Nyquist overlay, cycle table.
 
+    Each model's summary line names the run its simulated numbers come from: the
+    table's ``A sim`` and ``w sim``, and the summary's, are those of the run started
+    on each predicted stable cycle (:func:`verify_limit_cycles`,
+    :data:`SIMULATED_NOTE`).  With ``notes`` (verdicts) the summary says that a
+    verdict's simulated cycle comes from other runs, from rest, disturbed as the
+    verdict names (:func:`~backlash_df.verdict.judge_loop`, :data:`VERDICT_RUNS_NOTE`).
+
     Parameters
     ----------
     predictions : sequence of LimitCyclePrediction
@@ -1072,23 +1128,38 @@ def prediction_sections(predictions, rig_text="", notes=None):
     lines = []
     for prediction in predictions:
         stable = prediction.stable_cycles
-        sim = prediction.simulation
         said = f"{len(stable)} stable and {len(prediction.cycles) - len(stable)} unstable predicted cycle(s)"
-        seen = html.escape("simulation: " + (str(sim) if sim is not None else "not run"))
+        seen = html.escape(_simulation_words(prediction))
         seen += (notes or {}).get(prediction.model, "")
         lines.append(f"<li><b>{prediction.model}</b>: {said}; {seen}</li>")
-    summary = f'<div class="summary"><p>{PREDICTION_NOTE}</p><ul>{"".join(lines)}</ul></div>'
+    runs = f"<p>{html.escape(VERDICT_RUNS_NOTE)}</p>" if notes else ""
+    summary = f'<div class="summary"><p>{PREDICTION_NOTE}</p><ul>{"".join(lines)}</ul>{runs}</div>'
     sections = [("", summary)]
     if rig_text:
         sections.append(("Rig", f"<pre>{html.escape(rig_text)}</pre>"))
     figure = limit_cycle_plot(predictions).figure
+    marks = [("o stable cycle", any(c.stable for p in predictions for c in p.cycles)),
+             ("x unstable cycle", any(not c.stable for p in predictions for c in p.cycles)),
+             ("diamond near miss", any(p.near_misses for p in predictions))]
+    caption = "G(jw) (black) and -1/N(A, w) per model at several frequencies" + "".join(
+        f"; {words}" for words, drawn in marks if drawn)
     sections += [
-        ("Nyquist overlay", figure_html(figure, "G(jw) (black) and -1/N(A, w) per model at several frequencies; "
-                                        "o stable cycle, x unstable, diamond near miss")),
+        ("Nyquist overlay", figure_html(figure, caption)),
         ("Predicted and simulated limit cycles",
-         table_html(header, rows, text_columns=("model", "Loeb", "A sim (rad)"))),
+         table_html(header, rows, text_columns=("model", "Loeb", "A sim (rad)"))
+         + f"<p>{html.escape(SIMULATED_NOTE)}</p>"),
     ]
     return sections
+
+
+def _simulation_words(prediction):
+    """Which run a prediction's simulated numbers come from, and what it found: one phrase."""
+    sim = prediction.simulation
+    if sim is None:
+        return "simulation: not run"
+    if prediction.stable_cycles:
+        return f"simulation started on the predicted cycle (theta_d = 0, dtheta_d/dt = A w): {sim}"
+    return f"simulation from a kick of dtheta_d/dt (no stable cycle predicted): {sim}"
 
 
 def prediction_report(predictions, title="Limit-cycle prediction", rig_text=""):
@@ -1096,6 +1167,18 @@ def prediction_report(predictions, title="Limit-cycle prediction", rig_text=""):
     return html_page(title, prediction_sections(predictions, rig_text))
 
 
+#: Which run the table's simulated numbers come from (text).
+SIMULATED_NOTE = (
+    "A sim, w sim: the first harmonic of theta_d in the closed-loop simulation started on that predicted cycle "
+    "(theta_d = 0, dtheta_d/dt = A w), with the same torque law, once it repeats; A error and w error compare the "
+    "prediction with it."
+)
+#: Why a verdict's simulated cycle may differ from the table's in the last digits (text).
+VERDICT_RUNS_NOTE = (
+    "A verdict's simulated cycle is another run: the smallest cycle that the simulations from rest, each with the "
+    "disturbance the verdict names, settle on. Where they reach the same cycle as the run from the predicted cycle, "
+    "the two differ only within the 1e-3 to which a simulated cycle must repeat to count as steady."
+)
 #: What a prediction report's numbers are (HTML).
 PREDICTION_NOTE = (
     "Solutions of G(jw) N(A, w) = -1 (A: first-harmonic amplitude of "

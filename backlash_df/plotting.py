@@ -9,9 +9,12 @@ the results that draw several panels), and returns the figure and its axes::
     drawn.figure.savefig("overlay.png")
     drawn.axes[0].set_xlim(-0.01, 0.0)
 
-What the figures share lives here too: a legend beside the panel it explains or
-below the panels (:func:`legend_beside`, :func:`legend_below`: never over the
-data), log axes whose labels do not crowd (:func:`log_scale`), contour labels inside the panel
+What the figures share lives here too: a legend beside the panel it explains, below
+the panels or under one panel (:func:`legend_beside`, :func:`legend_below`,
+:func:`legend_under`: never over the data), log axes whose labels do not crowd and
+never fewer than two (:func:`log_scale`), linear axes of small numbers labelled
+with a scale factor, ``-3.5`` and ``x10^-4`` instead of ``-0.00035`` (:func:`scaled_ticks`),
+contour labels inside the panel
 (:func:`label_contours`), the cell edges of a map drawn within
 the values given (:func:`cell_edges`), and a parametric curve sampled densely where
 it turns in the view (:func:`adaptive_curve`, the G(jw) of the Nyquist overlay).
@@ -20,8 +23,8 @@ it turns in the view (:func:`adaptive_curve`, the G(jw) of the Nyquist overlay).
 
 import numpy as np
 
-__all__ = ["ResultPlot", "axes_or_new", "legend_beside", "legend_below", "log_scale", "label_contours", "cell_edges",
-           "adaptive_curve"]
+__all__ = ["ResultPlot", "axes_or_new", "legend_beside", "legend_below", "legend_under", "log_scale", "scaled_ticks",
+           "label_contours", "cell_edges", "adaptive_curve"]
 
 
 class ResultPlot:
@@ -123,12 +126,50 @@ def legend_below(figure, max_columns=2, **kwargs):
         legend.remove()
 
 
-def log_scale(axis, low, high):
-    """A log scale on ``axis`` whose tick labels do not crowd, for a view from ``low`` to ``high``.
+def legend_under(ax, max_columns=2, **kwargs):
+    """A legend under ``ax``, below its tick labels and x label, in as many columns (up to
+    ``max_columns``) as fit the panel's width.
 
-    Labels at the decades, and at 2 and 5 times them where the view spans fewer
-    than two decades; the other minor ticks are left unlabelled (matplotlib's
-    default labels 2, 3, 4 and 6 there, which collide on a narrow panel).
+    For a panel among others (a column of overlays, say) where a legend beside it would
+    take half the figure's width.  Constrained layout makes room for it.  Call it after
+    the x label is set: the legend's top is placed that far below the panel.
+
+    Parameters
+    ----------
+    ax : Axes
+    max_columns : int
+    **kwargs
+        Passed to ``Axes.legend`` (``handles``, ``fontsize``; default "small").
+
+    Returns
+    -------
+    matplotlib.legend.Legend
+    """
+    from matplotlib.transforms import offset_copy
+
+    figure = ax.figure
+    renderer = figure.canvas.get_renderer()
+    panel = ax.get_window_extent(renderer)
+    drop = panel.y0 - ax.get_tightbbox(renderer).y0  # px taken by the tick labels and the x label
+    anchor = offset_copy(ax.transAxes, fig=figure, y=-(drop * 72.0 / figure.dpi + 4.0), units="points")
+    options = {"loc": "upper center", "bbox_to_anchor": (0.5, 0.0), "bbox_transform": anchor, "borderaxespad": 0.0,
+               "fontsize": "small", **kwargs}
+    for columns in range(max(int(max_columns), 1), 0, -1):
+        legend = ax.legend(ncols=columns, **options)
+        if columns == 1 or legend.get_window_extent(renderer).width <= panel.width:
+            return legend
+        legend.remove()
+
+
+def log_scale(axis, low, high):
+    """A log scale on ``axis`` for a view from ``low`` to ``high``: at least two labels, none crowded.
+
+    The labels depend on the span: over two decades or more, at the decades
+    (``10^2``); over one to two decades, at 1, 2 and 5 times them; under a decade,
+    where a decade may hold no tick at all (a view from 20 to 40), at 2 to 5 evenly
+    spaced round numbers (20, 25, 30, 35, 40).  Below two decades the labels are
+    plain numbers (``200``, not ``2 x 10^2``).  The minor ticks are left unlabelled
+    (matplotlib's default labels 2, 3, 4 and 6 there, which collide on a narrow panel).
 
     Parameters
     ----------
@@ -137,12 +178,45 @@ def log_scale(axis, low, high):
     low, high : float
         The view's ends, ``0 < low < high``.
     """
-    from matplotlib.ticker import LogFormatterSciNotation, LogLocator, NullFormatter
+    from matplotlib.ticker import FuncFormatter, LogFormatterSciNotation, LogLocator, MaxNLocator, NullFormatter
 
     (axis.axes.set_xscale if axis is axis.axes.xaxis else axis.axes.set_yscale)("log")
-    axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0) if high < 100.0 * low else (1.0,)))
-    axis.set_major_formatter(LogFormatterSciNotation(labelOnlyBase=False, minor_thresholds=(np.inf, np.inf)))
+    if high >= 100.0 * low:
+        axis.set_major_locator(LogLocator(subs=(1.0,)))
+        axis.set_major_formatter(LogFormatterSciNotation(labelOnlyBase=False, minor_thresholds=(np.inf, np.inf)))
+    else:
+        axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)) if high >= 10.0 * low
+                               else MaxNLocator(nbins=4, steps=[1, 2, 2.5, 5, 10]))
+        axis.set_major_formatter(FuncFormatter(_plain))
     axis.set_minor_formatter(NullFormatter())
+
+
+def _plain(value, position=None):
+    """A tick label as a plain number, 3 significant digits (``25``, ``0.3``, ``2.5e-05``)."""
+    return f"{value:.3g}"
+
+
+def scaled_ticks(axis, low=-2, high=3):
+    """Tick labels of ``axis`` with a common scale factor, ``-3.5`` and ``x10^-4`` instead of ``-0.00035``.
+
+    A linear axis whose values are all small (or all large) gets long labels that
+    collide on a narrow panel; here every label is divided by a power of ten shown
+    once at the axis' end (matplotlib's offset text), whenever the largest value is
+    below ``10^low`` or at least ``10^high``.  No offset is subtracted: the labels
+    stay the values themselves, scaled.
+
+    Parameters
+    ----------
+    axis : matplotlib.axis.Axis
+        ``ax.xaxis`` or ``ax.yaxis``.
+    low, high : int
+        Exponents beyond which the scale factor is used.
+    """
+    from matplotlib.ticker import ScalarFormatter
+
+    formatter = ScalarFormatter(useOffset=False, useMathText=True)
+    formatter.set_powerlimits((low, high))
+    axis.set_major_formatter(formatter)
 
 
 def label_contours(ax, contours, fmt="%.3g", fontsize=7, step=0.01):

@@ -10,7 +10,7 @@ import io
 import math
 
 __all__ = ["figure_png", "figure_bytes", "FIGURE_FORMATS", "figure_html", "table_html", "html_page", "signed_percent",
-           "ROUNDOFF", "roundoff_zero", "resolved", "below_text", "bias_text", "text_table"]
+           "ROUNDOFF", "roundoff_zero", "resolved", "below_text", "bias_text", "text_table", "number_cell"]
 
 #: Relative size below which a computed value is round-off: printed as 0 (the JSON keeps the value).
 ROUNDOFF = 1e-12
@@ -21,6 +21,7 @@ h1 { font-size: 1.6em; } h2 { font-size: 1.25em; margin-top: 1.6em; }
 table { border-collapse: collapse; margin: 0.8em 0; }
 th, td { border: 1px solid #bbb; padding: 0.25em 0.6em; text-align: right; }
 th { background: #eee; } td.text, th.text { text-align: left; }
+td.number { text-align: right; font-variant-numeric: tabular-nums; } td.number span, td.word { white-space: nowrap; }
 figure { margin: 1em 0; } figure img { max-width: 100%; height: auto; }
 figcaption { font-size: 0.9em; color: #555; }
 .summary { background: #f4f8ff; border-left: 4px solid #36c; padding: 0.6em 1em; }
@@ -49,7 +50,7 @@ def figure_bytes(fig, format="png", dpi=110):
     import matplotlib.pyplot as plt
 
     buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=dpi, bbox_inches="tight")
+    fig.savefig(buffer, format=format, dpi=dpi, bbox_inches="tight")
     plt.close(fig)
     return buffer.getvalue()
 
@@ -71,14 +72,59 @@ def table_html(header, rows, text_columns=(0,)):
     """An HTML table; ``rows`` are sequences of already formatted cells.
 
     ``text_columns``: indices or header names of the columns aligned left (words).
+    A cell that holds only numbers (:func:`number_cell`) is aligned right in any
+    column, and no number of it wraps: ``+10.16 %`` stays on one line, an interval
+    ``3.27e+06 .. 3.86e+06`` breaks (where the column is narrow) only after its
+    ``..``; the numbers of a column of words (``A sim``: a cycle's amplitude or ``no
+    limit cycle``) line up, under a heading aligned right where every cell of the
+    column is a number.  A word without spaces (``phase-plane``) is not broken at
+    its hyphen either.
     """
+    def texts(index):
+        words = index in text_columns or header[index] in text_columns
+        return words and not all(number_cell(str(row[index])) for row in rows if str(row[index]))
+
     def cell(tag, index, value):
-        cls = ' class="text"' if index in text_columns or header[index] in text_columns else ""
-        return f"<{tag}{cls}>{html.escape(str(value))}</{tag}>"
+        text = str(value)
+        if tag == "td" and number_cell(text):
+            return f'<td class="number">{_number_spans(text)}</td>'
+        if tag == "th":
+            cls = ' class="text"' if texts(index) else ""
+        else:
+            word = " word" if text and " " not in text.strip() and len(text) <= 24 else ""
+            cls = f' class="text{word}"' if index in text_columns or header[index] in text_columns else ""
+        return f"<{tag}{cls}>{html.escape(text)}</{tag}>"
 
     head = "".join(cell("th", i, value) for i, value in enumerate(header))
     body = "".join("<tr>" + "".join(cell("td", i, value) for i, value in enumerate(row)) + "</tr>" for row in rows)
     return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def _number_spans(text):
+    """A cell of numbers as HTML: each number with the separator after it in one unbreakable ``<span>``."""
+    parts = text.strip().replace(" / ", " /\0").replace(" .. ", " ..\0").replace(", ", ",\0").split("\0")
+    return " ".join(f"<span>{html.escape(part)}</span>" for part in parts)
+
+
+def number_cell(text):
+    """Whether a table cell holds numbers only: one, or several joined by `` / ``, `` .. `` or ``, ``,
+    the last optionally followed by ``%``.
+
+    Examples
+    --------
+    >>> number_cell("+10.16 %"), number_cell("98.87 / 99.31"), number_cell("0.0131 .. 0.0134"), number_cell("1e-05")
+    (True, True, True, True)
+    >>> number_cell("0.05303 (exact orbit)"), number_cell("stable"), number_cell("")
+    (False, False, False)
+    """
+    text = text.strip().removesuffix("%").strip()
+    if not text:
+        return False
+    parts = text.replace(" / ", "\0").replace(" .. ", "\0").replace(", ", "\0").split("\0")
+    try:
+        return all(part.strip() == part and math.isfinite(float(part)) for part in parts)
+    except ValueError:
+        return False
 
 
 def html_page(title, sections):

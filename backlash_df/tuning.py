@@ -48,7 +48,7 @@ from .disturbances import shaft_mode
 from .limit_cycles import predict_limit_cycles, verify_limit_cycles
 from .loops import drive_loop
 from .models import BacklashModel
-from .plotting import ResultPlot, axes_or_new
+from .plotting import ResultPlot, axes_or_new, cell_edges, legend_under, log_scale
 from .report import figure_html, html_page, table_html
 from .sweeps import rig_with, run_cells
 from .system import closed_loop_response
@@ -421,19 +421,24 @@ class Tuning:
     def plot(self, ax=None):
         """The searched range with the DF's hunting cells, the boundary and the best tuning; the front beside.
 
-        One varied value: the bandwidth against it, hunting cells marked; two: the
-        bandwidth's colour map over the grid, hunting cells hatched.  The second
-        panel is the front: the best bandwidth against the accepted amplitude.
+        One varied value: the bandwidth against it, the tunings the DF says hunt
+        marked x on it (those whose loop in contact is unstable, which have no
+        bandwidth, as shaded cells), the DF boundary as dotted lines
+        through its points; two: the bandwidth's colour map over the grid, hunting
+        cells hatched.  The star is the best tuning (:attr:`best`: certified, or the
+        least hunting), drawn under the boundary's points.  The second panel is the
+        front: the best bandwidth against the accepted amplitude (from 0; its last
+        step runs on to the edge).
 
         Returns
         -------
         ResultPlot
-            Axes ``[range, front]``.
+            Axes ``[range, front]``; the legend under the range panel.
         """
-        figure, axes = axes_or_new(ax, (1, 2), figsize=(11, 4.5), layout="constrained")
-        _draw_range(self, axes[0])
+        figure, axes = axes_or_new(ax, (1, 2), figsize=(11, 4.8), layout="constrained")
+        legend = _draw_range(self, axes[0])
         _draw_front(self, axes[1])
-        return ResultPlot(figure, axes)
+        return ResultPlot(figure, axes, legend)
 
     def report_html(self, title="", rig_text=""):
         """A self-contained HTML page: the answer and its certificate, the map with the boundary, the front.
@@ -457,10 +462,8 @@ class Tuning:
         sections = [("", f'<div class="summary"><p>{answer}</p></div>')]
         if rig_text:
             sections.append(("Rig", f"<pre>{html.escape(rig_text)}</pre>"))
-        sections.append(("Searched range, boundary and front", figure_html(
-            self.plot().figure, "Left: bandwidth over the range (hatched: the DF says it hunts); dots: the boundary; "
-                                "star: the best certified tuning. Right: best bandwidth against the accepted "
-                                "hunting amplitude.")))
+        sections.append(("Searched range, boundary and front", figure_html(self.plot().figure,
+                                                                           _range_caption(self))))
         probes = [[_disturbance_text(p), p.outcome, f"{p.measured.amplitude:.4g}" if p.measured.found else ""]
                   for p in verdict.probes]
         header = ["disturbance", "outcome", "cycle A (rad)"]
@@ -480,27 +483,66 @@ def _disturbance_text(probe):
     return f"{disturbance:.4g} rad" if isinstance(disturbance, float) else str(disturbance)
 
 
+def _best_words(tuning):
+    """The star's legend entry: the best certified tuning, or the least hunting one where none is certified."""
+    return "best certified" if tuning.feasible else "least hunting (none certified)"
+
+
+def _range_caption(tuning):
+    """The report's caption of :meth:`Tuning.plot`, naming only what the plot draws."""
+    hunts = [c for c in tuning.screen if c.hunts]
+    if len(tuning.names) == 1:
+        left = "Left: bandwidth over the range, the loop in contact"
+        if any(math.isfinite(c.bandwidth) for c in hunts):
+            left += "; x: the DF says it hunts"
+        if any(not math.isfinite(c.bandwidth) for c in hunts):
+            left += "; shaded: the loop in contact is unstable (no bandwidth)"
+        if tuning.boundary:
+            left += "; dotted lines and dots: the DF boundary (the last tunings it clears)"
+    else:
+        left = "Left: bandwidth over the grid" + ("; hatched: the DF says it hunts" if hunts else "")
+        if tuning.boundary:
+            left += "; dots: the DF boundary (the last tunings it clears)"
+    star = ("star: the best certified tuning" if tuning.feasible
+            else "star: the least hunting tuning (none in the range is certified)")
+    return f"{left}; {star}. Right: the best bandwidth against the accepted hunting amplitude."
+
+
 def _draw_range(tuning, ax):
-    """The screened range: bandwidth and hunting cells; boundary points; the best tuning."""
+    """The screened range: bandwidth and hunting cells; boundary points; the best tuning.  Returns the legend."""
+    from matplotlib.patches import Patch  # here: importing backlash_df does not import matplotlib
+
+
     points = np.array([c.values for c in tuning.screen])
     bandwidth = np.array([c.bandwidth for c in tuning.screen])
     hunts = np.array([c.hunts for c in tuning.screen])
     unit = {name: TUNABLE[name] for name in tuning.names}
+    star = {"marker": "*", "ls": "none", "ms": 15, "zorder": 3, "label": _best_words(tuning)}
+    boundary = np.array([c.values for c in tuning.boundary]).reshape(-1, len(tuning.names))
+    shaded = []  # legend entries of areas (patches not drawn themselves)
     if len(tuning.names) == 1:
         order = np.argsort(points[:, 0])
         ax.plot(points[order, 0], bandwidth[order], "-", color="0.5", lw=1, label="bandwidth (DF screen)")
-        ax.plot(points[hunts, 0], np.nan_to_num(bandwidth[hunts]), "x", color="C3", label="DF: hunts")
-        boundary = np.array([c.values[0] for c in tuning.boundary])
+        drawn = hunts & np.isfinite(bandwidth)
+        if drawn.any():
+            ax.plot(points[drawn, 0], bandwidth[drawn], "x", color="C3", zorder=3.5, label="DF: hunts")
+        lost = (hunts & ~np.isfinite(bandwidth))[order]
+        if lost.any():  # no bandwidth to draw at: their cells shaded, not data at 0
+            edges = cell_edges(points[order, 0], "log")
+            for index in np.flatnonzero(lost):
+                ax.axvspan(edges[index], edges[index + 1], color="C3", alpha=0.12, lw=0, zorder=0)
+            shaded.append(Patch(color="C3", alpha=0.12, lw=0, label="DF: hunts, unstable in contact"))
+        for value in boundary[:, 0]:
+            ax.axvline(value, color="C1", ls=":", lw=1.0, zorder=1)
+        ax.plot(tuning.best.values[0], tuning.best.bandwidth, color="C2" if tuning.feasible else "C3", **star)
         if boundary.size:
-            ax.plot(boundary, [c.bandwidth for c in tuning.boundary], "o", color="C1", ms=4, label="boundary")
-        ax.plot(tuning.best.values[0], tuning.best.bandwidth, "*", color="C2" if tuning.feasible else "C3", ms=14,
-                label="best certified" if tuning.feasible else "least hunting")
-        ax.set_xscale("log")
-        from matplotlib.ticker import NullFormatter  # here: importing backlash_df does not import matplotlib
-
-        ax.xaxis.set_minor_formatter(NullFormatter())  # labelled minor ticks of a short decade collide
+            ax.plot(boundary[:, 0], [c.bandwidth for c in tuning.boundary], "o", color="C1", mec="k", mew=0.5,
+                    ms=5, zorder=4, label="DF boundary")
+        log_scale(ax.xaxis, *tuning.ranges[0])
         ax.set_xlabel(f"{tuning.names[0]} ({unit[tuning.names[0]]})")
         ax.set_ylabel("bandwidth omega_b (rad/s)")
+        marks = " or ".join(word for word, shown in (("x", drawn.any()), ("shaded", lost.any())) if shown)
+        title = f"{marks} where the DF says it hunts" if marks else "the DF finds no hunting"
     else:
         rows, columns = tuning.shape
         x = points[:, 0].reshape(rows, columns)[:, 0]
@@ -508,26 +550,42 @@ def _draw_range(tuning, ax):
         grid = bandwidth.reshape(rows, columns)
         mesh = ax.pcolormesh(x, y, grid.T, shading="nearest", cmap="viridis")
         ax.figure.colorbar(mesh, ax=ax, label="bandwidth omega_b (rad/s)")
-        ax.contourf(x, y, hunts.reshape(rows, columns).T.astype(float), levels=[0.5, 1.5], colors="none",
-                    hatches=["//"])
-        if tuning.boundary:
-            boundary = np.array([c.values for c in tuning.boundary])
-            ax.plot(boundary[:, 0], boundary[:, 1], "o", color="C1", ms=4, label="boundary")
-        ax.plot(*tuning.best.values, "*", color="w" if tuning.feasible else "C3", mec="k", ms=16,
-                label="best certified" if tuning.feasible else "least hunting")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
+        if hunts.any():
+            ax.contourf(x, y, hunts.reshape(rows, columns).T.astype(float), levels=[0.5, 1.5], colors="none",
+                        hatches=["//"])
+            shaded.append(Patch(facecolor="none", edgecolor="k", hatch="//", label="DF: hunts"))
+        ax.plot(*tuning.best.values, color="w" if tuning.feasible else "C3", mec="k", **star)
+        if boundary.size:
+            ax.plot(boundary[:, 0], boundary[:, 1], "o", color="C1", mec="k", mew=0.5, ms=5, zorder=4,
+                    label="DF boundary")
+        log_scale(ax.xaxis, *tuning.ranges[0])
+        log_scale(ax.yaxis, *tuning.ranges[1])
         ax.set_xlabel(f"{tuning.names[0]} ({unit[tuning.names[0]]})")
         ax.set_ylabel(f"{tuning.names[1]} ({unit[tuning.names[1]]})")
-    ax.set_title(f"{tuning.model}: hatched or x where the DF says it hunts", fontsize="medium")
-    ax.legend(fontsize=7, loc="best")
+        title = "hatched where the DF says it hunts" if hunts.any() else "the DF finds no hunting"
+    ax.set_title(f"{tuning.model}: {title}", fontsize="medium")
+    handles = [line for line in ax.get_lines() if not line.get_label().startswith("_")] + shaded
+    return legend_under(ax, handles=handles, fontsize=7)
 
 
 def _draw_front(tuning, ax):
-    """The front: best bandwidth against the accepted hunting amplitude."""
+    """The front: best bandwidth against the accepted hunting amplitude, from 0, its last step run on to the edge
+    (beyond the amplitudes met, or to the play 2 alpha where nothing hunts)."""
     tolerance = np.array([p.tolerance for p in tuning.front])
-    ax.step(tolerance, [p.bandwidth for p in tuning.front], where="post", color="C0")
-    ax.plot(tolerance, [p.bandwidth for p in tuning.front], "o", color="C0", ms=4)
+    bandwidth = np.array([p.bandwidth for p in tuning.front])
+    if not tuning.front:
+        ax.text(0.5, 0.5, "no front: no tuning found", transform=ax.transAxes, ha="center", va="center")
+        return
+    prediction = tuning.best.verdict.prediction
+    scale = max([float(tolerance.max(initial=0.0)), tuning.tolerance]
+                + [c.amplitude for c in tuning.screen if math.isfinite(c.amplitude)])
+    scale = scale or 2.0 * (prediction.half_gap if prediction is not None else 0.0)  # nothing hunts: the play
+    right = 1.15 * scale if scale > 0.0 else 1.0
+    ax.step(np.append(tolerance, right), np.append(bandwidth, bandwidth[-1:]), where="post", color="C0")
+    ax.plot(tolerance, bandwidth, "o", color="C0", ms=4, clip_on=False, zorder=3)
+    ax.set_xlim(0.0, right)
+    if np.ptp(bandwidth) == 0.0:  # one level: a band around it, not matplotlib's +-0.1 % of round-off ticks
+        ax.set_ylim(0.9 * bandwidth[0], 1.1 * bandwidth[0])
     ax.set_xlabel("accepted hunting: amplitude A of theta_d (rad)")
     ax.set_ylabel("best bandwidth omega_b (rad/s)")
     ax.set_title("front: bandwidth bought by accepted hunting", fontsize="medium")

@@ -377,7 +377,8 @@ class LoopVerdict:
             if chosen:
                 y = [p.measured.amplitude if outcome == "cycle" else low if outcome == "rest" else high
                      for p in chosen]
-                ax.plot([p.scale for p in chosen], y, marker, color=colour, ls="none", label=label)
+                ax.plot([p.scale for p in chosen], y, marker, color=colour, ls="none", label=label,
+                        clip_on=outcome == "cycle")  # the marks on an edge drawn whole
         for cycle in () if self.prediction is None else self.prediction.cycles:
             ax.axhline(cycle.amplitude, color="C0", lw=1.0, ls="-" if cycle.stable else "--")
         for orbit in self.orbits:

@@ -11,7 +11,10 @@ legend overlaps no text outside it (no title); and a legend inside a panel
 covers no drawn data (the lines' segments, stems and bars in display
 coordinates; a legend outside the panels is free).  The design map's extent,
 units and contour labels and the sampling of G(jw) in the Nyquist overlay are
-checked on their own.
+checked on their own.  Every axis of the figures of the ``predict``, ``tune`` and
+``diagnose`` reports shows at least two tick labels (a log axis labelled ``10^2`` alone
+reads as no scale), the Nyquist overlay's view spans its data with short tick labels, and
+the tuning plot draws no hunting tuning as data at bandwidth 0 and no negative amplitude.
 """
 
 import json
@@ -205,6 +208,43 @@ def layout_problems(figure):
     legends = [(legend, legend.get_window_extent(renderer)) for legend in figure_legends(figure)]
     return (_cut_off(figure, texts, legends) + _overlapping_texts(texts) + _titles_over_panels(figure, texts, renderer)
             + _legends_over(figure, texts, legends, renderer))
+
+
+def shown_tick_labels(axis):
+    """The tick labels of ``axis`` a reader sees: visible, inside the view, with text."""
+    return [label for label in _tick_labels(axis) if label.get_visible() and label.get_text().strip()]
+
+
+def thin_axes(figure):
+    """The axes of ``figure`` with fewer than two tick labels shown: one line each.
+
+    Not counted: an axis whose ticks are switched off (a ``NullLocator``), the short side
+    of a colorbar, an axis of categories (one bar per name, by category units or ticks
+    placed by hand, a ``FixedLocator``: one name is one label), and axes drawn without
+    their axes.  An axis shared with others counts the labels of the
+    one among them that shows most (inner panels of a column hide theirs).
+    """
+    from matplotlib.category import StrCategoryConverter
+    from matplotlib.ticker import FixedLocator, NullLocator
+
+    figure.canvas.draw()
+    problems = []
+    for index, ax in enumerate(figure.axes):
+        if not ax.get_visible() or not ax.axison:
+            continue
+        box = ax.get_window_extent()
+        for name, axis, shared in (("x", ax.xaxis, ax.get_shared_x_axes()), ("y", ax.yaxis, ax.get_shared_y_axes())):
+            short_side = ax.get_label() == "<colorbar>" and (box.width < box.height) == (name == "x")
+            if (isinstance(axis.get_major_locator(), NullLocator) or not axis.get_visible() or short_side
+                    or isinstance(axis.get_converter(), StrCategoryConverter)
+                    or isinstance(axis.get_major_locator(), FixedLocator)):
+                continue
+            count = max(len(shown_tick_labels(getattr(other, f"{name}axis"))) for other in shared.get_siblings(ax))
+            if count < 2:
+                labels = [label.get_text() for label in shown_tick_labels(axis)]
+                problems.append(f"axes {index} ({ax.get_title() or ax.get_ylabel()!r}): its {name} axis shows "
+                                f"{count} tick label(s) {labels}")
+    return problems
 
 
 def assert_readable(figure):
@@ -401,3 +441,135 @@ def test_log_scale_labels_decades_and_2_and_5_where_matplotlib_crowds():
     shown = sorted(tick.get_loc() for tick in ax.xaxis.get_major_ticks() if 0.017 <= tick.get_loc() <= 0.55)
     assert np.allclose(shown, [0.02, 0.05, 0.1, 0.2, 0.5])
     plt.close(figure)
+
+
+def test_the_tick_label_count_sees_a_lone_decade():
+    """matplotlib's log axis from 20 to 400 with unlabelled minor ticks shows ``10^2`` alone (the tuning plot
+    before issue 49); :func:`~backlash_df.plotting.log_scale` labels 20, 50, 100 and 200."""
+    from matplotlib.ticker import NullFormatter
+
+    figure, ax = plt.subplots(figsize=(5, 3), layout="constrained")
+    ax.plot([20.0, 400.0], [1.0, 2.0])
+    ax.set_xscale("log")
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    (problem,) = thin_axes(figure)
+    assert "x axis shows 1 tick label" in problem
+    plotting.log_scale(ax.xaxis, 20.0, 400.0)
+    assert thin_axes(figure) == []
+    assert [label.get_text() for label in shown_tick_labels(ax.xaxis)] == ["20", "50", "100", "200"]
+    plt.close(figure)
+
+
+@pytest.mark.parametrize("low, high", [(20.0, 40.0), (20.0, 400.0), (1.5, 2.5), (0.017, 0.55), (3.0, 9.0),
+                                       (1e-3, 10.0), (0.1, 0.35)])
+def test_log_scale_shows_at_least_two_plain_labels(low, high):
+    """Over less than a decade (kp from 20 to 40: matplotlib shows no label at all) and up to a few, at least
+    two labels, plain numbers below two decades."""
+    figure, ax = plt.subplots(figsize=(4, 2.5), layout="constrained")
+    ax.plot([low, high], [1.0, 2.0])
+    plotting.log_scale(ax.xaxis, low, high)
+    assert thin_axes(figure) == [] and layout_problems(figure) == []
+    if high < 100.0 * low:
+        for label in shown_tick_labels(ax.xaxis):
+            assert float(label.get_text()) == pytest.approx(label.get_position()[0], rel=1e-2)
+    plt.close(figure)
+
+
+@pytest.mark.parametrize("name", PLOTS)
+def test_every_axis_of_a_result_plot_shows_two_tick_labels(results, name):
+    drawn = results[name].plot()
+    problems = thin_axes(drawn.figure)
+    plt.close(drawn.figure)
+    assert not problems, "\n".join(problems)
+
+
+@pytest.mark.parametrize("name", ["LoopAnalysis", "Tuning", "Diagnosis"])
+def test_every_axis_of_the_report_figures_shows_two_tick_labels(results, name, monkeypatch):
+    """The figures of the ``predict``, ``tune`` and ``diagnose`` reports, as the reports draw them."""
+    problems = []
+
+    def checked(figure, *args, **kwargs):
+        problems.extend(thin_axes(figure))
+        return figure_html(figure, *args, **kwargs)
+
+    for module in list(sys.modules.values()):
+        if module.__name__.startswith("backlash_df") and getattr(module, "figure_html", None) is figure_html:
+            monkeypatch.setattr(module, "figure_html", checked)
+    results[name].report_html()
+    plt.close("all")
+    assert not problems, "\n".join(problems)
+
+
+# --------------------------------------------------------------------------- the Nyquist view
+
+
+def _drawn_points(ax):
+    """Every finite data point of the panel's lines, display coordinates."""
+    points = [line.get_transform().transform(np.asarray(line.get_xydata(), dtype=float)) for line in ax.get_lines()]
+    points = np.concatenate(points)
+    return points[np.all(np.isfinite(points), axis=1)]
+
+
+@pytest.mark.parametrize("rig_name", ["load_feedback", "motor_lag_feedback", "loaded_feedback"])
+def test_the_nyquist_view_spans_its_data_with_short_labels(rig_name):
+    """What is drawn within the view's width fills its height (load_feedback: the loci and G lie in
+    0 < Im < 7e-5 rad/(N m), the view ran from -1.25e-4, its lower half empty), and no tick label is longer
+    than 5 characters (a scale factor, not -0.00035)."""
+    prediction = bd.predict_limit_cycles(example_rig(rig_name))
+    drawn = limit_cycle_plot([prediction])
+    drawn.figure.canvas.draw()
+    box = drawn.ax.get_window_extent()
+    points = _drawn_points(drawn.ax)
+    inside = points[(points[:, 0] >= box.x0) & (points[:, 0] <= box.x1)
+                    & (points[:, 1] >= box.y0) & (points[:, 1] <= box.y1)]
+    filled = np.ptp(inside[:, 1]) / box.height
+    labels = [label.get_text().removeprefix("$\\mathdefault{").removesuffix("}$")  # mathtext: the number itself
+              for axis in (drawn.ax.xaxis, drawn.ax.yaxis) for label in shown_tick_labels(axis)]
+    offsets = [axis.get_offset_text().get_text() for axis in (drawn.ax.xaxis, drawn.ax.yaxis)]
+    assert_readable(drawn.figure)
+    assert filled > 0.8, filled
+    assert max(len(label) for label in labels) <= 5, labels
+    assert all("10^" in offset or "10^{" in offset for offset in offsets), offsets  # the scale factor, shown
+
+
+# --------------------------------------------------------------------------- the tuning plot
+
+
+def _range_lines(drawn):
+    return [line for line in drawn.axes[0].get_lines() if not line.get_label().startswith("_")]
+
+
+def test_tuning_plot_draws_no_hunting_tuning_at_bandwidth_zero(results):
+    """Tunings whose loop in contact is unstable have no bandwidth (NaN): their cells are shaded and listed in
+    the legend, never marked at bandwidth 0; a front of one point keeps its amplitude axis at 0 and above."""
+    import dataclasses
+
+    tuning = results["Tuning"]
+    lost = {c.values for c in tuning.screen[-3:]}
+    screen = tuple(dataclasses.replace(c, bandwidth=float("nan"), hunts=True) if c.values in lost else c
+                   for c in tuning.screen)
+    drawn = dataclasses.replace(tuning, screen=screen, front=tuning.front[:1]).plot()
+    drawn.figure.canvas.draw()
+    for line in drawn.axes[0].get_lines():
+        y = np.asarray(line.get_ydata(), dtype=float)
+        if line.get_transform() is drawn.axes[0].transData and y.size:
+            assert not np.any(y[np.isfinite(y)] <= 0.0), line.get_label()
+    entries = [text.get_text() for text in drawn.legend.get_texts()]
+    assert any("unstable in contact" in entry for entry in entries), entries
+    assert "least hunting (none certified)" in entries and "best certified" not in entries
+    low, high = drawn.axes[1].get_xlim()
+    assert low == 0.0 and high > 0.0
+    assert thin_axes(drawn.figure) == []
+    assert_readable(drawn.figure)
+
+
+def test_tuning_report_caption_fits_the_case(results):
+    """Nothing certified: the caption names the least hunting tuning, not a best certified one, and speaks
+    of no hatching where one varied value draws none."""
+    tuning = results["Tuning"]
+    assert not tuning.feasible and len(tuning.names) == 1
+    page = tuning.report_html()
+    caption = page.split("<figcaption>")[1].split("</figcaption>")[0]
+    assert "least hunting" in caption and "certified tuning" not in caption.replace("none in the range is certified", "")
+    assert "hatch" not in caption
+    plt.close("all")

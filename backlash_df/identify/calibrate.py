@@ -85,7 +85,6 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from .._jit import inline as _inline
-from .._jit import jit as _jit
 from .._jit import jit_unchecked as _jit_unchecked
 from .._json import json_ready
 from ..models import LAW_CODES, PHASE_PLANE, RUBBER, held_mode, mode_torque

@@ -592,7 +592,7 @@ class Diagnosis:
                 for step, c in enumerate(self.candidates, start=1)]
         fit_table = table_html(["#", *(f"{name}: {kind}" for name in speeds for kind, _ in kinds)],
                                fits, text_columns=())
-        parameter_rows = [[name, f"{p.nominal:.5g}", f"{p.value:.5g}", f"{p.stderr:.3g}",
+        parameter_rows = [[name, f"{p.nominal:.5g}", f"{_shown_value(p):.5g}", f"{p.stderr:.3g}",
                            f"{p.ci95[0]:.5g} .. {p.ci95[1]:.5g}", f"{p.lower:.4g} .. {p.upper:.4g}", p.unit]
                           for name, p in self.whole_record.parameters.items()]
         parameters = table_html(["parameter", "start (rig file)", "fitted", "std. error", "95 % CI", "bounds", "unit"],
@@ -626,8 +626,9 @@ class Diagnosis:
             fits = " / ".join(f"{v:.2f}" for v in stage.extended.fit_percent.values())
             ahead = " / ".join(f"{v:.2f}" for v in stage.extended.ahead_fit_percent.values())
             rows.append([label, named, fits, ahead])
-        table = table_html(["model", "causes (95 % CI)", "k-step fit % per speed",
-                            f"{VALIDATION_HORIZON:g} s ahead fit % per speed"], rows, text_columns=(0, 1))
+        speeds = " / ".join(name.removesuffix("_speed") for name in self.extended.fit_percent) + " speed"
+        table = table_html(["model", "causes (95 % CI)", f"k-step fit %, {speeds}",
+                            f"{VALIDATION_HORIZON:g} s ahead fit %, {speeds}"], rows, text_columns=(0, 1))
         skew = f"<p>{html.escape(self.skew_sentence())}</p>" if self.encoder_skew is not None else ""
         return f"<p>{html.escape(_resolution_sentence(self.shaft, self.measurements))}</p>" + skew + table
 
@@ -660,10 +661,59 @@ def _effects_name(candidate):
 
 
 def _format_parameter(parameter):
+    """An added parameter in the report's search table: ``name = value (low .. high) unit``, the value as
+    :func:`_shown_value` prints it."""
     if parameter is None:
         return "-"
     low, high = parameter.ci95
-    return f"{parameter.name} = {parameter.value:.4g} ({low:.4g} .. {high:.4g}) {parameter.unit}"
+    return f"{parameter.name} = {_shown_value(parameter):.4g} ({low:.4g} .. {high:.4g}) {parameter.unit}"
+
+
+#: A fitted value within this share of its own 95 % interval's half-width prints as 0 (:func:`parameter_resolution`).
+FAR_BELOW_INTERVAL = 1e-3
+#: The fit's resolution as a share of the range it allows (:func:`parameter_resolution`).
+FIT_RESOLUTION = 1e-8
+
+
+def parameter_resolution(parameter):
+    """The smallest magnitude of a fitted value the diagnosis report prints: below it the value prints as 0.
+
+    The rule, for the report's rendering only (the JSON, the objects and the terminal
+    keep every number as fitted): a fitted value prints as 0 where its magnitude is at
+    most
+
+    - :data:`FAR_BELOW_INTERVAL` (1e-3) times its own 95 % interval's half-width: the
+      data cannot tell it from 0, and the digits printed beside the interval would be
+      those of where the solver stopped, not of the data (a motor-side Coulomb friction
+      of 4.451e-10 N m, 95 % CI -0.3487 .. 0.3487 N m, prints as 0); or
+    - :data:`FIT_RESOLUTION` (1e-8) times the range the fit allows (its bounds' width):
+      the relative step at which the trust-region solver stops (scipy's
+      ``least_squares`` ``xtol``), the finest the fit resolves whatever the interval
+      (an actuator delay of 3.5e-12 s fitted within [0, 0.05] s prints as 0).
+
+    A value the rule keeps prints as fitted, to the digits the table shows.  The
+    interval and the standard error always print as computed.
+
+    Parameters
+    ----------
+    parameter : FitParameter
+
+    Returns
+    -------
+    float
+        The resolution, the parameter's unit; 0 where neither the interval nor the
+        bounds are finite.
+    """
+    low, high = parameter.ci95
+    half_width = 0.5 * (high - low)
+    width = parameter.upper - parameter.lower
+    return max(FAR_BELOW_INTERVAL * half_width if math.isfinite(half_width) else 0.0,
+               FIT_RESOLUTION * width if math.isfinite(width) else 0.0)
+
+
+def _shown_value(parameter):
+    """The parameter's value as the report prints it: 0.0 at or below :func:`parameter_resolution`."""
+    return 0.0 if abs(parameter.value) <= parameter_resolution(parameter) else float(parameter.value)
 
 
 def check_speed_units(measurements, rig):
