@@ -134,7 +134,8 @@ def analyse_loop(rig, models=None, *, exact=False, progress=None):
     exact : bool
         Also find the exact periodic orbits by shooting (:mod:`backlash_df.orbits`).
     progress : callable, optional
-        ``progress(done, total)`` after each simulation or verdict (a progress bar).
+        ``progress(stage, done, total)`` (the package's one protocol), stage
+        ``"simulating"``, after each verifying simulation and each verdict.
 
     Returns
     -------
@@ -151,11 +152,11 @@ def analyse_loop(rig, models=None, *, exact=False, progress=None):
     total = sum(max(1, len(p.stable_cycles)) for p in predictions) + len(predictions)
     done = 0
 
-    def step():
+    def step(*_):
         nonlocal done
         done += 1
         if progress is not None:
-            progress(done, total)
+            progress("simulating", done, total)
 
     verified = [verify_limit_cycles(rig, prediction, progress=step) for prediction in predictions]
     verdicts = []

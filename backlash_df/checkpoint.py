@@ -290,7 +290,7 @@ def opened(checkpoint, command, run):
     return contextlib.nullcontext() if checkpoint is None else checkpoint.open(command, run)
 
 
-def run_cells(function, items, executor=None, checkpoint=None, keys=None):
+def run_cells(function, items, *, executor=None, checkpoint=None, keys=None, progress=None, stage="cells"):
     """``[function(item) for item in items]``, on ``executor`` if given (order kept), keeping each cell as it finishes.
 
     Parameters
@@ -307,6 +307,11 @@ def run_cells(function, items, executor=None, checkpoint=None, keys=None):
         computed again, the others are added as they finish (in any order).
     keys : sequence, optional
         The key of each item in ``checkpoint`` (default: the item itself).
+    progress : callable, optional
+        ``progress(stage, done, total)``: called once with the cells already kept,
+        then as each cell finishes (the package's one progress protocol).
+    stage : str
+        The stage's name passed to ``progress``.
 
     Returns
     -------
@@ -327,6 +332,11 @@ def run_cells(function, items, executor=None, checkpoint=None, keys=None):
         found[index] = value
         if checkpoint is not None:
             checkpoint.add(keys[index], value)
+        if progress is not None:
+            progress(stage, len(found), len(items))
+
+    if progress is not None:
+        progress(stage, len(found), len(items))
 
     if executor is None:
         for index in todo:

@@ -476,7 +476,20 @@ def _step(extended, trace, direction, bound, ds_max, max_points, amplitude_bound
             "scale": extended.scale.copy()}
 
 
-def _trace(extended, start, direction, bound, ds, ds_max, max_points, amplitude_bounds, kept=None, name="forward"):
+def _counted(progress):
+    """A ``step()`` that reports each branch step to ``progress`` as stage ``"branch"`` (or does nothing)."""
+    count = itertools.count(1)
+
+    def step():
+        done = next(count)
+        if progress is not None:
+            progress("branch", done, None)
+
+    return step
+
+
+def _trace(extended, start, direction, bound, ds, ds_max, max_points, amplitude_bounds, kept=None, name="forward",
+           step_done=None):
     """Continue from ``start`` (a polished orbit) with the parameter first moving in ``direction``.
 
     Each step (:func:`_step`) is kept in the checkpoint ``kept`` under ``(name, k)``;
@@ -499,6 +512,8 @@ def _trace(extended, start, direction, bound, ds, ds_max, max_points, amplitude_
             if kept is not None:
                 kept.add(key, step)
         trace.apply(step, extended)
+        if step_done is not None:
+            step_done()
         if step["done"]:
             return trace.points, trace.tangents, step["reason"], trace.folds
 
@@ -587,7 +602,7 @@ def _start(rig, parameter, model, values, seed):
 
 def continue_limit_cycles(rig, parameter, values_or_range, model=None, *, seed=None, ds=0.05, ds_max=1.0,
                           max_points=200, max_amplitude=40.0, df_values=25, df_grid=(30, 40), executor=None,
-                          checkpoint=None):
+                          progress=None, checkpoint=None):
     """Trace the branch of exact periodic orbits over one rig value (module docs).
 
     Parameters
@@ -618,6 +633,10 @@ def continue_limit_cycles(rig, parameter, values_or_range, model=None, *, seed=N
         Scan grid of each DF prediction.
     executor : concurrent.futures.Executor, optional
         Runs the DF predictions (the continuation itself is sequential).
+    progress : callable, optional
+        ``progress(stage, done, total)`` (the package's one protocol): stage
+        ``"branch"`` after each step (``total`` None: the branch's length is not
+        known ahead), then ``"DF values"`` as the DF predictions finish.
     checkpoint : str, Path or Checkpoint, optional
         Keeps the first orbit, every step of the branch (its point, tangent and
         step size) and every DF prediction in this file as they are found
@@ -652,15 +671,17 @@ def continue_limit_cycles(rig, parameter, values_or_range, model=None, *, seed=N
                        "df_grid": tuple(df_grid)}, omit={"source"})
     with opened(checkpoint, "continue", inputs) as kept:
         points, special = _branch(rig, parameter, model, (lo, hi), seed, (ds, ds_max, max_points, max_amplitude),
-                                  kept)
+                                  kept, progress)
         df_at = np.linspace(lo, hi, df_values) if values.size == 2 else values
         df_at = [float(value) for value in df_at]
         predictions = run_cells(functools.partial(_df_prediction, rig, parameter, model, tuple(df_grid)), df_at,
-                                executor, kept, keys=[("df", value) for value in df_at])
+                                executor=executor, checkpoint=kept, keys=[("df", value) for value in df_at],
+                                progress=progress,
+                                stage="DF values")
     return Branch(parameter, model, tuple(points), tuple(special), tuple(zip(df_at, predictions)), (lo, hi), rig)
 
 
-def _branch(rig, parameter, model, value_range, seed, steps, kept):
+def _branch(rig, parameter, model, value_range, seed, steps, kept, progress=None):
     """The branch points and special points (:func:`continue_limit_cycles`), each step kept in ``kept``."""
     (lo, hi), (ds, ds_max, max_points, max_amplitude) = value_range, steps
     if kept is not None and ("start",) in kept:
@@ -673,13 +694,15 @@ def _branch(rig, parameter, model, value_range, seed, steps, kept):
     amplitude_bounds = (1e-3 * rig.plant.half_gap, max_amplitude * rig.plant.half_gap)
     direction = 1.0 if hi > lo else -1.0
     extended = _Extended(rig, parameter, model, np.append(_state_scale(unknowns), abs(hi - lo)))
+    counted = _counted(progress)
     forward, t_forward, why_forward, folds = _trace(extended, start, direction, hi, ds, ds_max, max_points,
-                                                    amplitude_bounds, kept, "forward")
+                                                    amplitude_bounds, kept, "forward", counted)
     points, tangents, reasons = forward, t_forward, [why_forward]
     if start.parameter != lo:
         extended = _Extended(rig, parameter, model, np.append(_state_scale(unknowns), abs(hi - lo)))
         backward, t_backward, why_backward, back_folds = _trace(extended, start, -direction, lo, ds, ds_max,
-                                                                max_points, amplitude_bounds, kept, "backward")
+                                                                max_points, amplitude_bounds, kept, "backward",
+                                                                counted)
         points = backward[::-1] + forward[1:]
         tangents = [-t for t in t_backward[::-1]] + t_forward[1:]
         reasons.append(why_backward)

@@ -647,7 +647,7 @@ def default_ranges(rig, linear=None):
     return (alpha * (1.0 + 1e-4), 200.0 * alpha), (w_n / 300.0, 3.0 * w_n)
 
 
-def predict_limit_cycles(rig, model=None, linear=None, amplitude_range=None, omega_range=None, bias=0.0,
+def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, omega_range=None, bias=0.0,
                          grid=(60, 80), describing=None, near_miss_cutoff=0.5, load_torque=None):
     """Predict the limit cycles of a rig's loop by the describing function.
 
@@ -811,7 +811,7 @@ class CommandSlaving:
 # --------------------------------------------------------------------------- verification
 
 
-def verify_limit_cycles(rig, prediction, linear=None, kick=None, t_end=None, max_t_end=320.0, dt=None,
+def verify_limit_cycles(rig, prediction, *, linear=None, kick=None, t_end=None, max_t_end=320.0, dt=None,
                         progress=None):
     """Check a prediction by closed-loop time simulation with the same torque law.
 
@@ -836,7 +836,8 @@ def verify_limit_cycles(rig, prediction, linear=None, kick=None, t_end=None, max
         First and largest simulated time and the step, s (default first time:
         60 periods of the cycle, or 20 s).
     progress : callable, optional
-        Called once after each simulation (e.g. a tqdm ``update``).
+        ``progress(stage, done, total)`` (the package's one protocol), stage
+        ``"simulating"``, after each simulation.
 
     Returns
     -------
@@ -844,6 +845,12 @@ def verify_limit_cycles(rig, prediction, linear=None, kick=None, t_end=None, max
         A copy with ``simulated`` filled in and ``simulation`` set.
     """
     rig, model, user_linear = prediction.loop(rig, linear)
+    total = max(1, len(prediction.stable_cycles))
+
+    def simulated(done):
+        if progress is not None:
+            progress("simulating", done, total)
+
     cycles = []
     first = None
     for cycle in prediction.cycles:
@@ -858,23 +865,21 @@ def verify_limit_cycles(rig, prediction, linear=None, kick=None, t_end=None, max
         )
         first = measured if first is None else first
         cycles.append(dataclasses.replace(cycle, simulated=measured))
-        if progress is not None:
-            progress()
+        simulated(sum(c.simulated is not None for c in cycles))
     if first is None:
         if kick is None:
             _, (_, w_hi) = default_ranges(rig)
             kick = 2.0 * model.half_gap * w_hi / 3.0
         first, _ = simulated_limit_cycle(rig, model, t_end=t_end or 20.0, max_t_end=max_t_end, dt=dt,
                                          kick=kick, linear=user_linear)
-        if progress is not None:
-            progress()
+        simulated(1)
     return dataclasses.replace(prediction, cycles=tuple(cycles), simulation=first)
 
 
 # --------------------------------------------------------------------------- plot
 
 
-def limit_cycle_plot(predictions, ax=None, n_loci=7, n_amplitudes=200, g_omega=None):
+def limit_cycle_plot(predictions, ax=None, *, n_loci=7, n_amplitudes=200, g_omega=None):
     """Nyquist overlay: G(jw) with the -1/N(A, w) loci of one or several models.
 
     For each model the loci ``A -> -1/N(A, w_i)`` are drawn thin at ``n_loci``

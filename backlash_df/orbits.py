@@ -1172,7 +1172,7 @@ def _peak(loop, track, period, mean):
     return float(best)
 
 
-def exact_orbits(rig, prediction, simulated=None, *, pade_order=DEFAULT_PADE_ORDER, near_misses=1):
+def exact_orbits(rig, prediction, *, simulated=None, pade_order=DEFAULT_PADE_ORDER, near_misses=1):
     """Every distinct periodic orbit found from a prediction's DF cycles and a simulated cycle.
 
     Parameters

@@ -172,7 +172,7 @@ def _switching_integral(torque_in_mode, mode_at, mode0, mode1, ends):
     return _piece(torque_in_mode, mode0, ends, 0.0, hi) + _piece(torque_in_mode, mode1, ends, hi, 1.0)
 
 
-def integrated_torque(model, time, theta_d, dtheta_d, theta_b0=0.0, start=0):
+def integrated_torque(model, time, theta_d, dtheta_d, *, theta_b0=0.0, start=0):
     """Integral of a law's torque along a sampled trajectory, jumps located between samples.
 
     Steps without a change of contact mode use the trapezoid rule; in a step
@@ -332,7 +332,7 @@ class TorqueComparison:
         return ResultPlot(figure, axes, legend)
 
 
-def compare_torques(setup="one-sided", driver="phase-plane", dt=DEFAULT_DT, warmup_cycles=40,
+def compare_torques(setup="one-sided", *, driver="phase-plane", dt=DEFAULT_DT, warmup_cycles=40,
                     models=COMPARED_MODELS, plant=PAPER_PLANT):
     """Simulate a :class:`Setup` with ``driver`` and evaluate every law along its last cycle.
 
@@ -518,7 +518,7 @@ def _cell(value, spec):
     return f"{'n/a':>{width}}" if value is None else format(value, spec)
 
 
-def table1(setups=tuple(SETUPS), driver="phase-plane", dt=DEFAULT_DT, **kwargs):
+def table1(setups=tuple(SETUPS), *, driver="phase-plane", dt=DEFAULT_DT, **kwargs):
     """Table I on each setup: integrated torque and error of every law against the exact one.
 
     Parameters

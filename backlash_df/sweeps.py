@@ -413,8 +413,8 @@ def _cell(settings, point):
     return out
 
 
-def design_map(rig, x_values, y_values, x="kp", y="ti", models=("phase-plane", "damped-dead-zone"), simulate=True,
-               grid=(30, 40), t_end=10.0, max_t_end=40.0, executor=None, checkpoint=None):
+def design_map(rig, x_values, y_values, *, x="kp", y="ti", models=None, simulate=True, grid=(30, 40), t_end=10.0,
+               max_t_end=40.0, executor=None, progress=None, checkpoint=None):
     """Scan two rig values: DF verdicts and amplitudes of each model and, optionally, time simulation.
 
     Parameters
@@ -425,8 +425,8 @@ def design_map(rig, x_values, y_values, x="kp", y="ti", models=("phase-plane", "
         Grid values of ``x`` and ``y`` (the rig file's units).
     x, y : str
         Rig values to sweep (:func:`rig_with`); default the PI tuning (kp, ti).
-    models : sequence of str
-        Torque laws.
+    models : sequence of str, optional
+        Torque laws (default: the rig's ``[model] backlash``).
     simulate : bool
         Also simulate each cell with each law
         (:func:`~backlash_df.limit_cycles.verify_limit_cycles`).
@@ -438,6 +438,9 @@ def design_map(rig, x_values, y_values, x="kp", y="ti", models=("phase-plane", "
         Runs the cells (a ``ProcessPoolExecutor``, or a Dask client's
         ``get_executor()``, which runs a cell whose worker dies again on
         another worker); ``None``: serially.  Results are identical.
+    progress : callable, optional
+        ``progress(stage, done, total)`` (the package's one protocol), stage
+        ``"cells"``, as the cells finish.
     checkpoint : str, Path or Checkpoint, optional
         Keeps each finished cell, keyed by its two values, in this file
         (:class:`~backlash_df.checkpoint.Checkpoint`; a path: a new file).
@@ -458,12 +461,14 @@ def design_map(rig, x_values, y_values, x="kp", y="ti", models=("phase-plane", "
     """
     x_values = np.atleast_1d(np.asarray(x_values, dtype=float))
     y_values = np.atleast_1d(np.asarray(y_values, dtype=float))
-    settings = _Settings(rig, x, y, tuple(models), bool(simulate), tuple(grid), float(t_end), float(max_t_end))
+    models = tuple(models) if models is not None else (rig.model,)
+    settings = _Settings(rig, x, y, models, bool(simulate), tuple(grid), float(t_end), float(max_t_end))
     rig_with(rig_with(rig, x, x_values[0]), y, y_values[0])  # bad names fail here, not in a worker
     points = [(float(a), float(b)) for a in x_values for b in y_values]
     inputs = describe(settings, omit={"source"})
     with opened(checkpoint, "map", inputs) as kept:
-        cells = run_cells(functools.partial(_cell, settings), points, executor, kept)
+        cells = run_cells(functools.partial(_cell, settings), points, executor=executor, checkpoint=kept,
+                          progress=progress)
     shape = (x_values.size, y_values.size)
     fields = [{}, {}, {}, {}, {}, {}]
     for m, name in enumerate(settings.models):

@@ -44,7 +44,7 @@ def assert_describing_function(model, amplitude, omega, gain=None, phase_deg=Non
     """
     if gain is None and phase_deg is None:
         raise ValueError("give gain=..., phase_deg=... or both")
-    n = describing_function(model, amplitude, omega, bias)
+    n = describing_function(model, amplitude, omega, bias=bias)
     a, w, n = np.broadcast_arrays(np.asarray(amplitude, dtype=float), np.asarray(omega, dtype=float), n)
     actual_gain = np.abs(n)
     actual_phase = np.degrees(np.angle(n))

@@ -634,7 +634,7 @@ def _margin(names, best, hunting_points):
             "source": source}
 
 
-def _front(settings, screen, best, feasible, executor, kept):
+def _front(settings, screen, best, feasible, executor, kept, progress=None):
     """Best bandwidth per tolerance: 0 (the certified tuning), then the DF amplitudes of hunting cells."""
     stable = [c for c in screen if math.isfinite(c.bandwidth) and c.amplitude > 0.0]
     levels = sorted({c.amplitude for c in stable})
@@ -647,8 +647,9 @@ def _front(settings, screen, best, feasible, executor, kept):
         if (feasible and top.bandwidth <= best.bandwidth) or (chosen and top.bandwidth <= chosen[-1][1].bandwidth):
             continue
         chosen.append((level, top))
-    simulated = run_cells(functools.partial(_simulated_amplitude, settings), [c.values for _, c in chosen], executor,
-                          kept, [("front", *c.values) for _, c in chosen])
+    simulated = run_cells(functools.partial(_simulated_amplitude, settings), [c.values for _, c in chosen],
+                          executor=executor, checkpoint=kept, keys=[("front", *c.values) for _, c in chosen],
+                          progress=progress, stage="front")
     front = [FrontPoint(0.0, best.values, best.bandwidth, 0.0)] if feasible else []
     for (level, candidate), amplitude in zip(chosen, simulated):
         front.append(FrontPoint(float(max(level, amplitude)), candidate.values, candidate.bandwidth, float(amplitude)))
@@ -669,7 +670,7 @@ def _simulated_amplitude(settings, values):
     return max(found) if found else max(c.amplitude for c in prediction.stable_cycles)
 
 
-def tune(rig, vary, tolerance=0.0, model=None, executor=None, progress=None, checkpoint=None):
+def tune(rig, vary, *, tolerance=0.0, model=None, executor=None, progress=None, checkpoint=None):
     """The tuning of largest contact-loop bandwidth whose verdict is certified ``no oscillation`` (module docs).
 
     Parameters
@@ -686,7 +687,8 @@ def tune(rig, vary, tolerance=0.0, model=None, executor=None, progress=None, che
     executor : concurrent.futures.Executor, optional
         Runs the screened cells, the boundary bisections and the certificates.
     progress : callable, optional
-        ``progress(stage, done, total)``.
+        ``progress(stage, done, total)`` (the package's one protocol) as the stages
+        ``screening``, ``refinement``, ``certification`` and ``front`` advance.
     checkpoint : str, Path or Checkpoint, optional
         Keep every screened cell, boundary bisection, certificate and front point
         as it finishes (:class:`~backlash_df.checkpoint.Checkpoint`; a path: a new
@@ -719,18 +721,15 @@ def _search(settings, ranges, executor, progress, kept):
 
     start = time.perf_counter()
     points, shape = _grid(ranges)
-    report("screening", 0, len(points))
-    screen = run_cells(functools.partial(_screen_cell, settings), points, executor, kept,
-                       [("screen", *values) for values in points])
-    report("screening", len(points), len(points))
+    screen = run_cells(functools.partial(_screen_cell, settings), points, executor=executor, checkpoint=kept,
+                       keys=[("screen", *values) for values in points], progress=progress, stage="screening")
     seconds["screening"] = time.perf_counter() - start
 
     start = time.perf_counter()
     pairs = _pairs(screen, shape)
-    report("refinement", 0, len(pairs))
-    refined = run_cells(functools.partial(_bisect_boundary, settings), pairs, executor, kept,
-                        [("refine", *clear.values, *hunting.values) for clear, hunting in pairs])
-    report("refinement", len(pairs), len(pairs))
+    refined = run_cells(functools.partial(_bisect_boundary, settings), pairs, executor=executor, checkpoint=kept,
+                        keys=[("refine", *clear.values, *hunting.values) for clear, hunting in pairs],
+                        progress=progress, stage="refinement")
     boundary = tuple(clear for clear, _ in refined)
     seconds["refinement"] = time.perf_counter() - start
 
@@ -739,8 +738,8 @@ def _search(settings, ranges, executor, progress, kept):
     candidates = sorted([c for c in list(screen) + list(boundary) if not c.hunts and math.isfinite(c.bandwidth)],
                         key=lambda c: -c.bandwidth)
     certificates, best = [], None
+    report("certification", 0, None)  # it stops at the first certified: no total ahead
     for candidate in candidates:
-        report("certification", len(certificates), len(candidates))
         certificate = _certify_cell(settings, candidate.values, kept)
         certificates.append(certificate)
         if certificate.certified:
@@ -757,8 +756,8 @@ def _search(settings, ranges, executor, progress, kept):
         least = min(stable, key=lambda c: (c.amplitude, -np.nan_to_num(c.bandwidth)))
         best = _certify_cell(settings, least.values, kept)
         certificates.append(best)
-    front = _front(settings, screen, best, feasible, executor, kept)
-    report("done", 1, 1)
+    report("certification", len(certificates), len(certificates))  # the stage ends: its total is now known
+    front = _front(settings, screen, best, feasible, executor, kept, progress)
     return Tuning(names, ranges, settings.tolerance, name, feasible, best,
                   _margin(names, best, hunting) if feasible else {}, front, tuple(screen), shape, boundary,
                   tuple(certificates), seconds, settings.rig.source)
@@ -770,7 +769,7 @@ def _tighten(settings, best, certificates, hunting, report, kept):
     for fast in failed:
         lo, hi = best, fast
         for step in range(_CERTIFIED_BISECTIONS):
-            report("certification", len(certificates), len(certificates) + _CERTIFIED_BISECTIONS - step)
+            report("certification", len(certificates), None)
             middle = _certify_cell(settings, tuple(math.sqrt(a * b) for a, b in zip(lo.values, hi.values)), kept)
             certificates.append(middle)
             if middle.certified:

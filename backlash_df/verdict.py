@@ -624,7 +624,7 @@ def _separatrix(rig, prediction, orbits, cycle):
     return max(below, key=lambda o: o.amplitude, default=None)
 
 
-def judge_loop(rig, prediction, linear=None, t_end=10.0, max_t_end=320.0, disturbances=None, exact=False,
+def judge_loop(rig, prediction, *, linear=None, t_end=10.0, max_t_end=320.0, disturbances=None, exact=False,
                refinement=1):
     """The verdict on a rig's loop with one torque law (module docs).
 

@@ -315,7 +315,7 @@ def test_phase_plane_leads_less_than_the_damped_dead_zone():
 )
 def test_bad_arguments_raise_value_error_naming_them(amplitude, omega, bias, match):
     with pytest.raises(ValueError, match=match):
-        describing_function(model("phase-plane"), amplitude, omega, bias)
+        describing_function(model("phase-plane"), amplitude, omega, bias=bias)
 
 
 def test_closed_form_request_for_a_law_without_one():
@@ -557,7 +557,7 @@ def test_grid_on_threads_equals_the_serial_kernel():
     omega = np.geomspace(1.0, 2e4, 30)
     for name in ("phase-plane", "rubber"):
         for bias in (0.0, 0.02):
-            result = describing_function_grid(model(name), amplitude, omega, bias)
+            result = describing_function_grid(model(name), amplitude, omega, bias=bias)
             n, mean = evaluate(model(name), amplitude[:, None], omega[None, :], bias, "auto")
             np.testing.assert_array_equal(result.N, n)
             np.testing.assert_array_equal(result.mean_torque, mean)

@@ -32,7 +32,7 @@ def test_bias_solves_the_dc_balance_and_flips_with_the_load():
     model = RIG.make_model("phase-plane")
     amplitude, omega = np.geomspace(0.01, 1.0, 7)[:, None], np.array([[20.0, 98.0, 300.0]])
     bias = dc_bias(model, amplitude, omega, LOAD)
-    _, mean = dual_input_describing_function(model, amplitude, omega, bias)
+    _, mean = dual_input_describing_function(model, amplitude, omega, bias=bias)
     np.testing.assert_allclose(mean, -LOAD, rtol=1e-9)
     # the laws are odd: the opposite load mirrors the bias
     np.testing.assert_allclose(dc_bias(model, amplitude, omega, -LOAD), -bias, rtol=1e-9, atol=1e-13)

@@ -53,7 +53,7 @@ def describing_function_variants():
     amplitude, omega = 0.05 * np.geomspace(1.01, 50.0, 4), np.geomspace(1.0, 2e4, 3)
     for law in ("phase-plane", "rubber"):
         for bias in (0.0, 0.02):
-            describing_function_grid(_model(rig, law), amplitude, omega, bias)
+            describing_function_grid(_model(rig, law), amplitude, omega, bias=bias)
     evaluate(_model(rig, "phase-plane"), amplitude[:, None], omega[None, :], 0.0, "harmonic-balance")
 
 

@@ -12,7 +12,7 @@ from tqdm import tqdm
 from .._jit import on_first_compile
 from ..models import MODEL_NAMES
 
-__all__ = ["Group", "fail", "FINITE", "MODEL", "COMPILING_NOTICE", "stderr_is_terminal", "progress_bar", "StageLine",
+__all__ = ["Group", "fail", "FINITE", "MODEL", "COMPILING_NOTICE", "stderr_is_terminal", "progress_bar", "StageLine", "stage_bars",
            "numbers", "echo_table", "read_text"]
 
 
@@ -95,6 +95,38 @@ def progress_bar(desc, total=None, unit="it"):
     if stderr_is_terminal():
         return tqdm(desc=desc, total=total, unit=unit, file=sys.stderr, leave=False)
     return StageLine(desc, total, unit)
+
+
+def stage_bars(stack, unit="run", prefix=""):
+    """The library's ``progress(stage, done, total)`` drawn as one :func:`progress_bar` per stage.
+
+    A stage's bar opens at its first call (bad input, refused before any work, draws
+    none) and is closed with ``stack`` (a :class:`contextlib.ExitStack`), or earlier by
+    reaching its total.
+
+    Parameters
+    ----------
+    stack : contextlib.ExitStack
+    unit : str
+        What the stages count, singular.
+    prefix : str
+        Put before each stage's name (``"diagnose: "``).
+
+    Returns
+    -------
+    callable
+        ``progress(stage, done, total)``.
+    """
+    bars = {}
+
+    def progress(stage, done, total):
+        if stage not in bars:
+            bars[stage] = stack.enter_context(progress_bar(prefix + stage, total=total, unit=unit))
+        bar = bars[stage]
+        bar.total = total
+        bar.update(done - bar.n)
+
+    return progress
 
 
 class StageLine:

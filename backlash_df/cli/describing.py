@@ -33,7 +33,7 @@ def df_command(rig_file, model_name, amplitudes, omegas, bias, json_out):
     outputs = Outputs({"--json": json_out})
     rig = load_rig(rig_file)
     model = rig.make_model(model_name)
-    points = describing_function_grid(model, amplitudes, omegas, bias).to_dict()["points"]
+    points = describing_function_grid(model, amplitudes, omegas, bias=bias).to_dict()["points"]
     beta = f", beta = {model.rubber_thickness:g} rad" if model.name == "rubber" else ""
     click.echo(f"describing function of {model.name} (k = {model.stiffness:g} N m/rad, c = {model.damping:g} "
                f"N m s/rad, alpha = {model.half_gap:g} rad{beta}, bias = {bias:g} rad)")

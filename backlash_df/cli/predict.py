@@ -7,7 +7,7 @@ import click
 
 from ..analysis import analyse_loop, loop_models
 from ..config import load_rig
-from .common import MODEL, echo_table, progress_bar, read_text
+from .common import MODEL, echo_table, read_text, stage_bars
 from .outputs import Outputs
 from .warmup import warm_kernels
 
@@ -33,14 +33,7 @@ def predict_command(rig_file, models, json_out, report_out, exact):
     models = loop_models(rig, models)
     warm_kernels(rig, rig_file, models)
     with contextlib.ExitStack() as stack:
-        bars = []
-
-        def progress(done, total):  # the bar opens with the first simulation: bad input prints no bar
-            if not bars:
-                bars.append(stack.enter_context(progress_bar("simulating", total=total, unit="run")))
-            bars[0].update(done - bars[0].n)
-
-        analysis = analyse_loop(rig, models, exact=exact, progress=progress)
+        analysis = analyse_loop(rig, models, exact=exact, progress=stage_bars(stack))
     for header, rows in analysis.tables():
         if rows:  # no exact orbit: the sentences say why
             echo_table(header, rows)

@@ -1,5 +1,6 @@
 """``backlash-df map`` and ``backlash-df continue``: verdicts over two rig values, branches over one."""
 
+import contextlib
 import json
 
 import click
@@ -9,7 +10,7 @@ from ..config import load_rig
 from ..continuation import continue_limit_cycles
 from ..report import figure_bytes
 from ..sweeps import design_map, rig_with
-from .common import FINITE, MODEL, echo_table, read_text
+from .common import FINITE, MODEL, echo_table, read_text, stage_bars
 from .executors import checkpoint_for, checkpoint_options, executor_for, executor_options, stopped_note
 from .outputs import Outputs, plot_format
 
@@ -88,9 +89,10 @@ def map_command(rig_file, x_spec, y_spec, models, no_simulate, workers, dask, sc
     rig_with(rig_with(rig, x_spec[0], x_values[0]), y_spec[0], y_values[0])  # names checked before any work
     checkpoint = checkpoint_for(outputs, "map", checkpoint_path, resume)
     with stopped_note(checkpoint, "cells", x_values.size * y_values.size), \
-            executor_for(workers, dask, scheduler) as executor:
+            executor_for(workers, dask, scheduler) as executor, contextlib.ExitStack() as stack:
         dmap = design_map(rig, x_values, y_values, x=x_spec[0], y=y_spec[0], models=models,
-                          simulate=not no_simulate, executor=executor, checkpoint=checkpoint)
+                          simulate=not no_simulate, executor=executor, progress=stage_bars(stack, unit="cell"),
+                          checkpoint=checkpoint)
     click.echo(f"design map of {rig_file}: {x_spec[0]} ({x_values.size}) x {y_spec[0]} ({y_values.size})")
     for title, header, rows in dmap.tables():
         click.echo(title)
@@ -135,9 +137,11 @@ def continue_command(rig_file, parameter, start, stop, model_name, df_values, wo
     rig = load_rig(rig_file)
     rig.require_controller()
     checkpoint = checkpoint_for(outputs, "continue", checkpoint_path, resume)
-    with stopped_note(checkpoint, "steps"), executor_for(workers, dask, scheduler) as executor:
+    with stopped_note(checkpoint, "steps"), executor_for(workers, dask, scheduler) as executor, \
+            contextlib.ExitStack() as stack:
         branch = continue_limit_cycles(rig, parameter, (start, stop), model_name, df_values=df_values,
-                                       executor=executor, checkpoint=checkpoint)
+                                       executor=executor, progress=stage_bars(stack, unit="step"),
+                                       checkpoint=checkpoint)
     for title, header, rows in branch.tables():
         click.echo(title)
         echo_table(header, rows)

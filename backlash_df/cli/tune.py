@@ -7,7 +7,7 @@ import click
 
 from ..config import load_rig
 from ..tuning import TUNABLE, tune
-from .common import MODEL, echo_table, progress_bar, read_text
+from .common import MODEL, echo_table, read_text, stage_bars
 from .executors import checkpoint_for, checkpoint_options, executor_for, executor_options, stopped_note
 from .outputs import Outputs
 
@@ -57,15 +57,7 @@ def tune_command(rig_file, vary, tolerance, model_name, workers, dask, scheduler
     rig = load_rig(rig_file)
     checkpoint = checkpoint_for(outputs, "tune", checkpoint_path, resume)
     with contextlib.ExitStack() as stack:
-        bars = {}
-
-        def progress(stage, done, total):
-            if stage not in bars and stage != "done":
-                bars[stage] = stack.enter_context(progress_bar(stage, unit="tuning"))
-            if stage in bars:
-                bars[stage].total = total
-                bars[stage].update(done - bars[stage].n)
-
+        progress = stage_bars(stack, unit="tuning")
         with stopped_note(checkpoint, "cells"), executor_for(workers, dask, scheduler) as executor:
             tuning = tune(rig, vary, tolerance=tolerance, model=model_name, executor=executor, progress=progress,
                           checkpoint=checkpoint)

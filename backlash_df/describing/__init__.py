@@ -80,7 +80,7 @@ __all__ = [
 
 
 
-def describing_function(model, amplitude, omega, bias=0.0, method="auto"):
+def describing_function(model, amplitude, omega, *, bias=0.0, method="auto"):
     """Describing function N(A, w, bias) of a backlash torque law.
 
     Parameters
@@ -129,7 +129,7 @@ def describing_function(model, amplitude, omega, bias=0.0, method="auto"):
     return evaluate(model, amplitude, omega, bias, method)[0]
 
 
-def dual_input_describing_function(model, amplitude, omega, bias=0.0, method="auto"):
+def dual_input_describing_function(model, amplitude, omega, *, bias=0.0, method="auto"):
     """The dual-input describing function: N(A, w, bias) and the mean torque N0(A, w, bias).
 
     For ``x(t) = bias + A sin(w t)``: ``N = (b1 + j a1) / A`` (N m/rad) of the
@@ -378,7 +378,7 @@ class DescribingFunctionResult:
         return ResultPlot(figure, axes)
 
 
-def describing_function_grid(model, amplitude, omega, bias=0.0):
+def describing_function_grid(model, amplitude, omega, *, bias=0.0):
     """Describing function and mean torque on the grid ``amplitude x omega``.
 
     Parameters

@@ -199,7 +199,7 @@ def _per_window(windows, values, reduce):
     return np.array([reduce(values[a:b]) for a, b in windows])
 
 
-def measure_limit_cycle(result, periods=6, rtol=1e-3, window=0.25, bound=None, previous=None):
+def measure_limit_cycle(result, *, periods=6, rtol=1e-3, window=0.25, bound=None, previous=None):
     """Measure the limit cycle at the end of a closed-loop simulation, or name why there is none.
 
     The last ``periods`` full periods of theta_d (between upward crossings of its

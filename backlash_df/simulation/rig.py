@@ -36,7 +36,7 @@ def initial_state(system, initial=None, kick=0.0):
 
 
 
-def simulate_rig(rig, model=None, t_end=20.0, dt=None, speed_reference=0.0, load_torque=None,
+def simulate_rig(rig, model=None, *, t_end=20.0, dt=None, speed_reference=0.0, load_torque=None,
                  initial=None, kick=0.0, linear=None, theta_b0=0.0):
     """Closed-loop time simulation of a rig's PI speed loop with a backlash torque law.
 
@@ -92,7 +92,7 @@ def simulate_rig(rig, model=None, t_end=20.0, dt=None, speed_reference=0.0, load
     return simulate_linear(system, model, t_end, dt, inputs=inputs, z0=z0, theta_b0=theta_b0)
 
 
-def simulated_limit_cycle(rig, model=None, t_end=20.0, max_t_end=160.0, dt=None, periods=6, rtol=1e-3, **kwargs):
+def simulated_limit_cycle(rig, model=None, *, t_end=20.0, max_t_end=160.0, dt=None, periods=6, rtol=1e-3, **kwargs):
     """Simulate until a steady state and measure the limit cycle.
 
     Runs :func:`simulate_rig` for ``t_end`` and doubles it (going on from the
