@@ -14,7 +14,8 @@ import html
 from .limit_cycles import limit_cycle_plot, prediction_rows, prediction_sections
 from .limit_cycles import predict_limit_cycles, verify_limit_cycles
 from .report import html_page, table_html
-from .verdict import ORBIT_NOTE, VERDICT_NOTE, judge_loop, orbit_rows, verdict_rows
+from .render.verdict import ORBIT_NOTE, VERDICT_NOTE, orbit_rows, verdict_rows
+from .verdict import judge_loop
 
 __all__ = ["LoopAnalysis", "analyse_loop", "loop_models"]
 

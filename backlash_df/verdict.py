@@ -59,23 +59,46 @@ for a prediction verified by simulation (``predict``) as for one that is not.
 """
 
 import dataclasses
+import enum
 import math
 
 
-from .disturbances import KINDS, TWIST, Disturbance, kind_words, standard_disturbances
+from .disturbances import KINDS, TWIST, Disturbance, standard_disturbances
 from .equilibria import PADE_ORDER, LinearStability, contact_shaft, linear_stability, loop_rests
 from .loops import drive_loop
 from .models import BacklashModel
 from .orbits import exact_orbits, periodic_orbit
 from .plotting import ResultPlot, axes_or_new, legend_beside, log_scale
-from .report import roundoff_zero, signed_percent, text_table
+from .render.verdict import reason_text
 from .simulation import confirm_across_starts, default_step, longest_run, simulated_limit_cycle
 from .system import lti_linear_part
 
-__all__ = ["VERDICTS", "LONGER", "LinearStability", "Probe", "LoopVerdict", "linear_stability", "probe", "ladder",
-           "judge_loop", "verdict_rows", "orbit_rows", "VERDICT_NOTE", "ORBIT_NOTE", "PADE_ORDER"]
+__all__ = ["Outcome", "VERDICTS", "RULES", "Evidence", "LONGER", "LinearStability", "Probe", "LoopVerdict",
+           "linear_stability", "probe", "ladder", "judge_loop", "PADE_ORDER"]
 
-VERDICTS = ("no oscillation", "limit cycle", "bistable", "unstable", "undetermined")
+
+class Outcome(enum.StrEnum):
+    """A verdict's outcome (module docs); each compares equal to its word (``"limit cycle"``)."""
+
+    NO_OSCILLATION = "no oscillation"
+    LIMIT_CYCLE = "limit cycle"
+    BISTABLE = "bistable"
+    UNSTABLE = "unstable"
+    UNDETERMINED = "undetermined"
+
+
+VERDICTS = tuple(outcome.value for outcome in Outcome)
+
+#: The rules that decide a verdict, each with its outcome (:class:`Evidence`).
+RULES = {
+    "no rest": Outcome.UNSTABLE,  # the loop has no rest (a torque limit below the load)
+    "unsettled": Outcome.UNDETERMINED,  # a motion did not settle by the longest run
+    "runaway in contact": Outcome.UNSTABLE,  # unstable in contact, no stable cycle caps the growth
+    "diverged in stable contact": Outcome.UNDETERMINED,  # a run diverged though the loop in contact is stable
+    "settles": Outcome.NO_OSCILLATION,  # every disturbance tried settles
+    "hunts": Outcome.LIMIT_CYCLE,  # every disturbance that leaves the rest's mode ends on a cycle
+    "bistable": Outcome.BISTABLE,  # a rest that holds, or settling motions, beside hunting ones
+}
 
 WITHIN, PAST = 0.5, 1.25  # probes at these multiples of a rest's reach: inside its mode, and just out of it
 AMPLITUDE_MATCH, OMEGA_MATCH = 0.2, 0.1  # DF cycle "is" the simulated one within these relative errors
@@ -249,6 +272,79 @@ def ladder(rig, rests, disturbances=None, linear=None, prediction=None):
 
 
 @dataclasses.dataclass(frozen=True)
+class Evidence:
+    """Why a verdict is what it is, as data: the rule that decided and what it rests on.
+
+    The sentence a person reads (:attr:`LoopVerdict.reason`) is rendered from it in
+    :mod:`backlash_df.render.verdict`; a test of a decision checks ``rule`` and these
+    fields, not words.
+
+    Attributes
+    ----------
+    rule : str
+        One of :data:`RULES` (which gives its outcome).
+    contact : LinearStability
+        The loop in contact (its status and rightmost pole).
+    prediction : LimitCyclePrediction
+        The DF prediction weighed (its stable cycles, or how far its loci miss).
+    probe : Probe or None
+        ``unsettled``: the run that did not settle; ``diverged in stable contact``:
+        the run that diverged; ``bistable``: the smallest disturbance that hunts.
+    settles : tuple of Disturbance
+        Per kind, the largest disturbance up to which every one settled.
+    smallest : tuple of Disturbance
+        ``hunts``: per kind, the smallest disturbance that ends on the cycle.
+    diverged : tuple of Disturbance
+        Per kind, the smallest disturbance whose run diverged.
+    cycle : MeasuredCycle or None
+        The stable cycle the simulations reached (the smallest, if several).
+    df_agrees : bool or None
+        A stable DF cycle within 20 % in amplitude and 10 % in frequency of the
+        simulated one (or none where none is simulated).
+    exact_orbit : PeriodicOrbit or None
+        The stable exact orbit on the simulated cycle (1 % in amplitude and frequency).
+    other_cycle : MeasuredCycle or None
+        A second cycle some disturbance ended on.
+    inside : bool
+        ``hunts``: smaller disturbances stay in the gap (the rest's mode).
+    fragile : tuple of Probe
+        ``hunts``: runs that stopped on an unstable rest (any disturbance leaves it).
+    holding : Rest or None
+        ``bistable``: the locally stable rest whose reach the probes confirmed.
+    separating : float or None
+        ``bistable`` (and ``runaway in contact`` with settling probes): amplitude of
+        theta_d (rad) of the separating cycle.
+    separating_source : str
+        ``"exact orbit"``, ``"DF unstable cycle"`` or ``"simulations"``; ``""`` if none.
+    rest_note : str
+        ``no rest``: why.
+    """
+
+    rule: str
+    contact: LinearStability = None
+    prediction: object = dataclasses.field(default=None, repr=False, compare=False)
+    probe: Probe = None
+    settles: tuple = ()
+    smallest: tuple = ()
+    diverged: tuple = ()
+    cycle: object = None
+    df_agrees: bool = None
+    exact_orbit: object = None
+    other_cycle: object = None
+    inside: bool = False
+    fragile: tuple = ()
+    holding: object = None
+    separating: float = None
+    separating_source: str = ""
+    rest_note: str = ""
+
+    @property
+    def outcome(self):
+        """The :class:`Outcome` the rule gives."""
+        return RULES[self.rule]
+
+
+@dataclasses.dataclass(frozen=True)
 class LoopVerdict:
     """The verdict on one loop with one torque law, and its evidence.
 
@@ -256,10 +352,10 @@ class LoopVerdict:
     ----------
     model : str
         Torque-law name.
-    verdict : str
-        One of :data:`VERDICTS`.
-    reason : str
-        One sentence: why, every disturbance in its own unit.
+    verdict : Outcome
+        One of :data:`VERDICTS` (an :class:`Outcome`, equal to its word).
+    evidence : Evidence
+        Why: the rule that decided and what it rests on (:attr:`reason` in words).
     contact_loop, open_loop : LinearStability
         The loop with the gear in contact (shaft ``k + c s``; ``k`` alone for the
         dead zone (24)) and open (``T = 0``).
@@ -306,8 +402,8 @@ class LoopVerdict:
     """
 
     model: str
-    verdict: str
-    reason: str
+    verdict: Outcome
+    evidence: Evidence
     contact_loop: LinearStability
     open_loop: LinearStability
     probes: tuple
@@ -324,14 +420,20 @@ class LoopVerdict:
     separatrix: object = None
     prediction: object = dataclasses.field(default=None, repr=False, compare=False)
 
+    @property
+    def reason(self):
+        """One sentence: why, every disturbance in its own unit (rendered from :attr:`evidence`)."""
+        return reason_text(self.evidence)
+
     def __repr__(self):
         return f"LoopVerdict({self.model}: {self.verdict}; {self.reason})"
 
     def to_dict(self):
         """The verdict fields of a ``models`` entry of the ``predict`` JSON (contract page)."""
         return {
-            "verdict": self.verdict,
+            "verdict": str(self.verdict),
             "reason": self.reason,
+            "rule": self.evidence.rule,
             "contact_loop": self.contact_loop.to_dict(),
             "open_loop": self.open_loop.to_dict(),
             "rests": [rest.to_dict() for rest in self.rests],
@@ -429,17 +531,6 @@ def _smallest(probes):
     return tuple(out)
 
 
-def _list(disturbances, prefix):
-    """``twists up to 0.4 rad and motor-speed kicks up to 12.6 rad/s`` (``prefix`` "up to", "from", "of")."""
-    parts = [f"{kind_words(d.kind)} {prefix} {abs(d.value):.4g} {d.unit}" for d in disturbances]
-    return " and ".join(parts)
-
-
-def _one(disturbance):
-    """``a twist of 0.075 rad``, ``a motor-speed kick of -12.6 rad/s``."""
-    return f"a {kind_words(disturbance.kind, 1)} of {disturbance.value:.4g} {disturbance.unit}"
-
-
 def _separating(prediction, orbits, rests, starts):
     """Amplitude (rad) of the cycle between rest and hunting (or runaway), and its source."""
     target = min((p.measured.amplitude for p in starts if p.measured.found), default=math.inf)
@@ -453,18 +544,6 @@ def _separating(prediction, orbits, rests, starts):
     if twists and below:
         return float(math.sqrt(max(below) * min(twists))), "simulations"
     return None, ""
-
-
-def _df_words(prediction):
-    if prediction.note:
-        return f"no DF prediction ({prediction.note})"
-    stable = prediction.stable_cycles
-    if stable:
-        return "the DF predicts a stable cycle at " + ", ".join(
-            f"A = {c.amplitude:.4g} rad, w = {c.omega:.4g} rad/s" for c in stable)
-    if prediction.near_misses:
-        return f"the DF predicts none (loci {100 * prediction.near_misses[0].distance:.3g} % apart)"
-    return "the DF predicts no stable cycle"
 
 
 def _exact_match(orbits, measured):
@@ -503,14 +582,13 @@ def _fragile(probes):
 
 
 def _decide(prediction, contact, rests, probes, orbits=()):
-    """(verdict, reason, fields) from the evidence (module docs)."""
+    """``(Outcome, Evidence, fields)`` from the probes (module docs); ``fields`` go to :class:`LoopVerdict`."""
     by = {kind: [p for p in probes if p.outcome == kind] for kind in ("rest", "cycle", "diverged", "unsettled")}
     cycles, diverged = by["cycle"], by["diverged"]
     calm = [p for p in by["rest"] if _calm(p)]
+    seen = dict(contact=contact, prediction=prediction)
     if by["unsettled"]:
-        p = by["unsettled"][0]
-        return "undetermined", (f"the motion from {_one(p.disturbance)} did not settle "
-                                f"({p.measured.verdict} after {p.duration:.3g} s)"), {}
+        return _decided(Evidence("unsettled", probe=by["unsettled"][0], **seen))
     runaway_in_contact = contact.status == "unstable"  # a marginal pole (a free integrator) is no runaway
     # every motion that left the rest settling, none diverging: contact does not last long enough to grow
     if runaway_in_contact and not cycles and (diverged or not calm):
@@ -519,81 +597,43 @@ def _decide(prediction, contact, rests, probes, orbits=()):
             amplitude, source = _separating(prediction, orbits, calm, diverged)
             fields = {"disturbance_to_start": amplitude, "disturbance_source": source,
                       "settles_up_to": _settling(probes)}
-        return "unstable", (f"the loop in contact is {contact.describe()} and no stable cycle caps the growth"
-                            + (f": {_list(_smallest(diverged), 'from')} diverged" if diverged else "")), fields
+        return _decided(Evidence("runaway in contact", diverged=_smallest(diverged), **seen), fields)
     if diverged and not runaway_in_contact:
-        return "undetermined", (f"the loop in contact is {contact.status}, yet the run from "
-                                f"{_one(diverged[0].disturbance)} diverged"), {}
-    settles = _settling(probes)
-    if not cycles:
-        fields = {"settles_up_to": settles, "df_agrees": not prediction.stable_cycles}
-        contact_words = (f"; the loop in contact is {contact.describe()}, but every motion leaves contact before "
-                         "it grows" if runaway_in_contact else "")
-        if prediction.stable_cycles:  # started on the DF's cycle (a probe of the ladder), the loop settled too
-            return "no oscillation", (f"settles from every disturbance tried ({_list(settles, 'up to')}), a twist "
-                                      f"onto the DF's cycle too{contact_words}; DF UNRELIABLE here: "
-                                      f"{_df_words(prediction)}"), fields
-        return "no oscillation", (f"settles from every disturbance tried ({_list(settles, 'up to')}){contact_words}; "
-                                  f"{_df_words(prediction)}"), fields
+        return _decided(Evidence("diverged in stable contact", probe=diverged[0], **seen))
+    if not cycles:  # a DF cycle, started on by a probe of the ladder, settled too: df_agrees False
+        settles, agrees = _settling(probes), not prediction.stable_cycles
+        return _decided(Evidence("settles", settles=settles, df_agrees=agrees, **seen),
+                        {"settles_up_to": settles, "df_agrees": agrees})
     return _cycling(prediction, contact, rests, probes, orbits, calm)
 
 
+def _decided(evidence, fields=None):
+    return evidence.outcome, evidence, fields or {}
+
+
 def _cycling(prediction, contact, rests, probes, orbits, calm):
-    """The verdict where some probe ends on a stable cycle: ``limit cycle`` or ``bistable``."""
+    """The decision where some probe ends on a stable cycle: ``hunts`` (limit cycle) or ``bistable``."""
     cycles = [p for p in probes if p.outcome == "cycle"]
-    diverged = [p for p in probes if p.outcome == "diverged"]
     cycle = min((p.measured for p in cycles), key=lambda m: m.amplitude)
     agrees = _matching_df_cycle(prediction, cycle) is not None
     fields = {"cycle": cycle, "df_agrees": agrees, "saturated": cycle.saturated}
-    confirmed = "; the exact orbit confirms it" if _exact_match(orbits, cycle) is not None else ""
-    agrees = ("DF agrees" if agrees else f"DF UNRELIABLE here: {_df_words(prediction)}") + confirmed
-    runaway_in_contact = contact.status == "unstable"
-    runaway = (f"; {_list(_smallest(diverged), 'from')} diverge (contact loop {contact.describe()})"
-               if diverged else "")
-    if cycle.saturated:
-        runaway += (f"; the torque command is on its limit {100 * cycle.saturation:.0f} % of the "
-                    + ("cycle" if cycle.periodic else "time")
-                    + (f" and caps the growth of the loop in contact, {contact.describe()}"
-                       if runaway_in_contact else ""))
     # a sustained oscillation's dominant harmonic wanders from run to run: only a periodic one is another cycle
     distinct = [p.measured for p in cycles if p.measured.periodic != cycle.periodic
                 or (cycle.periodic and abs(p.measured.amplitude / cycle.amplitude - 1.0) > _SAME_CYCLE)]
-    others = ((f"; another cycle at A = {distinct[0].amplitude:.4g} rad"
-               + ("" if distinct[0].periodic else " (without a period)")) if distinct else "")
-    what = (f"a stable cycle A = {cycle.amplitude:.4g} rad, w = {cycle.omega:.4g} rad/s (simulated; {agrees})"
-            if cycle.periodic else
-            f"a sustained oscillation without a period, its dominant harmonic A = {cycle.amplitude:.4g} rad, "
-            f"w = {cycle.omega:.4g} rad/s (simulated over {cycle.periods} of its periods; {agrees})")
+    seen = dict(contact=contact, prediction=prediction, cycle=cycle, df_agrees=agrees,
+                exact_orbit=_exact_match(orbits, cycle), other_cycle=distinct[0] if distinct else None,
+                diverged=_smallest([p for p in probes if p.outcome == "diverged"]))
     holding = _holding(rests, probes)
     if not holding and not calm:
         inside = any(p.outcome == "rest" and not p.left_mode for p in probes)
-        fragile = _fragile(probes)
-        smallest = " and ".join(_one(d) for d in _smallest(cycles))
-        stopped = ""
-        if fragile:
-            rest = fragile[0].rest
-            stopped = (" and ".join(_one(p.disturbance) for p in fragile) + (" stops" if len(fragile) == 1 else " stop")
-                       + f" on the rest {rest.where}, which is {rest.stability.describe()}: any disturbance leaves "
-                       "it; every other disturbance tried")
-        return "limit cycle", ((stopped or "every disturbance tried") + f" ends on {what}, the smallest {smallest}"
-                               + (" (smaller ones stay in the gap)" if inside else "") + others + runaway), fields
+        return _decided(Evidence("hunts", smallest=_smallest(cycles), inside=inside, fragile=tuple(_fragile(probes)),
+                                 **seen), fields)
     amplitude, source = _separating(prediction, orbits, calm, cycles)
     settles = _settling(probes)
     fields.update(disturbance_to_start=amplitude, disturbance_source=source, settles_up_to=settles)
-    if holding:
-        rest = holding[0]
-        reach = [d for d in rest.reach if d.value != 0.0]
-        keeps = "keeps contact" if rest.side else "stays in the gap"
-        calm_words = f"the rest {rest.where} (theta_d = {rest.theta_d:.4g} rad) is stable" + (
-            f" and {keeps} against {_list(reach, 'below')}" if reach else "")
-        if settles:
-            calm_words += f"; {_list(settles, 'up to')} settle"
-    else:
-        calm_words = f"{_list(settles, 'up to')} settle" if settles else "some disturbances settle"
-    start = (f"; hunting starts beyond the separating cycle A = {amplitude:.4g} rad ({source})"
-             if amplitude is not None else "")
-    first = min(cycles, key=lambda p: p.scale).disturbance
-    return "bistable", (f"{calm_words}; {_one(first)} ends on {what}" + start + others + runaway), fields
+    return _decided(Evidence("bistable", probe=min(cycles, key=lambda p: p.scale), settles=settles,
+                             holding=holding[0] if holding else None, separating=amplitude,
+                             separating_source=source, **seen), fields)
 
 
 def _exact(rig, prediction, probes, t_end, max_t_end, dt=None, near_misses=1):
@@ -664,8 +704,9 @@ def judge_loop(rig, prediction, *, linear=None, t_end=10.0, max_t_end=320.0, dis
     opened = linear_stability(part, 0.0, 0.0, "open")
     rests, rest_note = loop_rests(rig, model, user_linear)
     if not rests:
-        return LoopVerdict(prediction.model, "unstable", f"the loop has no rest: {rest_note}", contact, opened, (),
-                           rest_note=rest_note, prediction=prediction)
+        evidence = Evidence("no rest", contact=contact, prediction=prediction, rest_note=rest_note)
+        return LoopVerdict(prediction.model, evidence.outcome, evidence, contact, opened, (), rest_note=rest_note,
+                           prediction=prediction)
     dt = None if refinement == 1 else default_step(part, model) / refinement
     probes = _confirmed_across_starts([probe(rig, model, disturbance, rest, user_linear, t_end, max_t_end, role, dt)
                                        for disturbance, rest, role in ladder(rig, rests, disturbances, user_linear,
@@ -674,13 +715,13 @@ def judge_loop(rig, prediction, *, linear=None, t_end=10.0, max_t_end=320.0, dis
     probes = _confirmed_across_starts([_longer(rig, model, p, user_linear, max_t_end, step) for p in probes])
     orbits, note = (_exact(rig, prediction, probes, t_end, max_t_end, dt, refinement) if exact and user_linear is None
                     else ((), ""))
-    verdict, reason, fields = _decide(prediction, contact, rests, probes, orbits)
+    verdict, evidence, fields = _decide(prediction, contact, rests, probes, orbits)
     separatrix = None
-    if verdict == "bistable" and user_linear is None:
+    if verdict == Outcome.BISTABLE and user_linear is None:
         separatrix = _separatrix(rig, prediction, orbits, fields["cycle"])
         if separatrix is not None and separatrix not in orbits:
-            verdict, reason, fields = _decide(prediction, contact, rests, probes, orbits + (separatrix,))
-    return LoopVerdict(prediction.model, verdict, reason, contact, opened, probes, orbits=orbits, orbit_note=note,
+            verdict, evidence, fields = _decide(prediction, contact, rests, probes, orbits + (separatrix,))
+    return LoopVerdict(prediction.model, verdict, evidence, contact, opened, probes, orbits=orbits, orbit_note=note,
                        rests=rests, rest_note=rest_note, separatrix=separatrix, prediction=prediction, **fields)
 
 
@@ -702,85 +743,3 @@ def _confirmed_across_starts(probes):
     """The probes, an oscillation that held its level confirmed by another probe's at its swing (:func:`confirm_across_starts`)."""
     measured = confirm_across_starts([p.measured for p in probes])
     return tuple(dataclasses.replace(p, measured=m) for p, m in zip(probes, measured))
-
-
-# --------------------------------------------------------------------------- tables
-
-
-def verdict_rows(verdicts):
-    """One row per verdict: the verdict, the rest off the gap, linear stability in contact and open, where hunting starts.
-
-    The columns ``rest`` (a rest on a flank, under a load torque) and ``hunts
-    beyond (rad)`` are left out where no verdict has one.
-
-    Returns
-    -------
-    header : list of str
-    rows : list of list of str
-    """
-    header = ["model", "verdict", "rest", "contact loop (k + c s)", "open loop (T = 0)", "hunts beyond (rad)",
-              "torque command"]
-    rows = []
-    for verdict in verdicts:
-        start = "" if verdict.disturbance_to_start is None else (
-            f"{verdict.disturbance_to_start:.4g} ({verdict.disturbance_source})")
-        limit = ((f"saturated {100 * verdict.cycle.saturation:.0f} % of the "
-                  + ("cycle" if verdict.cycle.periodic else "time")) if verdict.saturated else "")
-        rest = "none" if verdict.rest_note else "; ".join(
-            f"{r.where.removeprefix('on the ')} {r.theta_d:.4g} rad, {r.stability.status}"
-            for r in verdict.rests if r.side != 0)
-        rows.append({"model": verdict.model, "verdict": verdict.verdict, "rest": rest,
-                     "contact loop (k + c s)": verdict.contact_loop.describe(),
-                     "open loop (T = 0)": verdict.open_loop.describe(), "hunts beyond (rad)": start,
-                     "torque command": limit})
-    return text_table(header, rows)
-
-
-def orbit_rows(verdicts):
-    """One row per exact periodic orbit (:mod:`backlash_df.orbits`) next to the DF cycle it continues.
-
-    The DF error compares the orbit with the predicted cycle of the same
-    stability nearest in amplitude; the DF columns are left out where no orbit
-    has such a cycle.  The bias is the orbit's mean of theta_d, round-off
-    printed as 0 (:func:`~backlash_df.report.roundoff_zero`): 0 by symmetry
-    without a load torque.
-
-    Returns
-    -------
-    header : list of str
-    rows : list of list of str
-    """
-    header = ["model", "A exact (rad)", "peak (rad)", "bias (rad)", "period (s)", "w (rad/s)", "Floquet",
-              "|mu| max", "A DF (rad)", "A DF error", "w DF error"]
-    rows = []
-    for verdict in verdicts:
-        cycles = verdict.prediction.cycles if verdict.prediction is not None else ()
-        for orbit in verdict.orbits:
-            same = [c for c in cycles if c.stable == orbit.stable]
-            df = min(same, key=lambda c: abs(math.log(c.amplitude / orbit.amplitude)), default=None)
-            row = {"model": verdict.model, "A exact (rad)": f"{orbit.amplitude:.6g}",
-                   "peak (rad)": f"{orbit.peak:.6g}", "bias (rad)": f"{roundoff_zero(orbit.bias, orbit.amplitude):.4g}",
-                   "period (s)": f"{orbit.period:.6g}", "w (rad/s)": f"{orbit.omega:.6g}",
-                   "Floquet": "stable" if orbit.stable else "unstable", "|mu| max": f"{orbit.max_multiplier:.4f}"}
-            if df is not None:
-                row.update({"A DF (rad)": f"{df.amplitude:.5g}",
-                            "A DF error": signed_percent(df.amplitude / orbit.amplitude - 1.0),
-                            "w DF error": signed_percent(df.omega / orbit.omega - 1.0)})
-            rows.append(row)
-    return text_table(header, rows)
-
-
-#: What the verdict table of a report holds (HTML).
-VERDICT_NOTE = (
-    "<p>Rest: where the loop rests off the gap (on a flank under a load torque) and its local stability. "
-    "Contact loop: the loop with the shaft as the spring-damper k + c s (large motions); open loop: "
-    "shaft torque 0 (inside the gap); poles from the state matrix, dead time by its Pade approximant. "
-    "The verdict also weighs simulations from the rest, each disturbed by a released twist (rad) or a motor-speed "
-    "kick (rad/s): within and just past the rest's reach, and the standard set (JSON: <code>probes</code>).</p>"
-)
-#: What the orbit table of a report holds (HTML).
-ORBIT_NOTE = (
-    "<p>Periodic orbits of the piecewise-smooth loop by shooting, switching events located exactly; "
-    "stability from the Floquet multipliers (saltation matrices at contact and release). "
-    "The DF errors are those of the predicted cycle of the same stability nearest in amplitude.</p>"
-)

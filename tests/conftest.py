@@ -93,7 +93,7 @@ def results():
                          t_end=2.0, max_t_end=4.0)
     data = bd.load_measurements(EXAMPLES / "diagnose_rubber.csv")
     diagnosis_rig = example_rig("diagnose_rig")
-    diagnosis = bd.diagnose(data, diagnosis_rig, candidates=["rubber"], workers=1)
+    diagnosis = bd.diagnose(data, diagnosis_rig, candidates=["rubber"])
     comparison = compare_torques("one-sided", dt=1e-4, warmup_cycles=2)
     measured, _ = bd.simulated_limit_cycle(rig, "phase-plane", t_end=2.0, max_t_end=2.0, kick=5.0)
     model = rig.make_model("phase-plane")

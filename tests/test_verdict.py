@@ -29,7 +29,8 @@ from backlash_df.loops import drive_loop
 from backlash_df.simulation import (MeasuredCycle, SimulationResult, confirm_across_starts, measure_limit_cycle,
                                      simulated_limit_cycle)
 from backlash_df.simulation.cycles import free_flights
-from backlash_df.verdict import VERDICTS, judge_loop, linear_stability, probe
+from backlash_df.render.verdict import reason_text
+from backlash_df.verdict import RULES, VERDICTS, judge_loop, linear_stability, probe
 from conftest import EXAMPLES
 
 
@@ -171,6 +172,33 @@ def test_every_verdict_is_one_of_the_five_and_serialises():
                 d for rest in data["rests"] for d in rest["reach"]]:
             assert set(entry) == {"kind", "value", "unit"} and entry["unit"] == {"twist": "rad",
                                                                                  "motor speed": "rad/s"}[entry["kind"]]
+
+
+@pytest.mark.parametrize("name, rule", [("stiff", "runaway in contact"), ("bistable", "bistable"),
+                                        ("cycle", "hunts"), ("calm", "settles"), ("tangent", "hunts"),
+                                        ("loaded", "bistable")])
+def test_the_decision_is_data_the_sentence_its_rendering(name, rule):
+    """The rule that decided and its evidence are data; the reason is rendered from them alone."""
+    _, verdict = judged(name)
+    assert verdict.evidence.rule == rule and verdict.verdict is RULES[rule] is verdict.evidence.outcome
+    assert verdict.verdict == verdict.verdict.value and json.loads(json.dumps(verdict.to_dict()))["rule"] == rule
+    assert verdict.reason == reason_text(verdict.evidence)
+    if rule in ("hunts", "bistable"):
+        assert verdict.evidence.cycle is verdict.cycle and verdict.evidence.df_agrees == verdict.df_agrees
+    if rule == "bistable":
+        assert verdict.evidence.separating == verdict.disturbance_to_start
+
+
+def test_the_hunting_sentence_reads_as_english():
+    """Issue 49: "the smallest disturbances that end on it: a twist of ... or a motor-speed kick of ..."."""
+    _, verdict = judged("cycle")
+    smallest = verdict.evidence.smallest
+    assert [d.kind for d in smallest] == [TWIST, MOTOR_SPEED]
+    words = (f"; the smallest disturbances that end on it: a twist of {smallest[0].value:.4g} rad or a motor-speed "
+             f"kick of {smallest[1].value:.4g} rad/s")
+    assert words in verdict.reason
+    one = dataclasses.replace(verdict.evidence, smallest=smallest[:1])  # the words follow the evidence alone
+    assert f"; the smallest disturbance that ends on it: a twist of {smallest[0].value:.4g} rad" in reason_text(one)
 
 
 def test_diverging_simulation_is_named_without_warnings():
