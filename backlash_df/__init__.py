@@ -6,28 +6,48 @@ rig file (:mod:`backlash_df.config`), the loop cut at the backlash
 import points down that list.  The names below are the public API; the
 documentation's contract page states the rig-file keys, the JSON and CSV formats and
 the sign conventions they follow.
+
+The names load on first use (``lazy_loader``, as scipy and scikit-image load theirs): a
+command or script imports only the stages it calls, so a ``predict`` does not import
+the diagnosis or the tuning.
 """
+
+import lazy_loader as _lazy
 
 from ._version import __version__
 
-from .config import Controller, Load, Plant, Rig, RigError, load_rig, rig_from_dict
-from .models import MODEL_NAMES, ExactModel, StaticModel, make_model, theta_star
-from .describing import (DescribingFunctionResult, ValidityMap, describing_function, describing_function_grid,
-                         dual_input_describing_function, phase_plane_validity)
-from .plotting import ResultPlot
-from .system import LinearPart
-from .loops import DriveLoop, drive_loop
-from .simulation import MeasuredCycle, SimulationResult, measure_limit_cycle, simulated_limit_cycle
-from .simulation import simulate_rig as simulate
-from .limit_cycles import LimitCyclePrediction, limit_cycle_plot, predict_limit_cycles, verify_limit_cycles
-from .orbits import OrbitNotFound, PeriodicOrbit, exact_orbits, periodic_orbit
-from .verdict import VERDICTS, LoopVerdict, judge_loop
-from .analysis import LoopAnalysis, analyse_loop
-from .tuning import Tuning, tune
-from .sweeps import DesignMap, design_map
-from .continuation import Branch, continue_limit_cycles
-from .reproduce import TableOne, TorqueComparison, compare_torques, integrated_torque, table1
-from .identify import Diagnosis, Measurements, diagnose, load_measurements
+_SUBMODULES = ["analysis", "checkpoint", "config", "continuation", "describing", "disturbances", "equilibria",
+               "friction", "identify", "limit_cycles", "loaded", "loops", "models", "orbits", "plotting", "render",
+               "report", "reproduce", "simulation", "sweeps", "system", "testing", "tuning", "verdict"]
+_lazy_getattr, __dir__, _ = _lazy.attach(__name__, submodules=_SUBMODULES, submod_attrs={
+    "config": ["Controller", "Load", "Plant", "Rig", "RigError", "load_rig", "rig_from_dict"],
+    "models": ["MODEL_NAMES", "ExactModel", "StaticModel", "make_model", "theta_star"],
+    "describing": ["DescribingFunctionResult", "ValidityMap", "describing_function", "describing_function_grid",
+                   "dual_input_describing_function", "phase_plane_validity"],
+    "plotting": ["ResultPlot"],
+    "system": ["LinearPart"],
+    "loops": ["DriveLoop", "drive_loop"],
+    "simulation": ["MeasuredCycle", "SimulationResult", "measure_limit_cycle", "simulated_limit_cycle"],
+    "limit_cycles": ["LimitCyclePrediction", "limit_cycle_plot", "predict_limit_cycles", "verify_limit_cycles"],
+    "orbits": ["OrbitNotFound", "PeriodicOrbit", "exact_orbits", "periodic_orbit"],
+    "verdict": ["VERDICTS", "LoopVerdict", "judge_loop"],
+    "analysis": ["LoopAnalysis", "analyse_loop"],
+    "tuning": ["Tuning", "tune"],
+    "sweeps": ["DesignMap", "design_map"],
+    "continuation": ["Branch", "continue_limit_cycles"],
+    "reproduce": ["TableOne", "TorqueComparison", "compare_torques", "integrated_torque", "table1"],
+    "identify": ["Diagnosis", "Measurements", "diagnose", "load_measurements"],
+})
+
+
+def __getattr__(name):
+    """A public name, its module imported on first use; ``simulate`` is :func:`backlash_df.simulation.simulate_rig`."""
+    if name == "simulate":
+        from .simulation import simulate_rig
+
+        return simulate_rig
+    return _lazy_getattr(name)
+
 
 __all__ = [
     "__version__",

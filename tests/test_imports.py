@@ -48,3 +48,24 @@ def test_a_path_that_needs_control_still_imports_it():
         "assert abs(g(2j) - loop.frequency_response(2.0)) < 1e-12 * abs(g(2j))"
     )
     assert "control" in loaded_after(code)
+
+
+def test_a_command_imports_only_the_stages_it_runs():
+    """Issue 49: ``backlash-df predict`` imports neither the diagnosis, nor the tuning, nor the sweeps."""
+    code = (
+        "import sys\n"
+        "from backlash_df.cli import main\n"
+        "sys.argv = ['backlash-df', 'predict', '--help']\n"
+        "try:\n"
+        "    main()\n"
+        "except SystemExit:\n"
+        "    pass\n"
+        "import backlash_df.analysis\n"  # what predict runs, imported as it runs it
+        "print(json.dumps(sorted(m for m in sys.modules if m.startswith('backlash_df'))))"
+    )
+    done = subprocess.run([sys.executable, "-c", "import json\n" + code], capture_output=True, text=True, check=True)
+    loaded = set(json.loads(done.stdout.splitlines()[-1]))
+    assert "backlash_df.analysis" in loaded and "backlash_df.cli.predict" in loaded
+    unneeded = {"backlash_df.identify", "backlash_df.tuning", "backlash_df.sweeps", "backlash_df.continuation",
+                "backlash_df.reproduce", "backlash_df.checkpoint", "backlash_df.cli.diagnose", "backlash_df.cli.tune"}
+    assert loaded & unneeded == set()

@@ -12,17 +12,23 @@ import click
 
 from .._version import __version__
 from .common import Group
-from .describing import df_command
-from .diagnose import diagnose_command
-from .predict import predict_command
-from .reproduce import reproduce_command
-from .sweeps import continue_command, map_command
-from .tune import tune_command
 
 __all__ = ["main"]
 
+#: Each command's module and function: a command imports its module, and so the library's stages it needs,
+#: only when it runs (``backlash-df predict`` imports neither the diagnosis nor the tuning).
+COMMANDS = {
+    "predict": "predict:predict_command",
+    "df": "describing:df_command",
+    "continue": "sweeps:continue_command",
+    "map": "sweeps:map_command",
+    "tune": "tune:tune_command",
+    "diagnose": "diagnose:diagnose_command",
+    "reproduce": "reproduce:reproduce_command",
+}
 
-@click.group(name="backlash-df", cls=Group, context_settings={"help_option_names": ["-h", "--help"]})
+
+@click.group(name="backlash-df", cls=Group, commands=COMMANDS, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="backlash-df")
 def main():
     """Describing functions and limit cycles of drives with backlash.
@@ -31,12 +37,3 @@ def main():
     N(A, w), limit-cycle prediction on PI-controlled two-mass loops verified by
     time simulation, and diagnosis of measured data.
     """
-
-
-main.add_command(predict_command)
-main.add_command(df_command)
-main.add_command(continue_command)
-main.add_command(map_command)
-main.add_command(tune_command)
-main.add_command(diagnose_command)
-main.add_command(reproduce_command)

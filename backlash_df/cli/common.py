@@ -1,5 +1,6 @@
 """What every command shares: one-line errors with exit code 2, option types, plain-text tables, progress bars."""
 
+import importlib
 import math
 import sys
 import threading
@@ -26,7 +27,29 @@ _NO_ARGS_IS_HELP = getattr(click.exceptions, "NoArgsIsHelpError", ())  # click >
 
 
 class Group(click.Group):
-    """A click group whose errors are one line: ``ValueError`` and usage errors, exit code 2."""
+    """A click group whose errors are one line (``ValueError`` and usage errors, exit code 2) and whose
+    commands are imported when they run.
+
+    Parameters
+    ----------
+    commands : dict of str to str
+        Each command's name and ``"module:function"`` in this package (click's
+        lazy-loading group pattern): a command's module, and the library stages it
+        imports, load only when that command runs or the help lists it.
+    """
+
+    def __init__(self, *args, commands=None, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._lazy = dict(commands or {})
+
+    def list_commands(self, ctx):
+        return list(self._lazy) + [name for name in super().list_commands(ctx) if name not in self._lazy]
+
+    def get_command(self, ctx, name):
+        if name not in self._lazy:
+            return super().get_command(ctx, name)
+        module, function = self._lazy[name].split(":")
+        return getattr(importlib.import_module(f"{__package__}.{module}"), function)
 
     def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
         if not standalone_mode:
