@@ -45,8 +45,8 @@ import numpy as np
 
 from backlash_df import load_rig
 from backlash_df.identify import diagnose, load_measurements, synthesize
-from backlash_df.identify.calibrate import (Shooting, TwoMassModel, nominal_values, parallel_jacobian, segment_bounds,
-                                            sensitivity_jacobian)
+from backlash_df.identify.calibrate import Shooting, parallel_jacobian, sensitivity_jacobian
+from backlash_df.identify.predictors import TwoMassModel, nominal_values, segment_bounds
 from backlash_df.identify.diagnose import EXTENDED_MIN_AHEAD_FIT, VALIDATION_HORIZON
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -147,9 +147,10 @@ def timing(repeat):
     for workers in (2, 1):
         times = []
         for _ in range(repeat):
-            start, cpu = time.perf_counter(), time.process_time()
-            result = diagnose(record.measurements, rig, workers=workers)
-            times.append((time.perf_counter() - start, time.process_time() - cpu))
+            with ThreadPoolExecutor(workers) as pool:
+                start, cpu = time.perf_counter(), time.process_time()
+                result = diagnose(record.measurements, rig, executor=pool if workers > 1 else None)
+                times.append((time.perf_counter() - start, time.process_time() - cpu))
         best[workers] = min(times)
         print(f"  workers={workers}: best of {repeat} wall {best[workers][0]:.1f} s (cpu {best[workers][1]:.1f} s), "
               f"causes {_found(result)}")
@@ -188,7 +189,7 @@ def jacobian_ratio(measurements, rig, repeat):
     x = np.concatenate([np.ones(g), np.random.default_rng(1).normal(size=shooting.size)])
     kinds = {"sensitivities": sensitivity_jacobian(model, names, values_of, scales, (0, n), starts, stops, weights,
                                                    shooting),
-             "forward differences": parallel_jacobian(residual, g, shooting, np.full(x.size, np.inf), 1)}
+             "forward differences": parallel_jacobian(residual, g, shooting, np.full(x.size, np.inf))}
     seconds, jacobians = {}, {}
     for kind, jacobian in kinds.items():
         times = []
@@ -257,9 +258,10 @@ def kuka(angles):
     data = load_measurements(ROOT / "examples" / "kuka" / "kuka_axis1.csv", gear_ratio=rig.plant.gear_ratio)
     if not angles:  # as drives that export the speeds only: time, motor_torque, motor_speed, load_speed
         data = dataclasses.replace(data, motor_angle=None, load_angle=None)
-    start, cpu = time.perf_counter(), time.process_time()
-    result = diagnose(data, rig, workers=2)
-    seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
+    with ThreadPoolExecutor(2) as pool:
+        start, cpu = time.perf_counter(), time.process_time()
+        result = diagnose(data, rig, executor=pool)
+        seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
     shaft = result.shaft
     print(f"  named from the {result.structure} model (shaft mode {shaft.mode_frequency:.3g} Hz, resolved band "
           f"{shaft.resolved_frequency:.3g} Hz): {_causes_text(result.causes, result.structure == 'two_mass')}")

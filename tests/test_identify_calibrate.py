@@ -1,6 +1,7 @@
 """Prediction, generator and calibration checked against independent simulations and closed forms."""
 
 import dataclasses
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -9,9 +10,9 @@ import pytest
 from backlash_df import load_rig, rig_from_dict
 from backlash_df.identify import (calibrate, fit_percent, get_effect, load_measurements, measurements_from_arrays,
                                   predict, replay, synthesize)
-from backlash_df.identify.calibrate import (Shooting, TwoMassModel, angle_rate, cluster_robust_stderr,
-                                            encoder_speeds, integrated_displacement, nominal_values,
-                                            parallel_jacobian, segment_bounds, shaft_resolution)
+from backlash_df.identify.calibrate import Shooting, cluster_robust_stderr, parallel_jacobian
+from backlash_df.identify.predictors import TwoMassModel, nominal_values, segment_bounds
+from backlash_df.identify.signals import angle_rate, encoder_speeds, integrated_displacement, shaft_resolution
 from backlash_df.identify.effects import smoothing_speeds
 from backlash_df.identify.synthetic import Experiment
 
@@ -92,7 +93,8 @@ def test_shooting_jacobian_equals_column_by_column_differences():
         return np.concatenate([data, shooting.penalty(x[1:])])
 
     x = np.concatenate([[2.5], np.random.default_rng(1).normal(size=shooting.size)])
-    jacobian = parallel_jacobian(residual, 1, shooting, np.full(x.size, np.inf), workers=2)(x).toarray()
+    with ThreadPoolExecutor(2) as pool:
+        jacobian = parallel_jacobian(residual, 1, shooting, np.full(x.size, np.inf), executor=pool)(x).toarray()
     f0 = residual(x)
     for i in range(x.size):
         step = 1e-6 * max(1.0, abs(x[i]))

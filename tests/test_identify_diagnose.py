@@ -2,6 +2,7 @@
 
 import dataclasses
 import json
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +14,13 @@ from backlash_df.cli import main
 from backlash_df.identify import Cause, diagnose, stage_disagreements, synthesize
 
 RIG_FILE = "examples/diagnose_rig.toml"
+
+
+@pytest.fixture(scope="module")
+def threads():
+    """Two threads for the diagnoses' side-by-side fits (the kernels release the GIL)."""
+    with ThreadPoolExecutor(2) as pool:
+        yield pool
 
 
 @pytest.fixture(scope="module")
@@ -31,9 +39,9 @@ CASES = [((), 10), (("coulomb_friction@load", "viscous_friction@load"), 11), (("
 
 
 @pytest.mark.parametrize(("effects", "seed"), CASES)
-def test_hidden_effects_are_named_with_intervals(rig, effects, seed):
+def test_hidden_effects_are_named_with_intervals(rig, effects, seed, threads):
     record = synthesize(rig, dict.fromkeys(effects), seed=seed, duration=2.0)
-    result = diagnose(record.measurements, rig, workers=2)
+    result = diagnose(record.measurements, rig, executor=threads)
     assert _keys(result) == set(effects)
     if not effects:
         assert result.cause == "none" and result.extended.effects == ()
@@ -51,9 +59,9 @@ ANGLE_CASES = [("coulomb_friction@load", "viscous_friction@load"), ("rubber", "c
 
 
 @pytest.mark.parametrize("effects", ANGLE_CASES)
-def test_hidden_effects_with_encoder_angles_are_named_and_covered(rig, effects):
+def test_hidden_effects_with_encoder_angles_are_named_and_covered(rig, effects, threads):
     record = synthesize(rig, dict.fromkeys(effects), seed=2003, duration=4.0, encoder_counts=2**20)
-    result = diagnose(record.measurements, rig, workers=2)
+    result = diagnose(record.measurements, rig, executor=threads)
     assert _keys(result) == set(effects) and result.structure == "two_mass" and result.shaft.resolved
     assert all(candidate.calibration.shooting_segments > 0 for candidate in result.candidates)
     assert result.baseline.calibration.values["encoder_skew"] == 0.0  # encoders read together: no skew held
@@ -66,20 +74,20 @@ def test_hidden_effects_with_encoder_angles_are_named_and_covered(rig, effects):
         assert parameter.ci95[0] <= record.effects[cause.key] <= parameter.ci95[1]
 
 
-def test_breakaway_friction_is_named_from_the_encoders_speeds(rig):
+def test_breakaway_friction_is_named_from_the_encoders_speeds(rig, threads):
     """Breakaway friction on top of Coulomb friction (seed 2002 of the benchmark's probe): its imprint on
     the load speed at a reversal, a few hundredths of a rad/s, is buried in the speed columns' 0.02 rad/s
     of noise, and the diagnosis named Coulomb friction alone; from the encoders' speeds it names both."""
     effects = ("coulomb_friction@load", "breakaway_friction@load")
     record = synthesize(rig, dict.fromkeys(effects), seed=2002, duration=4.0, encoder_counts=2**20)
-    result = diagnose(record.measurements, rig, workers=2)
+    result = diagnose(record.measurements, rig, executor=threads)
     assert _keys(result) == set(effects)
     coulomb = result.causes[[c.key for c in result.causes].index("coulomb_friction@load")]
     assert coulomb.parameters["coulomb_friction"].value == pytest.approx(record.effects["coulomb_friction@load"],
                                                                          rel=0.01)
 
 
-def test_breakaway_friction_alone_is_named_with_the_stribeck_speed_it_goes_with(rig):
+def test_breakaway_friction_alone_is_named_with_the_stribeck_speed_it_goes_with(rig, threads):
     """Breakaway friction alone (seed 2003 of the probe), whose Stribeck speed is 5 % of the reference's
     amplitude, 0.15 rad/s, half the catalogue's 5 % of the record's largest speed: at the catalogue's, the fitted
     bump mispredicted the reversals and nothing was named.  The diagnosis chooses the Stribeck speed among
@@ -90,7 +98,7 @@ def test_breakaway_friction_alone_is_named_with_the_stribeck_speed_it_goes_with(
     from backlash_df.identify.effects import COULOMB_SMOOTHING, STRIBECK_GRID
 
     record = synthesize(rig, {"breakaway_friction@load": None}, seed=2003, duration=4.0, encoder_counts=2**20)
-    result = diagnose(record.measurements, rig, workers=2)
+    result = diagnose(record.measurements, rig, executor=threads)
     assert _keys(result) == {"breakaway_friction@load"}
     cause, peak = result.causes[0], float(np.max(np.abs(result.measurements.speeds)))
     assert cause.stribeck_speed in [share * peak for share in STRIBECK_GRID]
@@ -100,7 +108,7 @@ def test_breakaway_friction_alone_is_named_with_the_stribeck_speed_it_goes_with(
     assert f"Stribeck speed w_s is {cause.stribeck_speed:.3g} rad/s" in result.sentence
 
 
-def test_the_causes_values_come_from_the_whole_record(rig):
+def test_the_causes_values_come_from_the_whole_record(rig, threads):
     """Coulomb and viscous friction on the load, speed columns only (seed 2000 of the benchmark's sweep).  The
     estimation part holds one period of the speed reference, and its fit put 14 % of the Coulomb friction into
     viscous friction (3.479 -> 2.993 N m [2.50, 3.48]; 2.204 -> 2.386 N m s/rad).  Once the validation part has
@@ -109,7 +117,7 @@ def test_the_causes_values_come_from_the_whole_record(rig):
     JSON says so."""
     effects = ("coulomb_friction@load", "viscous_friction@load")
     record = synthesize(rig, dict.fromkeys(effects), seed=2000, duration=4.0)
-    result = diagnose(record.measurements, rig, workers=2)
+    result = diagnose(record.measurements, rig, executor=threads)
     assert _keys(result) == set(effects)
     whole, estimation = result.whole_record, result.extended.calibration
     assert whole.window == (result.estimation.start, record.measurements.n_samples)
@@ -124,7 +132,7 @@ def test_the_causes_values_come_from_the_whole_record(rig):
         assert document["whole_record"]["parameters"][value_key]["value"] == parameter.value
 
 
-def test_a_set_with_rubber_chooses_its_coulomb_smoothing_and_invents_no_breakaway(rig):
+def test_a_set_with_rubber_chooses_its_coulomb_smoothing_and_invents_no_breakaway(rig, threads):
     """Rubber and Coulomb friction, encoder angles (seed 2000 of the benchmark's sweep).  Coulomb friction is
     added first; its smoothing speed was chosen by a screening fit whose plant values belonged to the set
     without rubber (1 % of the largest speed), held after rubber joined, and a breakaway friction of 0.63 N m
@@ -134,7 +142,7 @@ def test_a_set_with_rubber_chooses_its_coulomb_smoothing_and_invents_no_breakawa
 
     effects = ("rubber", "coulomb_friction@load")
     record = synthesize(rig, dict.fromkeys(effects), seed=2000, duration=4.0, encoder_counts=2**20)
-    result = diagnose(record.measurements, rig, workers=2)
+    result = diagnose(record.measurements, rig, executor=threads)
     assert _keys(result) == set(effects)
     peak = float(np.max(np.abs(result.measurements.speeds)))
     assert result.extended.calibration.values["coulomb_smoothing"] < COULOMB_GRID[0] * peak
@@ -142,21 +150,23 @@ def test_a_set_with_rubber_chooses_its_coulomb_smoothing_and_invents_no_breakawa
         assert cause.parameters[cause.effect].value == pytest.approx(record.effects[cause.key], rel=0.005)
 
 
-def test_the_diagnosis_does_not_depend_on_its_threads(rig):
-    """``workers`` runs independent fits side by side (a selection step's, the friction speeds' trials, the
-    whole record's); a fit's numbers do not depend on its threads, so the JSON is the same to the bit."""
+def test_the_diagnosis_does_not_depend_on_its_executor(rig, threads):
+    """``executor`` runs independent fits side by side (a selection step's, the friction speeds' trials, the
+    whole record's) and a lone fit's Jacobian columns; a fit's numbers do not depend on its threads, so the JSON
+    is the same to the bit as without one."""
     record = synthesize(rig, dict.fromkeys(("coulomb_friction@load", "viscous_friction@load")), seed=11, duration=2.0)
-    one, two = (json.dumps(diagnose(record.measurements, rig, workers=workers).to_dict()) for workers in (1, 2))
-    assert one == two
+    serial, threaded = (json.dumps(diagnose(record.measurements, rig, executor=executor).to_dict())
+                        for executor in (None, threads))
+    assert serial == threaded
 
 
-def test_a_partner_too_small_to_name_is_not_absorbed(rig):
+def test_a_partner_too_small_to_name_is_not_absorbed(rig, threads):
     """Viscous friction alone, speed columns only (seed 2005 of the benchmark's sweep): the joint fit with
     Coulomb friction supports a Coulomb friction of well under 1 % of the RMS torque, and without it the
     viscous friction moves just outside its narrow joint interval.  That partner is too small to be named
     (rule 3), so nothing is absorbed: the diagnosis warned that viscous friction absorbs Coulomb friction."""
     record = synthesize(rig, {"viscous_friction@load": None}, seed=2005, duration=4.0)
-    result = diagnose(record.measurements, rig, workers=2)
+    result = diagnose(record.measurements, rig, executor=threads)
     assert _keys(result) == {"viscous_friction@load"}
     assert not any(" absorbs " in warning for warning in result.warnings) and not result.rigid_body.absorbed
     value = result.causes[0].parameters["viscous_friction"].value
@@ -256,7 +266,7 @@ def test_kuka_record_without_angle_columns_names_both_frictions(tmp_path):
     assert "rigid-body model names: coulomb_friction" in output and "two-mass model names:" in output
 
 
-def test_kuka_window_whose_validation_part_stands_still_names_both_frictions():
+def test_kuka_window_whose_validation_part_stands_still_names_both_frictions(threads):
     """The first 6 s of the real record: fitted together, Coulomb and viscous friction are both
     supported (their intervals exclude zero), and viscous friction lowers the validation RSS by far
     more than 5 %, but its block t test fails (the validation part ends at standstill, where a large
@@ -273,7 +283,7 @@ def test_kuka_window_whose_validation_part_stands_still_names_both_frictions():
     first = slice(0, int(0.6 * record.n_samples))
     columns = {name: getattr(record, name)[first] for name in ("time", "motor_torque", "motor_speed", "load_speed",
                                                                "motor_angle", "load_angle")}
-    result = diagnose(dataclasses.replace(record, **columns), rig, workers=2)
+    result = diagnose(dataclasses.replace(record, **columns), rig, executor=threads)
     assert result.structure == "rigid_body" and _keys(result) == {"coulomb_friction@load", "viscous_friction@load"}
     joint = [c for c in result.rigid_body.candidates if set(c.effects) == {"coulomb_friction@load",
                                                                            "viscous_friction@load"}][-1]
@@ -286,14 +296,14 @@ def test_kuka_window_whose_validation_part_stands_still_names_both_frictions():
     assert "Not separated from another effect by this record" in result.sentence
 
 
-def test_encoder_skew_is_fitted_and_removed_from_the_twist(rig):
+def test_encoder_skew_is_fitted_and_removed_from_the_twist(rig, threads):
     """A load encoder read 2 ms late (the generator takes its angle 2 ms back) adds 2 ms times the load
     speed to the measured twist, 6 mrad at 3 rad/s against a 40 mrad gap.  The diagnosis fits the skew
     with the nominal structure, holds it in every later fit, and names the hidden Coulomb friction within
     10 %; taking the twist as measured it named nothing (damping came out 5 times the rig file's)."""
     record = synthesize(rig, "coulomb_friction@load", seed=2002, duration=4.0, encoder_counts=2**20,
                         encoder_skew=0.002)
-    result = diagnose(record.measurements, rig, workers=2)
+    result = diagnose(record.measurements, rig, executor=threads)
     skew = result.encoder_skew
     assert skew.ci95[0] <= 0.002 <= skew.ci95[1] and skew.value == pytest.approx(0.002, rel=0.02)
     assert result.extended.calibration.values["encoder_skew"] == skew.value
@@ -335,13 +345,13 @@ def test_stages_that_disagree_name_the_effect_without_a_value():
     assert "constant 40 N m" in rigid.causes[1].describe()
 
 
-def test_a_held_load_as_large_as_the_commanded_torque_is_found():
+def test_a_held_load_as_large_as_the_commanded_torque_is_found(threads):
     """A constant load of 150 N m that the PI holds makes the recorded torque about -150 N m on average, with
     peaks of 269 N m: the offset must be fitted whole (the truth inside its interval), not stopped at a bound
     (it was once capped at half the peak, 134 N m with an interval that excluded 150)."""
     rig = load_rig(RIG_FILE)
     record = synthesize(rig, "torque_offset", size=150.0, seed=1, duration=4.0)
-    result = diagnose(record.measurements, rig, workers=2)
+    result = diagnose(record.measurements, rig, executor=threads)
     assert _keys(result) == {"torque_offset"}
     cause = result.causes[0]
     low, high = cause.parameters["torque_offset"].ci95
@@ -370,7 +380,7 @@ def test_a_cause_on_the_bound_of_its_range_is_named_without_a_value():
     assert json.loads(json.dumps(inside.to_dict()))["on_bound"] is False
 
 
-def test_kuka_axis_with_gravity_is_said_to_be_explained_only_in_part():
+def test_kuka_axis_with_gravity_is_said_to_be_explained_only_in_part(threads):
     """Axis 2 of the same robot carries a pose-dependent gravity torque (and a counterbalance)
     that no catalogue effect expresses: whatever causes are named, the diagnosis must say they
     leave much of the data unexplained, in the warnings and in the sentence.  Rig from the
@@ -387,7 +397,7 @@ def test_kuka_axis_with_gravity_is_said_to_be_explained_only_in_part():
     n = converter.GEAR_RATIOS[2]
     rig = rig_from_dict({"plant": {"motor_inertia": 0.0118 * n**2, "load_inertia": 1500.0, "stiffness": 7.52e6,
                                    "damping": 5000.0, "half_gap": 1e-5, "gear_ratio": n}})
-    result = diagnose(converter.kuka_measurements(kuka / "record_A.mat", axis=2), rig, workers=2)
+    result = diagnose(converter.kuka_measurements(kuka / "record_A.mat", axis=2), rig, executor=threads)
     assert result.causes
     assert any(w.startswith("the named causes leave much of the data unexplained") for w in result.warnings)
     assert min(result.extended.ahead_fit_percent.values()) < 75.0
@@ -461,7 +471,7 @@ def test_encoder_angles_measure_the_twist(rig):
     """Synthetic encoder angles: every twist step is a whole number of counts, and the twist
     follows the integral of the measured relative speed up to the integrated noise (its random
     walk over the record, 2 x 0.02 rad/s noise at 1 kHz: about 2e-3 rad)."""
-    from backlash_df.identify.calibrate import integrated_displacement
+    from backlash_df.identify.signals import integrated_displacement
 
     counts = 2**16
     record = synthesize(rig, "coulomb_friction", seed=5, duration=1.0, encoder_counts=counts)

@@ -9,9 +9,10 @@ import pytest
 
 from backlash_df import load_rig, rig_from_dict
 from backlash_df.identify import load_measurements, synthesize
-from backlash_df.identify.calibrate import (Shooting, TwoMassModel, nominal_values, segment_bounds,
-                                            sensitivity_jacobian)
-from backlash_df.identify.sensitivity import friction_partials, torque_partials
+from backlash_df.friction import friction, friction_kernel, friction_partials
+from backlash_df.identify._kernels import torque_partials
+from backlash_df.identify.calibrate import Shooting, sensitivity_jacobian
+from backlash_df.identify.predictors import TwoMassModel, nominal_values, segment_bounds
 from backlash_df.models import LAW_CODES, mode_torque, static_mode, theta_star_kernel, theta_star_partials
 
 PLANT = {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0, "damping": 3.0, "half_gap": 0.02}
@@ -82,6 +83,21 @@ def test_friction_partials_are_its_derivatives():
             short = friction_partials(w, viscous, coulomb, breakaway, eps, w_s, coulomb != 0.0 or breakaway != 0.0,
                                       breakaway != 0.0)
             assert short[:2] == (value, by_w)
+
+
+def test_the_friction_law_compiled_and_on_arrays_is_one_law():
+    """The kernels' law (``friction_kernel``, with its shortcuts) is ``friction_partials``' value to the bit, and
+    numpy's evaluation of the same text on an array (``friction``) agrees to rounding: numpy's tanh and exp are
+    not the C library's, which numba calls."""
+    eps, w_s = 0.05, 0.4
+    w = np.linspace(-2.0, 2.0, 41)
+    for viscous, coulomb, breakaway in ((0.0, 0.0, 0.0), (0.7, 0.0, 0.0), (0.7, 3.0, 0.0), (0.0, 3.0, 5.0)):
+        compiled = np.array([friction_kernel(x, viscous, coulomb, breakaway, eps, w_s) for x in w])
+        with_partials = [friction_partials(x, viscous, coulomb, breakaway, eps, w_s, coulomb != 0.0 or breakaway != 0.0,
+                                           breakaway != 0.0)[0] for x in w]
+        assert np.array_equal(compiled, with_partials)
+        np.testing.assert_allclose(friction(w, viscous, coulomb, breakaway, eps, w_s), compiled, rtol=1e-15,
+                                   atol=1e-15)
 
 
 def _synthetic(effects, encoder_counts=2**20, law="phase-plane", seed=7):

@@ -59,7 +59,7 @@ def describing_function_variants():
 
 def diagnosis():
     """The diagnosis' prediction kernels, two-mass and rigid body (6 s)."""
-    from backlash_df.identify.calibrate import predict
+    from backlash_df.identify.predictors import predict
 
     measurements = bd.load_measurements(EXAMPLES / "diagnose_friction.csv")
     rig = bd.load_rig(EXAMPLES / "diagnose_rig.toml")

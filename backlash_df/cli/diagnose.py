@@ -1,7 +1,9 @@
 """``backlash-df diagnose``: what the rig's model gets wrong in a measurement record, and why."""
 
+import contextlib
 import json
 import os
+from concurrent.futures import ThreadPoolExecutor
 
 import click
 
@@ -9,7 +11,7 @@ from ..config import load_rig
 from ..identify import diagnose as run_diagnosis
 from ..identify import load_measurements
 from ..identify.diagnose import GAIN_DEFINITION
-from .common import progress_bar
+from .common import stage_bars
 from .outputs import Outputs
 
 __all__ = ["diagnose_command"]
@@ -57,9 +59,9 @@ def diagnose_command(data, rig_file, json_out, report_out, strict, allow_unknown
                                      allow_unknown_columns=allow_unknown_columns)
     for note in measurements.notes:
         click.echo(f"note: {note}", err=True)
-    with progress_bar("diagnose: fits", unit="fit") as bar:
-        result = run_diagnosis(measurements, rig, workers=min(2, os.cpu_count() or 1),
-                               progress=lambda label: (bar.set_postfix_str(label[:40]), bar.update()))
+    with contextlib.ExitStack() as stack, ThreadPoolExecutor(min(2, os.cpu_count() or 1)) as pool:
+        result = run_diagnosis(measurements, rig, executor=pool,
+                               progress=stage_bars(stack, unit="fit", prefix="diagnose: "))
     shaft = result.shaft
     click.echo(f"cause: {result.cause} (from the {result.structure.replace('_', '-')} model; shaft mode "
                f"{shaft.mode_frequency:.3g} Hz, resolved band {shaft.resolved_frequency:.3g} Hz)")

@@ -9,13 +9,20 @@ the catalogue of candidate causes and :func:`diagnose` selects a set of them
 (forward selection, backward check) into a :class:`Diagnosis`.
 :func:`synthesize` makes records with hidden effects from a rig that is not the
 fitted model.
+
+One module a stage, every import pointing down: :mod:`.measurements` (the record),
+:mod:`.signals` (its conditioning), :mod:`.predictors` (the two-mass and rigid-body
+models and their predictions, on compiled kernels private to the package),
+:mod:`.calibrate` (the fit), :mod:`.effects` (the catalogue), :mod:`.residuals`,
+:mod:`.diagnose` and :mod:`.synthetic`.
 """
 
-from .calibrate import Calibration, FitParameter, Replay, calibrate, fit_percent, predict, refine, replay
+from .calibrate import Calibration, FitParameter, calibrate, refine
 from .diagnose import (BASELINE_MIN_FIT, MIN_GAIN, MIN_T, VALIDATION_HORIZON, CandidateResult, Cause, Diagnosis,
                        Stage, check_excitation, check_speed_units, diagnose, stage_disagreements)
 from .effects import EFFECT_NAMES, EFFECTS, Effect, get_effect
 from .measurements import Measurements, load_measurements, measurements_from_arrays, write_measurements
+from .predictors import Replay, fit_percent, predict, replay
 from .residuals import ResidualAnalysis, correlation, residual_analysis
 from .synthetic import Experiment, SyntheticRecord, synthesize
 

@@ -56,14 +56,14 @@ the values and 95 % intervals the causes report come from all the data; every
 fit percentage stays the estimation part's model scored on the validation part.
 
 **Speeds.**  Where an angle column measures a speed more finely than its speed column and the two agree
-(:func:`~.calibrate.encoder_speeds`: a fine encoder beside a noisy speed sensor), the fits take the
+(:func:`~.signals.encoder_speeds`: a fine encoder beside a noisy speed sensor), the fits take the
 encoder's speed, and a warning names the column and both noises.
 
 **Two structures.**  The selection runs twice (:class:`Stage`): for the
 two-mass drive over the whole catalogue, and for the *rigid body* it contains
-(:mod:`.calibrate`, ``structure="rigid_body"``: one inertia, no shaft) over
+(:mod:`.predictors`, ``structure="rigid_body"``: one inertia, no shaft) over
 :data:`RIGID_BODY_EFFECTS`.  Where the record does not resolve the shaft's mode
-(:func:`~.calibrate.shaft_resolution`: its frequency above the band in which
+(:func:`~.signals.shaft_resolution`: its frequency above the band in which
 the motor speed rises above its noise, as on a stiff robot gear), the causes
 are named from the rigid-body stage, and the two-mass stage, which then starts
 its segments on the rigid body's state where no angles are recorded, is the
@@ -73,6 +73,14 @@ the two-mass stage names the causes and the rigid-body stage is reported beside
 it (a rigid body cannot express the shaft there).  A cause whose parameter ends
 on a bound of the range the fit allows is named without a value too
 (:attr:`Cause.on_bound`): the data ask for more than the range gives.
+
+**Threads.**  With an ``executor`` (a :class:`concurrent.futures.ThreadPoolExecutor`: the
+kernels release the GIL), the independent fits of a step run side by side on it (a selection
+step's screenings, full refits and backward checks, the friction speeds' trials, the whole
+record's), each fit then in its own thread alone; a step with one fit lends the executor to
+that fit's forward-difference Jacobian columns (:func:`~.calibrate.calibrate`).  Either the
+fits or one fit's columns, never both: no task on the executor submits to it, which on a
+bounded pool could wait forever.  The numbers do not depend on the executor.
 """
 
 import dataclasses
@@ -80,29 +88,18 @@ import functools
 import html
 import itertools
 import math
-from concurrent.futures import ThreadPoolExecutor
+import threading
 
 import numpy as np
 
 from .._json import json_ready
 from ..plotting import ResultPlot, axes_or_new, legend_beside
 from ..report import below_text, figure_html, html_page, table_html
-from .calibrate import (
-    DEFAULT_HORIZON,
-    PLANT_PARAMETERS,
-    RIGID_PARAMETERS,
-    calibrate,
-    data_states,
-    encoder_speeds,
-    predict,
-    refine,
-    segment_bounds,
-    shaft_resolution,
-    single_threaded_blas,
-    speed_noise,
-)
+from .calibrate import calibrate, refine, single_threaded_blas
 from .effects import COULOMB_GRID, EFFECT_NAMES, STRIBECK_GRID, get_effect, peak_speed, smoothing_speeds
+from .predictors import DEFAULT_HORIZON, PLANT_PARAMETERS, RIGID_PARAMETERS, predict, segment_bounds
 from .residuals import residual_analysis
+from .signals import data_states, encoder_speeds, shaft_resolution, speed_noise
 
 __all__ = ["GAIN_DEFINITION", "CandidateResult", "Cause", "Stage", "Diagnosis", "diagnose", "check_speed_units", "check_excitation",
            "MIN_GAIN",
@@ -426,7 +423,7 @@ class Diagnosis:
         Residual analysis of the two k-step predictions on the validation part.
     measurements, rig
         The record as fitted (a speed column replaced by its encoder's speed where that is finer,
-        :func:`~.calibrate.encoder_speeds`, which the warnings then name) and the rig.
+        :func:`~.signals.encoder_speeds`, which the warnings then name) and the rig.
     estimation, validation : slice
         Sample ranges of the two parts.
     whole_record : Calibration
@@ -780,10 +777,10 @@ class _Search:
     """Scores models of one structure (``two_mass`` or ``rigid_body``) on the validation part; the state of one
     stage of a diagnosis."""
 
-    def __init__(self, measurements, rig, estimation, validation, horizon, workers, progress, structure="two_mass"):
+    def __init__(self, measurements, rig, estimation, validation, horizon, executor, progress, structure="two_mass"):
         self.measurements, self.rig, self.structure = measurements, rig, structure
         self.estimation, self.validation = estimation, validation
-        self.horizon, self.workers, self.progress = horizon, workers, progress
+        self.horizon, self.executor, self.progress = horizon, executor, progress
         self.weights = 1.0 / np.maximum(measurements.speeds[validation].std(axis=0), 1e-12)
         self.torque_rms = float(np.sqrt(np.mean(measurements.motor_torque**2)))
         self.baseline = None  # the nominal structure's CandidateResult, once fitted
@@ -796,8 +793,8 @@ class _Search:
         where it predicts the validation part at least as well (k-step plus ahead RSS): a free run sees slow
         effects at full size, a k-step fit sees fast ones (delay, rubber) better."""
         refined = self.score(candidate.effects, refine(self.measurements, self.rig, candidate.calibration,
-                                                       self.workers))
-        self.progress("refine " + self.label(candidate.effects))
+                                                       executor=self.executor))
+        self.progress()
         return refined if sum(refined.rss) <= sum(candidate.rss) else candidate
 
     def whole_record(self, candidate):
@@ -816,13 +813,13 @@ class _Search:
         the viscous friction by 8 %, away from a least-squares fit of the same samples."""
         values = _without_speeds(candidate.calibration.values)
         trials = self._side_by_side(
-            lambda start, workers: calibrate(self.measurements, self.rig, candidate.effects,
-                                             window=(self.estimation.start, self.measurements.n_samples),
-                                             start_values=start, horizon=self.horizon, workers=workers, polish=False,
-                                             fixed=self.held, structure=self.structure),
-            self._speed_choices(candidate.effects, values), self.workers)
+            lambda start, executor: calibrate(self.measurements, self.rig, candidate.effects,
+                                              window=(self.estimation.start, self.measurements.n_samples),
+                                              start_values=start, horizon=self.horizon, executor=executor,
+                                              polish=False, fixed=self.held, structure=self.structure),
+            self._speed_choices(candidate.effects, values), self.executor)
         calibration = min(trials, key=lambda trial: trial.rss)
-        self.progress("whole record: " + self.label(candidate.effects))
+        self.progress()
         return calibration
 
     @functools.cached_property
@@ -873,9 +870,10 @@ class _Search:
             return value * float(np.sqrt(np.mean(speed**2)))
         return None
 
-    def fit(self, effects, start_values=None, polish=False, screen=False, workers=None):
-        """The scored fit of ``effects`` (:func:`~.calibrate.calibrate`; ``screen``: plant values held), its
-        Jacobian in ``workers`` threads (default: the search's).
+    def fit(self, effects, start_values=None, polish=False, screen=False, alone=False):
+        """The scored fit of ``effects`` (:func:`~.calibrate.calibrate`; ``screen``: plant values held), on the
+        search's executor (:meth:`_side_by_side`) unless ``alone``: a fit that runs on the executor itself, as one of
+        several side by side, runs wholly in its own thread.
 
         The friction law's speeds are chosen, not assumed (:data:`_CHOSEN_SPEEDS`): the smoothing speed of a
         Coulomb friction among :data:`~.effects.COULOMB_GRID`, the Stribeck speed of a breakaway friction among
@@ -885,9 +883,9 @@ class _Search:
         values and held by the fits that start from them (the full refit of a forward step and the whole-record
         fit choose them again, :func:`_without_speeds`).  The validation part is not looked at."""
         nested = bool(start_values)
-        trials = self._side_by_side(lambda values, threads: self._fit(effects, values or None, polish, screen, threads,
-                                                                      nested),
-                                    self._speed_choices(effects, start_values), workers or self.workers)
+        trials = self._side_by_side(lambda values, executor: self._fit(effects, values or None, polish, screen,
+                                                                       executor, nested),
+                                    self._speed_choices(effects, start_values), None if alone else self.executor)
         return min(trials, key=lambda trial: trial.calibration.rss)
 
     def _speed_choices(self, effects, start_values):
@@ -905,32 +903,32 @@ class _Search:
             *[[(key, share * peak) for share in grid] for key, grid in missing])]
         return [values for values in combinations if _distinct_bump(values, smoothing)]
 
-    def _fit(self, effects, start_values, polish, screen, workers, nested):
+    def _fit(self, effects, start_values, polish, screen, executor, nested):
         calibration = calibrate(self.measurements, self.rig, effects, window=(self.estimation.start,
                                 self.estimation.stop), start_values=start_values, horizon=self.horizon,
-                                workers=workers or self.workers, max_nfev=NESTED_NFEV if nested else None,
+                                executor=executor, max_nfev=NESTED_NFEV if nested else None,
                                 polish=polish,
                                 fixed=(PLANT_PARAMETERS + RIGID_PARAMETERS if screen else ()) + self.held,
                                 structure=self.structure)
-        self.progress(self.label(effects))
+        self.progress()
         return self.score(effects, calibration)
 
     def fits(self, jobs, screen=False):
-        """:meth:`fit` of every ``(effects, start_values)`` of ``jobs``, in order, the fits side by side in the
-        search's threads (each fit's Jacobian then on one): the same results as one by one, since a fit's
-        numbers do not depend on its threads, and near the threads' count times faster (the kernel releases
-        the GIL; a single fit's Jacobian leaves the optimiser's own steps serial)."""
-        return self._side_by_side(lambda job, workers: self.fit(*job, screen=screen, workers=workers), jobs,
-                                  self.workers)
+        """:meth:`fit` of every ``(effects, start_values)`` of ``jobs``, in order, the fits side by side on the
+        search's executor (:meth:`_side_by_side`): the same results as one by one, since a fit's numbers do not
+        depend on its threads, and near the threads' count times faster (the kernel releases the GIL; a single
+        fit's Jacobian leaves the optimiser's own steps serial)."""
+        return self._side_by_side(lambda job, executor: self.fit(*job, screen=screen, alone=executor is None), jobs,
+                                  self.executor)
 
     @staticmethod
-    def _side_by_side(run, jobs, workers):
-        """``run(job, threads)`` of every job, in order: side by side in ``workers`` threads, each job then on one,
-        or one by one, each on all of them (the same results: a fit's numbers do not depend on its threads)."""
-        if workers <= 1 or len(jobs) <= 1:
-            return [run(job, workers) for job in jobs]
-        with ThreadPoolExecutor(min(workers, len(jobs))) as pool:
-            return list(pool.map(lambda job: run(job, 1), jobs))
+    def _side_by_side(run, jobs, executor):
+        """``run(job, executor)`` of every job, in order: side by side on ``executor``, each job then alone in its
+        thread (``run(job, None)``), or, with one job or without an executor, in this thread with the executor
+        for the job's own use.  A task on the executor never submits to it (module docs: Threads)."""
+        if executor is None or len(jobs) <= 1:
+            return [run(job, executor) for job in jobs]
+        return list(executor.map(lambda job: run(job, None), jobs))
 
     def settle_skew(self, baseline):
         """The baseline with the encoder skew settled as a property of the record: fitted with the nominal
@@ -941,10 +939,6 @@ class _Search:
             return baseline
         self.encoder_skew, self.held = skew, ("encoder_skew",)
         return baseline if _skew_shown(skew, self.measurements) else self.fit(())
-
-    def label(self, effects):
-        """A progress label: the effects, marked when the structure is the rigid body."""
-        return ("rigid body: " if self.structure == "rigid_body" else "") + (" + ".join(effects) or "none")
 
     def score(self, effects, calibration, **fields):
         n = self.measurements.n_samples
@@ -1366,8 +1360,8 @@ def _rigid_keys(keys):
     return [key for key in RIGID_BODY_EFFECTS if get_effect(key).name in names]
 
 
-def diagnose(measurements, rig, candidates=None, estimation_fraction=0.6, transient_fraction=0.05,
-             horizon=DEFAULT_HORIZON, workers=1, progress=None):
+def diagnose(measurements, rig, *, candidates=None, estimation_fraction=0.6, transient_fraction=0.05,
+             horizon=DEFAULT_HORIZON, executor=None, progress=None):
     """Name the physical causes of what the rig's model gets wrong in a record.
 
     Parameters
@@ -1385,11 +1379,15 @@ def diagnose(measurements, rig, candidates=None, estimation_fraction=0.6, transi
         Initial part dropped from the fit (0.05).
     horizon : float
         Length (s) of the k-step segments.
-    workers : int
-        Threads: the independent fits of a selection step (the screenings, the full refits, the backward
-        checks) side by side, the free runs' forward-difference Jacobian columns; the result does not depend on it.
+    executor : concurrent.futures.Executor, optional
+        Runs the independent fits of a step side by side (the screenings, the full refits, the backward
+        checks, the friction speeds' trials), or a step's lone fit's forward-difference Jacobian columns,
+        never both at once (module docs: Threads); a :class:`~concurrent.futures.ThreadPoolExecutor`, the
+        kernels release the GIL.  None: every fit in this thread.  The result does not depend on it.  Do
+        not call :func:`diagnose` from a task of the same bounded pool.
     progress : callable, optional
-        Called with a label after every fit (a progress bar's update; from the fits' threads).
+        ``progress(stage, done, total)`` (the package's one protocol), stage ``"fits"``, after every
+        fit (from the fits' threads, one at a time); ``total`` None: the search decides how many.
 
     Returns
     -------
@@ -1402,11 +1400,23 @@ def diagnose(measurements, rig, candidates=None, estimation_fraction=0.6, transi
         rad/s, fractions out of range.
     """
     with single_threaded_blas():
-        return _diagnose(measurements, rig, candidates, estimation_fraction, transient_fraction, horizon, workers,
+        return _diagnose(measurements, rig, candidates, estimation_fraction, transient_fraction, horizon, executor,
                          progress)
 
 
-def _diagnose(measurements, rig, candidates, estimation_fraction, transient_fraction, horizon, workers, progress):
+def _fit_counter(progress):
+    """A ``fitted()`` for the search's threads: each call reports ``progress("fits", count, None)``, in order."""
+    lock, count = threading.Lock(), itertools.count(1)
+
+    def fitted():
+        with lock:
+            if progress is not None:
+                progress("fits", next(count), None)
+
+    return fitted
+
+
+def _diagnose(measurements, rig, candidates, estimation_fraction, transient_fraction, horizon, executor, progress):
     keys = [get_effect(key).key for key in (candidates if candidates is not None else EFFECT_NAMES) if key != "none"]
     if not 0.0 <= transient_fraction < estimation_fraction < 1.0:
         raise ValueError("need 0 <= transient_fraction < estimation_fraction < 1")
@@ -1418,8 +1428,8 @@ def _diagnose(measurements, rig, candidates, estimation_fraction, transient_frac
     validation = slice(estimation.stop, n)
     check_excitation(measurements, validation, f"the validation part (the last {100 * (1 - estimation_fraction):g} %)")
     measurements = encoder_speeds(measurements)
-    search = functools.partial(_Search, measurements, rig, estimation, validation, horizon, workers,
-                               progress or (lambda label: None))
+    search = functools.partial(_Search, measurements, rig, estimation, validation, horizon, executor,
+                               _fit_counter(progress))
     rigid = _select(search("rigid_body"), _rigid_keys(keys))
     shaft = shaft_resolution(measurements, rig)
     two_mass = _select(search("two_mass"), keys if shaft.resolved else _cross_check_keys(rigid, keys))

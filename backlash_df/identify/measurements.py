@@ -599,7 +599,7 @@ def _read_table(path, strict, allow_unknown_columns):
             return _parse_rows(reader, header, known, path), notice
 
 
-def load_measurements(path, gear_ratio=1.0, max_samples=MAX_SAMPLES, strict=False, allow_unknown_columns=False):
+def load_measurements(path, *, gear_ratio=1.0, max_samples=MAX_SAMPLES, strict=False, allow_unknown_columns=False):
     """Read and check a measurement CSV file and reflect it to the load side.
 
     Parameters

@@ -27,6 +27,7 @@ from .._jit import borrowing as _borrowing
 from .._jit import inline as _inline
 from .._jit import jit as _jit
 from .._jit import jit_unchecked as _jit_unchecked
+from ..friction import friction_kernel
 from ..models import EXACT, exact_step, held_mode, mode_torque
 from ..system import command_index, command_mode_of, initial_command_mode
 
@@ -119,12 +120,13 @@ def _row_value(row, z, wvals, dvals):
 
 @_jit_unchecked
 def _friction(z, f_row, f_level, f_eps, f_break, f_ws):
-    """Friction torque of the driven machine at ``z`` (N m): smoothed Coulomb and breakaway; 0 without."""
+    """Friction torque of the driven machine at ``z`` (N m): the law of :mod:`backlash_df.friction` at the speed
+    ``f_row . z``, smoothed Coulomb and breakaway (the viscous part is in the linear part); 0 without."""
     if f_level > 0.0 or f_break > 0.0:
         s = 0.0
         for j in range(z.shape[0]):
             s += f_row[j] * z[j]
-        return (f_level + f_break * math.exp(-((s / f_ws) ** 2))) * math.tanh(s / f_eps)
+        return friction_kernel(s, 0.0, f_level, f_break, f_eps, f_ws)
     return 0.0
 
 
