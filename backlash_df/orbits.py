@@ -87,6 +87,7 @@ from .models import (
     theta_star_kernel,
 )
 from .plotting import ResultPlot, axes_or_new
+from .report import bias_text
 from .simulation import MeasuredCycle, SimulationResult, default_step, simulate_linear, upward_crossings
 from .system import (
     COMMAND_MODES,
@@ -709,7 +710,7 @@ class PeriodicOrbit:
     def __repr__(self):
         kind = "stable" if self.stable else "unstable"
         return (f"PeriodicOrbit({self.model}: A={self.amplitude:.6g} rad, peak={self.peak:.6g} rad, "
-                f"omega={self.omega:.6g} rad/s, bias={self.bias:.3g} rad, {kind}, "
+                f"omega={self.omega:.6g} rad/s, bias={bias_text(self.bias, self.amplitude, 3)} rad, {kind}, "
                 f"|mu|max={self.max_multiplier:.4g}{self._command_text()})")
 
     def _command_text(self):
