@@ -10,7 +10,7 @@ environment, as on a user's machine: otherwise every import compiles its source)
    (``NUMBA_CACHE_DIR`` pointed at a fresh temporary directory: every kernel compiled,
    as on a fresh install; one run), the same on one core (no second compiling process,
    ``backlash_df/cli/warmup.py``: the sequential compile, for the ratio), and warm (same
-   directory again); targets < 6 s and < 0.5 s (issue 21).  Floor rows: a fresh
+   directory again); targets < 6 s and a warm run within 1.5x its floor (issues 21, 49).  Floor rows: a fresh
    interpreter that imports numba and calls one trivial ``cache=True`` function, cold
    (compiled) and warm (loaded from the cache), what any program built on numba pays.
 3. OpenBLAS threads, library calls timed inside a subprocess with
@@ -116,9 +116,10 @@ def main():
         print(f"   first run, cold numba cache (1 run)  {cold:6.1f} s   {verdict(cold, 6.0)}")
         print(f"     the same on one core (1 run)       {one_core:6.1f} s   one core / two {one_core / cold:.2f}x")
         print(f"     floor: one trivial kernel, cold    {floor_cold:6.1f} s")
-        print(f"   warm (best of 3)                     {warm:6.2f} s   {verdict(warm, 0.5)}")
-        print(f"     floor: one trivial kernel, warm    {floor_warm:6.2f} s   (best of 5; predict / floor "
-              f"{warm / floor_warm:.2f}x)")
+        ratio = warm / floor_warm
+        print(f"   warm (best of 3)                     {warm:6.2f} s   predict / floor {ratio:.2f}x, target < 1.5x: "
+              f"{'met' if ratio < 1.5 else 'MISSED'}")
+        print(f"     floor: one trivial kernel, warm    {floor_warm:6.2f} s   (best of 5)")
         print("3. OpenBLAS threads (warm cache; 2 cores)")
         print(f"   {'':34s}{'1 thread':>10s}{'2 threads':>11s}{'2 / 1':>8s}")
         for label, (call, repeat) in THREAD_CASES.items():
