@@ -18,13 +18,13 @@ from numba.core import event
 
 __all__ = ["jit", "jit_unchecked", "inline", "borrowing", "borrowing_unchecked", "copy_into", "on_first_compile"]
 
-#: Decorator of every compiled kernel of :mod:`backlash_df.system` and :mod:`backlash_df.simulation`.
+#: Decorator of every compiled kernel of the shared switching and simulation modules.
 jit = numba.njit(cache=True, nogil=True)
 #: The same with numpy's error model: a float division by zero gives inf or NaN instead of raising.
 #: For call-free helpers whose divisors cannot be zero: the raise path of a checked division
 #: keeps numba from pruning the reference counts of their array arguments (the RK4 kernel's
 #: stage helpers: reference counting 43 % of a run with it, 24 % without), for the
-#: diagnosis' prediction kernels (``identify/calibrate.py``), whose divisors are positive,
+#: diagnosis' prediction kernels (``identify/_kernels.py``), whose divisors are positive,
 #: and for the describing functions' kernels (``describing/_kernels.py``), whose inputs
 #: ``describing._evaluation`` checks first.
 jit_unchecked = numba.njit(cache=True, nogil=True, error_model="numpy")

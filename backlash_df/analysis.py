@@ -9,12 +9,9 @@ its JSON and its HTML report; the command line only parses, calls and prints.
 """
 
 import dataclasses
-import html
 
-from .limit_cycles import limit_cycle_plot, prediction_rows, prediction_sections
-from .limit_cycles import predict_limit_cycles, verify_limit_cycles
-from .report import html_page, table_html
-from .render.verdict import ORBIT_NOTE, VERDICT_NOTE, orbit_rows, verdict_rows
+from .limit_cycles import limit_cycle_plot, predict_limit_cycles, verify_limit_cycles
+from .render.analysis import analysis_report, analysis_sentences, analysis_tables
 from .verdict import judge_loop
 
 __all__ = ["LoopAnalysis", "analyse_loop", "loop_models"]
@@ -49,17 +46,14 @@ class LoopAnalysis:
         return f"<LoopAnalysis of {self.source or 'a rig'}: {words}>"
 
     def tables(self):
-        """The terminal's tables: ``[(header, rows), ...]`` (predicted cycles, verdicts, and orbits if sought)."""
-        tables = [prediction_rows(self.predictions), verdict_rows(self.verdicts)]
-        return tables + [orbit_rows(self.verdicts)] if self.exact else tables
+        """The terminal's tables: ``[(header, rows), ...]`` (predicted cycles, verdicts, and orbits if sought;
+        :func:`~backlash_df.render.analysis.analysis_tables`)."""
+        return analysis_tables(self)
 
     def sentences(self):
-        """One line per law: the verdict and why (and why there are no exact orbits, where so)."""
-        lines = []
-        for verdict in self.verdicts:
-            note = f" (exact orbits: {verdict.orbit_note})" if verdict.orbit_note else ""
-            lines.append(f"{verdict.model}: {verdict.verdict}: {verdict.reason}{note}")
-        return lines
+        """One line per law: the verdict and why, and why there are no exact orbits, where so
+        (:func:`~backlash_df.render.analysis.analysis_sentences`)."""
+        return analysis_sentences(self)
 
     def to_dict(self):
         """The ``predict`` JSON (contract page): ``limit_cycles``, ``rig``, and per law its verdict and details."""
@@ -93,17 +87,12 @@ class LoopAnalysis:
             Page title (default: "Limit cycles: " and the rig's source).
         rig_text : str
             The rig file's text, shown as it is.
+
+        See Also
+        --------
+        backlash_df.render.analysis.analysis_report
         """
-        notes = {v.model: f"<br><b>verdict: {v.verdict}</b>: {html.escape(v.reason)}" for v in self.verdicts}
-        sections = prediction_sections(self.predictions, rig_text, notes)
-        header, rows = verdict_rows(self.verdicts)
-        sections.append(("Verdict and linear stability",
-                         VERDICT_NOTE + table_html(header, rows, text_columns=header)))  # words, every column
-        header, rows = orbit_rows(self.verdicts)
-        if rows:
-            sections.append(("Exact periodic orbits",
-                             ORBIT_NOTE + table_html(header, rows, text_columns=("model", "Floquet"))))
-        return html_page(title or f"Limit cycles: {self.source}", sections)
+        return analysis_report(self, self.plot().figure, title, rig_text)
 
 
 def loop_models(rig, models=None):

@@ -34,7 +34,7 @@ import numpy as np
 
 from ._version import __version__
 
-__all__ = ["Checkpoint", "run_cells", "opened", "describe"]
+__all__ = ["Checkpoint"]
 
 _MAGIC = "backlash-df checkpoint"
 

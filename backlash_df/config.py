@@ -255,6 +255,55 @@ class Rig:
             return self
         return dataclasses.replace(self, plant=dataclasses.replace(self.plant, **shaft), model=law.name)
 
+    def with_values(self, **changes):
+        """A copy with plant, controller or load values replaced, checked as the rig file's are.
+
+        Parameters
+        ----------
+        **changes
+            New values, in the rig file's units, by key of ``[plant]``, ``[controller]``
+            or ``[load]`` (``kp=60.0``, ``stiffness=1000.0``, ``torque=250.0``) or by
+            ``"table.key"`` (``**{"load.torque": 250.0}``); several at once.
+
+        Returns
+        -------
+        Rig
+            The rig itself for no changes.  A user's LTI controllers
+            (:meth:`with_controller`) are kept.
+
+        Raises
+        ------
+        ValueError
+            An unknown or non-numeric key, two keys naming one value, or a value the
+            rig file would reject (:class:`RigError`): one line naming the key.
+
+        Examples
+        --------
+        >>> rig = rig_from_dict({"plant": {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0,
+        ...     "half_gap": 0.05}, "controller": {"kp": 30.0, "ti": 0.5}})
+        >>> rig.with_values(kp=60.0).controller.kp
+        60.0
+        >>> faster = rig.with_values(kp=60.0, ti=0.3, **{"load.torque": 250.0})
+        >>> faster.controller.ti, faster.load.torque
+        (0.3, 250.0)
+        """
+        if not changes:
+            return self
+        data = self.to_dict()
+        named = {}
+        for parameter, value in changes.items():
+            table, key = _table_of(self, parameter)
+            if (table, key) in named:
+                raise ValueError(f"{named[table, key]!r} and {parameter!r} name the same value, {table}.{key}")
+            named[table, key] = parameter
+            data[table][key] = value
+        changed = rig_from_dict(data, source=f"{self.source} with " + ", ".join(
+            f"{table}.{key} = {changes[parameter]!r}" for (table, key), parameter in named.items()))
+        if self.controller is None:
+            return changed
+        users = {name: getattr(self.controller, name) for name in _PYTHON_ONLY}
+        return dataclasses.replace(changed, controller=dataclasses.replace(changed.controller, **users))
+
     def require_controller(self):
         """The controller, or a :class:`RigError` saying the rig has none."""
         if self.controller is None:
@@ -349,6 +398,24 @@ _TABLES = {"plant": Plant, "controller": Controller, "load": Load, "model": None
 _CHOICES = {"feedback": ("motor", "load"), "position_feedback": ("motor", "load"), "structure": ("speed", "cascade")}
 #: Fields of a table that no rig file sets (a user's LTI controllers, set by Rig.with_controller).
 _PYTHON_ONLY = {"speed_controller", "position_controller"}
+
+
+def _table_of(rig, parameter):
+    """(table name, key) of a numeric rig value: ``"kp"``, ``"controller.kp"``, ``"load.torque"``."""
+    tables = {"plant": rig.plant, "controller": rig.controller, "load": rig.load}
+    if "." in parameter:
+        table, key = parameter.split(".", 1)
+        found = [(table, key)] if table in tables and tables[table] is not None and hasattr(tables[table], key) else []
+    else:
+        found = [(table, parameter) for table, value in tables.items()
+                 if value is not None and parameter in {f.name for f in dataclasses.fields(value)}]
+    numeric = [(t, k) for t, k in found if isinstance(getattr(tables[t], k), float)]
+    if len(numeric) != 1:
+        names = [f"{t}.{f.name}" for t, v in tables.items() if v is not None for f in dataclasses.fields(v)
+                 if isinstance(getattr(v, f.name), float)]
+        raise ValueError(f"parameter {parameter!r}: not a numeric value of rig {rig.source}; "
+                         f"choose one of: {', '.join(names)}")
+    return numeric[0]
 
 
 def _number(source, table, key, value):

@@ -2,7 +2,7 @@
 
 The unknowns of the shooting problem of :mod:`backlash_df.orbits` (the state
 ``q0`` on the section ``dtheta_d = 0`` and the period ``T``) are extended by the
-parameter ``p`` (any numeric value of the rig file, :func:`~backlash_df.sweeps.rig_with`).
+parameter ``p`` (any numeric value of the rig file, :meth:`~backlash_df.config.Rig.with_values`).
 With ``y = (q0, T, p)`` scaled component-wise, a branch point solves
 
     R(q0, T; p) = 0                         (orbits.orbit_residual: phi_T(q0) = q0, dtheta_d(q0) = 0)
@@ -64,7 +64,6 @@ from its last step, identical to an uninterrupted one.
 
 import dataclasses
 import functools
-import html
 import itertools
 
 import numpy as np
@@ -74,9 +73,9 @@ from .limit_cycles import predict_limit_cycles
 from .loops import drive_loop
 from .orbits import OrbitNotFound, orbit_residual, periodic_orbit
 from .plotting import ResultPlot, axes_or_new, legend_beside, log_scale
-from .report import bias_text, figure_html, html_page, table_html
+from .render.continuation import branch_report, branch_sentences, branch_tables
+from .render.sweeps import value_label
 from .simulation import simulated_limit_cycle
-from .sweeps import rig_with, value_label
 
 __all__ = ["BranchPoint", "SpecialPoint", "Branch", "continue_limit_cycles", "branch_plot"]
 
@@ -176,31 +175,14 @@ class Branch:
         return _polish(_rig_of(self.rig, self.parameter, value), self.model, nearest.orbit)
 
     def tables(self):
-        """The terminal's tables: ``[(title, header, rows), ...]``, the exact orbits, then the DF's cycles.
-
-        Every header names its unit, the parameter's that of the rig file
-        (:func:`~backlash_df.sweeps.value_label`: ``kp (N m s/rad)``).  Biases that
-        are round-off of a zero mean print as 0 (:func:`~backlash_df.report.bias_text`).
-        """
-        parameter = value_label(self.parameter)
-        orbits = [[f"{point.parameter:.6g}", f"{point.orbit.amplitude:.5g}", f"{point.orbit.omega:.5g}",
-                   f"{point.orbit.period:.5g}", bias_text(point.orbit.bias, point.orbit.amplitude),
-                   f"{point.orbit.max_multiplier:.4f}", "stable" if point.orbit.stable else "unstable"]
-                  for point in self.points]
-        cycles = []
-        for value, prediction in self.df:
-            cycles += [[f"{value:.6g}", f"{cycle.amplitude:.5g}", f"{cycle.omega:.5g}",
-                        bias_text(cycle.bias, cycle.amplitude), "stable" if cycle.stable else "unstable"]
-                       for cycle in prediction.cycles] or [[f"{value:.6g}", "none", "", "", ""]]
-        return [(f"exact periodic orbits of the {self.model} law (shooting; stability by Floquet multipliers):",
-                 [parameter, "A (rad)", "w (rad/s)", "period (s)", "bias (rad)", "|mu| max", "Floquet"], orbits),
-                (f"describing function at {len(self.df)} values (stability by Loeb's criterion):",
-                 [parameter, "A DF (rad)", "w DF (rad/s)", "bias (rad)", "Loeb"], cycles)]
+        """The terminal's tables: ``[(title, header, rows), ...]``, the exact orbits, then the DF's cycles
+        (:func:`~backlash_df.render.continuation.branch_tables`)."""
+        return branch_tables(self)
 
     def sentences(self):
-        """One line per special point: kind, where, and what happened."""
-        return [f"{s.kind} at {self.parameter} = {s.parameter:.6g} (A = {s.amplitude:.4g} rad): {s.detail}"
-                for s in self.special]
+        """One line per special point: kind, where, and what happened
+        (:func:`~backlash_df.render.continuation.branch_sentences`)."""
+        return branch_sentences(self)
 
     def __repr__(self):
         kinds = ", ".join(f"{s.kind} at {self.parameter}={s.parameter:.4g}" for s in self.special) or "none"
@@ -232,18 +214,12 @@ class Branch:
             Page title (default "Continuation").
         rig_text : str
             The rig file's text, shown as it is.
+
+        See Also
+        --------
+        backlash_df.render.continuation.branch_report
         """
-        figure = self.plot().figure
-        rows = [[s.kind, f"{s.parameter:.6g}", f"{s.amplitude:.5g}", s.detail] for s in self.special]
-        sections = [("", f'<div class="summary"><p>{len(self.points)} exact periodic orbits (shooting, '
-                         f"Floquet multipliers) of the {self.model} law continued in {self.parameter}; solid: "
-                         "stable, dashed: unstable; markers: the describing function's cycles.</p></div>")]
-        if rig_text:
-            sections.append(("Rig", f"<pre>{html.escape(rig_text)}</pre>"))
-        sections += [("Branch", figure_html(figure, f"A and w against {self.parameter}")),
-                     ("Special points", table_html(["kind", value_label(self.parameter), "A (rad)", "detail"], rows,
-                                                   text_columns=(0, 3)))]
-        return html_page(title or "Continuation", sections)
+        return branch_report(self, self.plot().figure, title, rig_text)
 
 
 def branch_plot(branch, ax=None):
@@ -291,7 +267,7 @@ def branch_plot(branch, ax=None):
 
 @functools.lru_cache(maxsize=64)
 def _rig_of(rig, parameter, value):
-    return rig_with(rig, parameter, value)
+    return rig.with_values(**{parameter: value})
 
 
 def _polish(rig, model, seed):
@@ -330,8 +306,8 @@ class _Extended:
         unknowns, value = self.split(y)
         residual, jacobian = orbit_residual(_rig_of(self.rig, self.parameter, value), self.model, unknowns)
         step = 1e-6 * max(abs(value), self.scale[-1] * 1e-3)
-        plus = orbit_residual(rig_with(self.rig, self.parameter, value + step), self.model, unknowns)[0]
-        minus = orbit_residual(rig_with(self.rig, self.parameter, value - step), self.model, unknowns)[0]
+        plus = orbit_residual(self.rig.with_values(**{self.parameter: value + step}), self.model, unknowns)[0]
+        minus = orbit_residual(self.rig.with_values(**{self.parameter: value - step}), self.model, unknowns)[0]
         d_value = (plus - minus) / (2.0 * step)
         return residual, np.column_stack([jacobian, d_value]) * self.scale
 
@@ -577,7 +553,7 @@ def _contact_instability(rig, parameter, model, inside, outside):
 
 
 def _df_prediction(rig, parameter, model, grid, value):
-    return predict_limit_cycles(rig_with(rig, parameter, value), model, grid=grid)
+    return predict_limit_cycles(rig.with_values(**{parameter: value}), model, grid=grid)
 
 
 def _start(rig, parameter, model, values, seed):
@@ -609,7 +585,7 @@ def continue_limit_cycles(rig, parameter, values_or_range, model=None, *, seed=N
     ----------
     rig : Rig
     parameter : str
-        A numeric rig value (:func:`~backlash_df.sweeps.rig_with`: ``"kp"``,
+        A numeric rig value (a key of :meth:`~backlash_df.config.Rig.with_values`: ``"kp"``,
         ``"ti"``, ``"stiffness"``, ``"load.torque"``, ...).
     values_or_range : (float, float) or array_like
         The range ``(from, to)``; with more values, their first and last are the
@@ -665,7 +641,7 @@ def continue_limit_cycles(rig, parameter, values_or_range, model=None, *, seed=N
         raise ValueError(f"continue: give a range of {parameter} (two different finite values), got {values_or_range!r}")
     lo, hi = float(values[0]), float(values[-1])
     model = rig.make_model(model).name
-    rig_with(rig_with(rig, parameter, lo), parameter, hi)  # names and values checked before any work
+    rig.with_values(**{parameter: lo}).with_values(**{parameter: hi})  # names and values checked before any work
     inputs = describe({"rig": rig, "parameter": parameter, "range": (lo, hi), "model": model, "seed": seed, "ds": ds,
                        "ds_max": ds_max, "max_points": max_points, "max_amplitude": max_amplitude,
                        "df_grid": tuple(df_grid)}, omit={"source"})

@@ -20,8 +20,7 @@ all of them "does not hunt" for :func:`backlash_df.tune` and the verdict alike.
 import dataclasses
 import math
 
-__all__ = ["Disturbance", "TWIST", "MOTOR_SPEED", "KINDS", "TWIST_MULTIPLES", "KICK_MULTIPLES",
-           "standard_disturbances", "shaft_mode", "kind_words"]
+__all__ = ["Disturbance", "TWIST", "MOTOR_SPEED", "KINDS", "standard_disturbances", "shaft_mode"]
 
 #: The kinds of disturbance and their units.
 TWIST, MOTOR_SPEED = "twist", "motor speed"

@@ -46,12 +46,12 @@ import math
 
 import numpy as np
 
+from ._laws import DAMPED_DEAD_ZONE, DEAD_ZONE, ELASTO_BACKLASH, RUBBER
 from .disturbances import KINDS, MOTOR_SPEED, TWIST, Disturbance
-from .models import DAMPED_DEAD_ZONE, DEAD_ZONE, ELASTO_BACKLASH, RUBBER
 from .loops import drive_loop
 from .system import closed_loop_matrix, lti_linear_part, with_pade
 
-__all__ = ["PADE_ORDER", "LinearStability", "linear_stability", "contact_shaft", "Rest", "rest_points", "loop_rests"]
+__all__ = ["LinearStability", "linear_stability", "Rest", "rest_points", "loop_rests"]
 
 #: Pade order of the dead time in every pole computation of the verdict and the rests.
 PADE_ORDER = 8

@@ -48,7 +48,7 @@ import numpy as np
 
 from .system import Command, LinearPart, closed_loop_matrix, closed_loop_response, frequency_response
 
-__all__ = ["DriveLoop", "drive_loop", "frequency_response_of"]
+__all__ = ["DriveLoop", "drive_loop"]
 
 
 @dataclasses.dataclass(frozen=True)

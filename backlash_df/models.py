@@ -22,9 +22,10 @@ mirror image of the right side.  Each law is split into *modes* (0 free, 1 rubbe
 band, 2 steel contact; negative on the left) inside which the torque is smooth;
 the simulation integrates with the mode frozen and locates the switches.
 
-The scalar kernels are compiled with numba and shared by the vectorised
-``torque`` methods, the time simulation and the describing functions, so that
-there is exactly one implementation of every law.
+The scalar kernels are compiled with numba (in the package's private
+``backlash_df._laws``) and shared by the vectorised ``torque`` methods, the time
+simulation and the describing functions, so that there is exactly one
+implementation of every law.
 """
 
 import functools
@@ -33,52 +34,17 @@ import math
 import numba
 import numpy as np
 
+from ._jit import jit as _jit
+from ._laws import (DAMPED_DEAD_ZONE, DEAD_ZONE, EXACT, LAW_CODES, PHASE_PLANE, REVISED_DEAD_ZONE, RUBBER, SHAFT_KEYS,
+                    exact_step, exact_torque, static_mode, static_torque, theta_star_kernel)
 from .plotting import ResultPlot, axes_or_new
 
-__all__ = [
-    "MODEL_NAMES",
-    "BacklashModel",
-    "StaticModel",
-    "ExactModel",
-    "make_model",
-    "theta_star",
-    # law codes and the compiled scalar kernels the describing functions, the
-    # simulation, the orbits and the identification share
-    "LAW_CODES",
-    "EQUATIONS",
-    "DEAD_ZONE",
-    "DAMPED_DEAD_ZONE",
-    "REVISED_DEAD_ZONE",
-    "PHASE_PLANE",
-    "RUBBER",
-    "ELASTO_BACKLASH",
-    "EXACT",
-    "theta_star_kernel",
-    "right_mode",
-    "right_torque",
-    "static_mode",
-    "held_mode",
-    "theta_star_partials",
-    "mode_torque",
-    "static_torque",
-    "exact_torque",
-    "exact_step",
-]
+__all__ = ["MODEL_NAMES", "EQUATIONS", "BacklashModel", "StaticModel", "ExactModel", "make_model", "theta_star"]
 
-DEAD_ZONE, DAMPED_DEAD_ZONE, REVISED_DEAD_ZONE, PHASE_PLANE, RUBBER, ELASTO_BACKLASH, EXACT = range(7)
-
-#: Model names accepted by :func:`make_model`, with their law codes.
-LAW_CODES = {
-    "dead-zone": DEAD_ZONE,
-    "damped-dead-zone": DAMPED_DEAD_ZONE,
-    "revised-dead-zone": REVISED_DEAD_ZONE,
-    "phase-plane": PHASE_PLANE,
-    "rubber": RUBBER,
-    "elasto-backlash": ELASTO_BACKLASH,
-    "exact": EXACT,
-}
+#: Model names accepted by :func:`make_model`.
 MODEL_NAMES = tuple(LAW_CODES)
 
+#: The paper's equations of each law, by model name.
 EQUATIONS = {
     "dead-zone": "(24)-(25)",
     "damped-dead-zone": "(26)",
@@ -88,8 +54,6 @@ EQUATIONS = {
     "elasto-backlash": "Modelica ElastoBacklash",
     "exact": "(1), (14)",
 }
-
-_jit = numba.njit(cache=True, nogil=True)
 
 
 def _lazy_ufunc(signature):
@@ -108,75 +72,6 @@ def _lazy_ufunc(signature):
 
 
 # --------------------------------------------------------------------------- theta*(v)
-
-
-@_jit
-def _contact_fraction(big_k):
-    """Root ``u`` in (0, 1] of ``u - ln u = 1 + K``, i.e. ``u = -W0(-exp(-1 - K))``.
-
-    ``theta* = alpha - (c v / k) u`` (reading notes, item 1).  For small ``K`` the
-    unknown is ``delta = 1 - u`` (branch-point series start, no cancellation);
-    for larger ``K`` a fixed-point start and Newton on ``u``.
-    """
-    if big_k <= 0.5:
-        p = math.sqrt(-2.0 * math.expm1(-big_k))
-        delta = p - p * p / 3.0 + 11.0 * p**3 / 72.0
-        # Newton on g(delta) = -delta - log(1 - delta) - K, g' = delta / (1 - delta);
-        # once a step is below 1e-7, one more squares the error down to round-off
-        for _ in range(60):
-            step = _delta_newton_step(delta, big_k)
-            delta -= step
-            if abs(step) <= 1e-7 * delta:
-                break
-        return 1.0 - (delta - _delta_newton_step(delta, big_k))
-    u = math.exp(-1.0 - big_k)
-    for _ in range(4):
-        u = math.exp(u - 1.0 - big_k)
-    for _ in range(60):
-        step = _u_newton_step(u, big_k)
-        u -= step
-        if abs(step) <= 1e-7 * u:
-            break
-    return u - _u_newton_step(u, big_k)
-
-
-@_jit
-def _delta_newton_step(delta, big_k):
-    return (-delta - math.log1p(-delta) - big_k) * (1.0 - delta) / delta
-
-
-@_jit
-def _u_newton_step(u, big_k):
-    return (u - math.log(u) - 1.0 - big_k) / (1.0 - 1.0 / u)
-
-
-@_jit
-def theta_star_kernel(v, k, c, alpha):
-    """Re-contact displacement theta*(v) of eq. (19) for v > 0 (rad); alpha for v <= 0 (compiled, scalar)."""
-    s = c * v / k
-    if s <= 0.0:
-        return alpha
-    if 20.0 * s < alpha:  # K > 40: alpha - theta* = 2 alpha u / K < 1e-19 alpha rounds off
-        return alpha
-    return alpha - s * _contact_fraction(2.0 * alpha / s)
-
-
-@_jit
-def theta_star_partials(v, k, c, alpha):
-    """theta*(v) of (19) (v > 0) and its partial derivatives ``(theta*, d/dv, d/dk, d/dc, d/dalpha)``.
-
-    ``theta* = alpha - s u(K)`` with ``s = c v / k``, ``K = 2 alpha / s`` and
-    ``u - ln u = 1 + K`` (reading notes, item 1), so ``du/dK = u / (u - 1)``;
-    where :func:`theta_star_kernel` returns alpha (K > 40),
-    theta* follows alpha alone.
-    """
-    s = c * v / k
-    if s <= 0.0 or 20.0 * s < alpha:
-        return alpha, 0.0, 0.0, 0.0, 1.0
-    u = _contact_fraction(2.0 * alpha / s)
-    slope = u / (u - 1.0)  # du/dK
-    by_s = -u + (2.0 * alpha / s) * slope  # d theta*/ds
-    return alpha - s * u, by_s * c / k, -by_s * s / k, by_s * v / k, 1.0 - 2.0 * slope
 
 
 @_lazy_ufunc("float64(float64, float64, float64, float64)")
@@ -214,106 +109,6 @@ def theta_star(dtheta_d, stiffness, damping, half_gap):
 # --------------------------------------------------------------------------- static laws
 
 
-@_jit
-def right_mode(law, x, v, k, c, alpha, beta):
-    """Right-contact mode of a static law: 0 free, 1 rubber band, 2 steel contact."""
-    if law == DEAD_ZONE or law == DAMPED_DEAD_ZONE:
-        return 2 if x > alpha else 0
-    if law == REVISED_DEAD_ZONE:
-        return 2 if k * x + c * v > k * alpha else 0
-    if law == ELASTO_BACKLASH:
-        return 2 if x > alpha and k * (x - alpha) + c * v > 0.0 else 0
-    if law == PHASE_PLANE or (law == RUBBER and beta == 0.0):
-        # (20), both lines together (reading notes, item 2)
-        if v > 0.0:
-            if x >= alpha:  # theta* lies in [alpha - c v / k, alpha]
-                return 2
-            if k * (x - alpha) + c * v < 0.0:
-                return 0
-            return 2 if x >= theta_star_kernel(v, k, c, alpha) else 0
-        return 2 if k * (x - alpha) + c * v >= 0.0 else 0
-    if law == RUBBER:
-        if v > 0.0:  # (28) first line: |x - theta*| < beta / 2
-            if x >= alpha + 0.5 * beta:  # theta* lies in [alpha - c v / k, alpha]
-                return 2
-            if x <= alpha - c * v / k - 0.5 * beta:
-                return 0
-            ts = theta_star_kernel(v, k, c, alpha)
-            if x >= ts + 0.5 * beta:
-                return 2
-            return 1 if x > ts - 0.5 * beta else 0
-        if x >= alpha + 0.5 * beta:
-            return 2 if k * (x - alpha) + c * v >= 0.0 else 0
-        # (28) second line for v <= 0 (reading notes, item 5)
-        return 1 if x > alpha - 0.5 * beta - 2.0 * c * v / k else 0
-    return 0
-
-
-@_jit
-def right_torque(law, m, x, v, k, c, alpha, beta):
-    """Torque (N m, >= 0 inside its region) of right-contact mode ``m`` of a static law."""
-    if m == 0:
-        return 0.0
-    if law == DEAD_ZONE:
-        return k * (x - alpha)
-    if law == ELASTO_BACKLASH:
-        tau_c = k * (x - alpha)
-        return tau_c + min(tau_c, c * v)
-    if m == 2:
-        return k * (x - alpha) + c * v  # (23), (26), (27), (33)
-    # rubber band, (36) with the corrected denominator (reading notes, item 5)
-    if v > 0.0:
-        ts = theta_star_kernel(v, k, c, alpha)
-        w = x - ts + 0.5 * beta
-        return (0.5 * k * w + k * (ts - alpha) + c * v) * w / beta
-    lower = alpha - 0.5 * beta - 2.0 * c * v / k
-    return 0.5 * k * (x - lower) ** 2 / (beta + 2.0 * c * v / k)
-
-
-@_jit
-def static_mode(law, x, v, k, c, alpha, beta):
-    """Signed mode: positive on the right, negative (mirrored) on the left, 0 free."""
-    m = right_mode(law, x, v, k, c, alpha, beta)
-    if m != 0:
-        return m
-    return -right_mode(law, -x, -v, k, c, alpha, beta)
-
-
-@_jit
-def held_mode(law, mode, x, v, k, c, alpha, beta):
-    """Mode at ``(x, v)`` reached by a trajectory that held ``mode`` until there.
-
-    The static law's region, except that contact of the phase plane law, once
-    made at theta*, holds until the release condition of Theorem 1
-    (``k (x -+ alpha) + c v`` changes sign), as the paper's derivation of (20)
-    states ("right contact will then be preserved ... until the release
-    condition ... is fulfilled").  Read as a memoryless function, (20) would let
-    a strongly damped contact (c^2 > k J, roughly) slide out across the jump at
-    theta* and back in again without end (Zeno chattering).
-    """
-    m = static_mode(law, x, v, k, c, alpha, beta)
-    if m == 0 and (law == PHASE_PLANE or (law == RUBBER and beta == 0.0)):
-        if mode > 0 and k * (x - alpha) + c * v >= 0.0:
-            return mode
-        if mode < 0 and k * (x + alpha) + c * v <= 0.0:
-            return mode
-    return m
-
-
-@_jit
-def mode_torque(law, m, x, v, k, c, alpha, beta):
-    """Torque of signed mode ``m``; the left side is the odd mirror of the right side."""
-    if m >= 0:
-        return right_torque(law, m, x, v, k, c, alpha, beta)
-    return -right_torque(law, -m, -x, -v, k, c, alpha, beta)
-
-
-@_jit
-def static_torque(law, x, v, k, c, alpha, beta):
-    """Shaft torque (N m) of a static law at displacement x (rad) and rate v (rad/s)."""
-    return mode_torque(law, static_mode(law, x, v, k, c, alpha, beta), x, v, k, c, alpha, beta)
-
-
 _SIG = "(int64, float64, float64, float64, float64, float64, float64)"
 
 
@@ -328,70 +123,6 @@ def _mode_ufunc(law, x, v, k, c, alpha, beta):
 
 
 # --------------------------------------------------------------------------- exact model
-
-
-@_jit
-def exact_torque(x, v, theta_b, k, c, alpha):
-    """Torque (1) of the exact model given its state theta_b (N m).
-
-    In contact (``|theta_b| = alpha`` and the limited integrator (14) saturated)
-    ``T = k (x -+ alpha) + c v``; off contact the shaft is free and ``T = 0``.
-    """
-    if theta_b >= alpha:
-        t = k * (x - alpha) + c * v
-        return t if t > 0.0 else 0.0
-    if theta_b <= -alpha:
-        t = k * (x + alpha) + c * v
-        return t if t < 0.0 else 0.0
-    return 0.0
-
-
-@_jit
-def _free_step(theta_b, y0, y1, h, tau):
-    """theta_b after h seconds of (12), ``dtheta_b/dt = (y - theta_b) / tau``, y linear."""
-    r = h / tau
-    if r <= 0.0:
-        return theta_b
-    # exact for a linear ramp of y: the lag term is (y1 - y0) (1 - exp(-r)) / r
-    ramp = -math.expm1(-r) / r if r > 1e-8 else 1.0 - 0.5 * r
-    return y1 + (theta_b - y0) * math.exp(-r) - (y1 - y0) * ramp
-
-
-@_jit
-def exact_step(theta_b, x0, v0, x1, v1, h, k, c, alpha):
-    """Advance theta_b of the limited integrator (14) over a step of h seconds.
-
-    Off contact ``dtheta_b/dt = (k / c) (y - theta_b)`` with ``y = x + (c / k) v``
-    (eq. 12): integrated exactly for ``y`` linear over the step, then limited to
-    ``[-alpha, alpha]``.  A step that starts in contact (``theta_b = +-alpha``
-    with ``y`` beyond it) holds theta_b until y crosses the limit (release,
-    Theorem 1) and runs free from there.  Stable for any ``h`` however small
-    ``c / k`` is; with ``c = 0`` it reduces to ``theta_b = clip(x)``, the
-    classical dead-zone.
-    """
-    if c == 0.0:
-        theta = x1
-    else:
-        tau = c / k
-        y0 = x0 + tau * v0
-        y1 = x1 + tau * v1
-        edge = 0.0
-        if theta_b >= alpha and y0 >= alpha:
-            edge = alpha
-        elif theta_b <= -alpha and y0 <= -alpha:
-            edge = -alpha
-        if edge == 0.0:
-            theta = _free_step(theta_b, y0, y1, h, tau)
-        elif (y1 - edge) * edge >= 0.0:
-            return edge  # y stays beyond the limit: held in contact all the step
-        else:
-            held = (y0 - edge) / (y0 - y1)  # fraction of the step still in contact
-            theta = _free_step(edge, edge, y1, (1.0 - held) * h, tau)
-    if theta > alpha:
-        return alpha
-    if theta < -alpha:
-        return -alpha
-    return theta
 
 
 @_jit
@@ -470,17 +201,12 @@ class BacklashModel:
     @property
     def params(self):
         """``(k, c, alpha, beta)`` as a float64 array, the kernels' parameter vector."""
-        return np.array([self.stiffness, self.damping, self.half_gap, self.rubber_thickness])
+        return np.array([getattr(self, key) for key in SHAFT_KEYS])
 
     @property
     def plant_params(self):
         """The shaft parameters as keyword arguments of :func:`make_model`."""
-        return dict(
-            stiffness=self.stiffness,
-            damping=self.damping,
-            half_gap=self.half_gap,
-            rubber_thickness=self.rubber_thickness,
-        )
+        return {key: getattr(self, key) for key in SHAFT_KEYS}
 
     def __repr__(self):
         params = ", ".join(f"{key}={value!r}" for key, value in self.plant_params.items())
@@ -575,7 +301,7 @@ class ExactModel(BacklashModel):
     Not a function of ``(theta_d, dtheta_d)``: the backlash angle ``theta_b`` (rad,
     ``|theta_b| <= alpha``) is a state.  ``torque_along`` integrates it along a
     sampled trajectory; the simulation and the describing functions use the
-    same compiled step :func:`exact_step`.
+    same compiled step (``backlash_df._laws.exact_step``).
     """
 
     name = "exact"
@@ -638,9 +364,6 @@ def _as_float(values, name):
     return array
 
 
-_SHAFT_KEYS = ("stiffness", "damping", "half_gap", "rubber_thickness")
-
-
 def make_model(name, **plant_params):
     """Build a backlash torque law by name.
 
@@ -677,7 +400,7 @@ def make_model(name, **plant_params):
     """
     if name not in LAW_CODES:
         raise ValueError(f"unknown model {name!r}; choose one of: {', '.join(MODEL_NAMES)}")
-    unknown = sorted(set(plant_params) - set(_SHAFT_KEYS))
+    unknown = sorted(set(plant_params) - set(SHAFT_KEYS))
     if unknown:
         raise TypeError(f"unknown shaft parameter(s): {', '.join(unknown)}")
     missing = [key for key in ("stiffness", "half_gap") if key not in plant_params]

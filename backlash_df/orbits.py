@@ -6,14 +6,14 @@ law (dead-zone (24)-(25), (26), (27), phase plane (19)-(23), exact model (1), (1
 every loop of :mod:`backlash_df.loops` (speed loop or cascade, PI, P or a user's LTI
 controllers) is affine inside each *mode*: a backlash mode (left contact, free, right
 contact) and, with a torque limit, a mode of the torque command
-(:data:`~backlash_df.system.COMMAND_MODES`: linear, saturated, the integrator
+(``_switching.COMMAND_MODES``: linear, saturated, the integrator
 clamped, sliding on the limit)::
 
     dq/dt = F_m q + g_m,   m = (b, c),  b in {-1, 0, +1},  c in {0, +-1, +-2, +-3}
 
 so the flow inside a mode is a matrix exponential of the augmented matrix
-``[[F_m, g_m], [0, 0]]`` (:func:`~backlash_df.system.mode_matrices`,
-:func:`~backlash_df.system.command_matrices`: the simulation kernel's own).  A mode
+``[[F_m, g_m], [0, 0]]`` (``_switching.mode_matrices``,
+``_switching.command_matrices``: the simulation kernel's own).  A mode
 is left when one of its boundary functions crosses zero.  The backlash's: contact
 ``theta_d = alpha`` for (24)-(26), ``k (theta_d - alpha) + c dtheta_d = 0`` for (27),
 ``theta_d = theta*(dtheta_d)`` for (19)-(23), ``theta_b = alpha`` for (14); release
@@ -21,7 +21,7 @@ is left when one of its boundary functions crosses zero.  The backlash's: contac
 1) otherwise.  The command's, linear rows of the state: ``u = +-limit`` (saturation
 and its end), ``e = 0`` (the clamp engages or releases), and on the limit the two
 rates ``du/dt`` with the integrator clamped and integrating (the slide ends); the
-mode entered is that of :func:`~backlash_df.system.command_mode_of` at the event,
+mode entered is that of ``_switching.command_mode_of`` at the event,
 as in the simulation kernels.  Each crossing is bracketed on the trajectory sampled
 at least 128 times a period (a cubic fit of value and slope flags an excursion past
 zero between two samples) and located by binary search on a dyadic ladder
@@ -75,31 +75,26 @@ import math
 
 import numpy as np
 
-from .limit_cycles import predict_limit_cycles
-from .loops import drive_loop
-from .models import (
-    DAMPED_DEAD_ZONE,
-    DEAD_ZONE,
-    EXACT,
-    PHASE_PLANE,
-    REVISED_DEAD_ZONE,
-    BacklashModel,
-    theta_star_kernel,
-)
-from .plotting import ResultPlot, axes_or_new
-from .report import bias_text
-from .simulation import MeasuredCycle, SimulationResult, default_step, simulate_linear, upward_crossings
-from .system import (
+from ._laws import DAMPED_DEAD_ZONE, DEAD_ZONE, EXACT, PHASE_PLANE, REVISED_DEAD_ZONE, theta_star_kernel
+from ._switching import (
     COMMAND_MODES,
-    closed_loop_matrix,
+    THETA_B,
+    UNIT,
     command_index,
     command_matrices,
     command_mode_of,
     exp_ladder,
     initial_command_mode,
     mode_matrices,
-    with_pade,
 )
+from .limit_cycles import predict_limit_cycles
+from .loops import drive_loop
+from .models import BacklashModel
+from .plotting import ResultPlot, axes_or_new
+from .render.html import bias_text
+from .simulation import MeasuredCycle, SimulationResult, default_step, simulate_linear
+from .simulation.cycles import upward_crossings
+from .system import closed_loop_matrix, with_pade
 
 __all__ = [
     "OrbitNotFound",
@@ -198,11 +193,11 @@ class _Loop:
     """The closed loop as a piecewise-affine hybrid system (see module docs).
 
     A mode is a pair ``(backlash mode, command mode)``: -1 left contact, 0 free, +1
-    right contact; the command's of :data:`~backlash_df.system.COMMAND_MODES` (0
+    right contact; the command's of ``_switching.COMMAND_MODES`` (0
     linear, +-1 saturated, +-2 the integrator clamped, +-3 sliding on the limit;
     always 0 without a torque limit).  ``aug[mode]`` is the augmented matrix
-    ``[[F, g], [0, 0]]`` over ``[q, 1]`` from :func:`~backlash_df.system.mode_matrices`
-    and :func:`~backlash_df.system.command_matrices` (the simulation kernel's own),
+    ``[[F, g], [0, 0]]`` over ``[q, 1]`` from ``_switching.mode_matrices``
+    and ``_switching.command_matrices`` (the simulation kernel's own),
     with the constant load torque in ``g`` and the reference 0.
     """
 
@@ -216,7 +211,7 @@ class _Loop:
         self.pade_order = int(pade_order) if part.delay > 0.0 else 0
         self.part = with_pade(part, pade_order) if part.delay > 0.0 else part
         n = self.part.A.shape[0]
-        keep = list(range(n)) + ([n] if self.exact else []) + [n + 1]  # q = [z, (theta_b)], then 1
+        keep = list(range(n)) + ([n + THETA_B] if self.exact else []) + [n + UNIT]  # q = [z, (theta_b)], then 1
         matrices = mode_matrices(self.part, model, self.law, [], constant)
         self.size = len(keep) - 1
         self.names = self.part.state_names + (("theta_b",) if self.exact else ())
@@ -273,7 +268,7 @@ class _Loop:
         s u``; sliding: ``s du/dt`` with the integrator clamped (pushed off the limit:
         clamped) and ``-s du/dt`` integrating (pulled back inside: linear).  The
         values are formed from ``u``, ``e`` and the rates as
-        :func:`~backlash_df.system.command_mode_of` compares them, so that a value
+        ``_switching.command_mode_of`` compares them, so that a value
         past zero and its test there agree to the last bit.
         """
         side, command = mode
@@ -323,7 +318,7 @@ class _Loop:
 
     def command_mode(self, side, command, q):
         """Command mode at ``q`` reached in ``command`` with the backlash in ``side``, by
-        :func:`~backlash_df.system.command_mode_of` (as the simulation kernels decide it)."""
+        ``_switching.command_mode_of`` (as the simulation kernels decide it)."""
         u = self.u_row[:-1] @ q + self.u_row[-1]
         if command:
             limit_side = 1 if command > 0 else -1
@@ -349,7 +344,7 @@ class _Loop:
         """Mode at a section point.
 
         Backlash: contact where both the contact and the holding function allow it.
-        Command: :func:`~backlash_df.system.initial_command_mode`, as the simulation
+        Command: ``_switching.initial_command_mode``, as the simulation
         kernels start a run.
         """
         x, v, tb = self.rows @ q
@@ -589,7 +584,7 @@ def _fastest_rate(part, model, law, constant):
              1.0 / part.delay if part.delay else 0.0]
     if part.command is not None:
         n = part.A.shape[0]
-        contact = command_matrices(part, mode_matrices(part, model, law, [], constant), [], constant)[0][2]
+        contact = command_matrices(part, mode_matrices(part, model, law, [], constant), [], constant).per_mode[2]
         rates += [np.abs(np.linalg.eigvals(m_aug[:n, :n])).max() for m_aug in contact]
     return max(rates)
 
@@ -667,7 +662,7 @@ class PeriodicOrbit:
         integrator clamped or sliding along the limit (a part of it).
     command_events : tuple of (float, int, int)
         ``(time after the section in s, command mode before, after)`` for every
-        switch of the command's mode (:data:`~backlash_df.system.COMMAND_MODES`: 0
+        switch of the command's mode (``_switching.COMMAND_MODES``: 0
         linear, +-1 saturated, +-2 the integrator clamped, +-3 sliding on the limit).
     command : ndarray or None
         The torque command at the samples of ``time``, N m.

@@ -23,8 +23,7 @@ it turns in the view (:func:`adaptive_curve`, the G(jw) of the Nyquist overlay).
 
 import numpy as np
 
-__all__ = ["ResultPlot", "axes_or_new", "legend_beside", "legend_below", "legend_under", "log_scale", "scaled_ticks",
-           "label_contours", "cell_edges", "adaptive_curve"]
+__all__ = ["ResultPlot", "legend_beside", "legend_below", "legend_under", "log_scale"]
 
 
 class ResultPlot:

@@ -37,14 +37,15 @@ import csv
 import dataclasses
 import io
 import math
-import textwrap
 
 import numpy as np
 
 from ._json import json_ready
+from ._laws import exact_step, mode_torque
 from .config import Plant
-from .models import exact_step, make_model, mode_torque
+from .models import make_model
 from .plotting import ResultPlot, axes_or_new, legend_beside
+from .render.reproduce import LAW_LABELS, TABLE_ONE_QUANTITY, table_one_text
 from .simulation import simulate_two_mass
 
 __all__ = [
@@ -59,7 +60,6 @@ __all__ = [
     "table1",
     "figure2_maps",
     "figure2",
-    "figure2_summary",
     "LAW_NAMES",
 ]
 
@@ -71,16 +71,6 @@ COMPARED_MODELS = ("phase-plane", "damped-dead-zone", "revised-dead-zone", "elas
 
 #: Laws that can drive the Figure 3 simulation.
 LAW_NAMES = ("exact",) + COMPARED_MODELS
-
-_LABELS = {
-    "exact": "exact (1), (14)",
-    "phase-plane": "phase plane (23)",
-    "damped-dead-zone": "dead-zone (26)",
-    "revised-dead-zone": "revised dead-zone (27)",
-    "elasto-backlash": "ElastoBacklash",
-    "dead-zone": "dead-zone (24)",
-    "rubber": "rubber (40)",
-}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -323,7 +313,7 @@ class TorqueComparison:
         t_ms = 1e3 * (self.time - self.time[0])
         styles = {"exact": dict(color="k", lw=2.5, alpha=0.5)}
         for name in names:
-            ax.plot(t_ms, self.torque[name], label=_LABELS[name], **styles.get(name, dict(lw=1.2)))
+            ax.plot(t_ms, self.torque[name], label=LAW_LABELS[name], **styles.get(name, dict(lw=1.2)))
         ax.axhline(0.0, color="0.6", lw=0.6)
         ax.set_xlabel("time in cycle (ms)")
         ax.set_ylabel("shaft torque T (N m)")
@@ -430,26 +420,9 @@ class TableOne:
         return rows
 
     def to_text(self):
-        """The table as aligned text, one block per setup, after a line saying what is integrated."""
-        lines = [textwrap.fill(_WHAT, 100), ""]
-        for comparison in self.comparisons:
-            setup = comparison.setup
-            lines.append(f"setup {setup.name}: T_preload = {setup.preload:g} N m, a_dist = {setup.amplitude:g} N m "
-                         f"at {setup.frequency:g} Hz, c = {setup.damping_ratio:g} k")
-            lines.append(f"  {setup.description}")
-            lines.append(f"  simulated with the {comparison.driver} law, dt = {comparison.dt:g} s; "
-                         f"periodicity {comparison.periodicity:.1e}")
-            lines.append(f"  {'model':<24}{'integral (1e-3 N m s)':>22}{'error (%)':>11}{'RMS error (N m)':>17}{'RMS error (%)':>15}")
-            for row in (r for r in self.rows if r["setup"] == setup.name):
-                cells = [f"{1e3 * row['integral']:22.4f}"]
-                if row["model"] == "exact":
-                    cells += [f"{'-':>11}", f"{'-':>17}", f"{'-':>15}"]
-                else:
-                    cells += [_cell(row["error_percent"], "+11.2f"), f"{row['rms_error']:17.3f}",
-                              _cell(row["rms_error_percent"], "15.1f")]
-                lines.append(f"  {_LABELS[row['model']]:<24}" + "".join(cells))
-            lines.append("")
-        return "\n".join(lines)
+        """The table as aligned text, one block per setup, after a line saying what is integrated
+        (:func:`~backlash_df.render.reproduce.table_one_text`)."""
+        return table_one_text(self)
 
     def to_csv(self):
         """The rows as CSV text; each numeric column's name ends with its unit
@@ -465,7 +438,7 @@ class TableOne:
         setups = [dict(dataclasses.asdict(c.setup), driver=c.driver, dt=c.dt, periodicity=c.periodicity)
                   for c in self.comparisons]
         units = {"integral": "N m s", "error_percent": "%", "rms_error": "N m", "rms_error_percent": "%"}
-        return dict(quantity=_WHAT, units=units, setups=setups, rows=self.rows)
+        return dict(quantity=TABLE_ONE_QUANTITY, units=units, setups=setups, rows=self.rows)
 
     def __repr__(self):
         return f"<TableOne: {len(self.comparisons)} setups ({', '.join(c.setup.name for c in self.comparisons)})>"
@@ -496,7 +469,7 @@ class TableOne:
                                None) for setup in setups]
                 heights = [np.nan if value is None else value for value in values]
                 ax.bar(np.arange(len(setups)) + (j - 0.5 * (len(names) - 1)) * width, heights, width,
-                       label=_LABELS[name])
+                       label=LAW_LABELS[name])
             ax.axhline(0.0, color="0.4", lw=0.6)
             ax.set_ylabel(label)
             ax.grid(True, axis="y", alpha=0.3)
@@ -507,15 +480,7 @@ class TableOne:
         return ResultPlot(figure, axes, legend)
 
 
-_WHAT = ("Table I: integral of the shaft torque T over one disturbance cycle (N m s) of each law, "
-         "evaluated along the same simulated trajectory, against the exact model (1), (14); "
-         "RMS of T - T_exact over that cycle (N m).")
 _CSV_UNITS = {"integral": "N_m_s", "rms_error": "N_m"}  # the other numeric columns name their unit (percent)
-
-
-def _cell(value, spec):
-    width = int(spec.lstrip("+").split(".")[0])
-    return f"{'n/a':>{width}}" if value is None else format(value, spec)
 
 
 def table1(setups=tuple(SETUPS), *, driver="phase-plane", dt=DEFAULT_DT, **kwargs):
@@ -593,17 +558,3 @@ def figure2(n=301, maps=None):
     fig.suptitle(f"Figure 2: alpha = {shaft['half_gap']:g} rad, k/c = {shaft['stiffness'] / shaft['damping']:g} 1/s, "
                  f"beta = {shaft['rubber_thickness']:g} rad")
     return fig, axes
-
-
-def figure2_summary(maps):
-    """Text: share of the plotted plane where each map pushes, pulls or is zero."""
-    lines = [f"{'map':<26}{'T > 0 (%)':>11}{'T = 0 (%)':>11}{'T < 0 (%)':>11}"]
-    regions = maps["regions"]
-    lines.append(f"{'(a) exact (5): A_+/A_r/A_-':<26}{100 * np.mean(regions > 0):11.1f}"
-                 f"{100 * np.mean(regions == 0):11.1f}{100 * np.mean(regions < 0):11.1f}")
-    for name, torque in maps["torque"].items():
-        lines.append(f"{_LABELS[name]:<26}{100 * np.mean(torque > 0):11.1f}"
-                     f"{100 * np.mean(torque == 0):11.1f}{100 * np.mean(torque < 0):11.1f}")
-    lines.append(f"(26) pulls (A1 + A2) on {100 * np.mean(maps['pull']):.1f} % of the plotted plane, "
-                 f"where (5) allows no such torque")
-    return "\n".join(lines)

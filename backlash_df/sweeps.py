@@ -1,7 +1,7 @@
 """Design maps: DF predictions and time simulation over a grid of two rig values.
 
 Each cell of a map is a pure function of (rig, the two values): the rig with
-those values (:func:`rig_with`) is analysed by the describing function
+those values (:meth:`~backlash_df.config.Rig.with_values`) is analysed by the describing function
 (:func:`~backlash_df.limit_cycles.predict_limit_cycles`; with a load torque the
 biased prediction of the dual-input describing function) and, optionally, simulated in
 closed loop.  The cells run on any :class:`concurrent.futures.Executor` (a
@@ -31,100 +31,22 @@ Every cell gets a verdict per model, the classes of ``predict``:
 
 import dataclasses
 import functools
-import html
 import math
 
 import numpy as np
 
 from ._json import json_ready
 from .checkpoint import describe, opened, run_cells
-from .config import RANGES, rig_from_dict
+from .equilibria import linear_stability
 from .limit_cycles import predict_limit_cycles, verify_limit_cycles
 from .loops import drive_loop
 from .plotting import ResultPlot, axes_or_new, cell_edges, label_contours, legend_beside, log_scale
-from .report import figure_html, html_page, table_html
-from .verdict import VERDICTS, linear_stability
+from .render.sweeps import map_report, map_sentences, map_tables, value_label
+from .verdict import VERDICTS
 
-__all__ = ["VERDICTS", "VERDICT_CODES", "rig_with", "value_label", "DesignMap", "design_map", "design_map_plot",
-           "prediction_verdict", "simulation_verdict", "run_cells"]
+__all__ = ["DesignMap", "design_map", "design_map_plot"]
 
 _COLOURS = ("#d9f0d3", "#d6604d", "#f4a582", "#762a83", "#bababa")
-
-#: One character per verdict in the text grids of :meth:`DesignMap.tables`.
-VERDICT_CODES = {"no oscillation": ".", "limit cycle": "C", "bistable": "B", "unstable": "U", "undetermined": "?"}
-
-
-# --------------------------------------------------------------------------- rig values
-
-
-def _table_of(rig, parameter):
-    """(table name, key) of a rig value: ``"kp"``, ``"controller.kp"``, ``"load.torque"``."""
-    tables = {"plant": rig.plant, "controller": rig.controller, "load": rig.load}
-    if "." in parameter:
-        table, key = parameter.split(".", 1)
-        found = [(table, key)] if table in tables and tables[table] is not None and hasattr(tables[table], key) else []
-    else:
-        found = [(table, parameter) for table, value in tables.items()
-                 if value is not None and parameter in {f.name for f in dataclasses.fields(value)}]
-    numeric = [(t, k) for t, k in found if isinstance(getattr(tables[t], k), float)]
-    if len(numeric) != 1:
-        names = [f"{t}.{f.name}" for t, v in tables.items() if v is not None for f in dataclasses.fields(v)
-                 if isinstance(getattr(v, f.name), float)]
-        raise ValueError(f"parameter {parameter!r}: not a numeric value of rig {rig.source}; "
-                         f"choose one of: {', '.join(names)}")
-    return numeric[0]
-
-
-def rig_with(rig, parameter, value):
-    """A copy of ``rig`` with one plant, controller or load value replaced.
-
-    Parameters
-    ----------
-    rig : Rig
-    parameter : str
-        A key of ``[plant]``, ``[controller]`` or ``[load]`` (``"kp"``,
-        ``"stiffness"``, ``"torque"``), or ``"table.key"`` (``"load.torque"``).
-    value : float
-        The new value, in the rig file's unit.
-
-    Returns
-    -------
-    Rig
-
-    Raises
-    ------
-    ValueError
-        Unknown or non-numeric parameter, or a value the rig file would reject
-        (one line naming the parameter).
-
-    Examples
-    --------
-    >>> from backlash_df import rig_from_dict
-    >>> rig = rig_from_dict({"plant": {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0,
-    ...     "half_gap": 0.05}, "controller": {"kp": 30.0, "ti": 0.5}})
-    >>> rig_with(rig, "kp", 60.0).controller.kp
-    60.0
-    """
-    table, key = _table_of(rig, parameter)
-    data = rig.to_dict()
-    data[table][key] = value
-    tuned = rig_from_dict(data, source=f"{rig.source} with {table}.{key} = {value!r}")
-    if rig.controller is None:
-        return tuned
-    users = {name: getattr(rig.controller, name) for name in ("speed_controller", "position_controller")}
-    return dataclasses.replace(tuned, controller=dataclasses.replace(tuned.controller, **users))
-
-
-def value_label(parameter):
-    """An axis label for a rig value: its name and its rig-file unit (:data:`~backlash_df.config.RANGES`).
-
-    Examples
-    --------
-    >>> value_label("ti"), value_label("load.torque"), value_label("gear_ratio")
-    ('ti (s)', 'load.torque (N m)', 'gear_ratio')
-    """
-    unit = RANGES.get(parameter.rsplit(".", 1)[-1], (None, None, ""))[2]
-    return f"{parameter} ({unit})" if unit else parameter
 
 
 # --------------------------------------------------------------------------- verdicts
@@ -141,7 +63,7 @@ def prediction_verdict(rig, prediction):
     Returns
     -------
     str
-        One of :data:`VERDICTS`.
+        One of :data:`~backlash_df.verdict.VERDICTS`.
     """
     stable = prediction.stable_cycles
     if stable:
@@ -178,7 +100,7 @@ class DesignMap:
     x, y : ndarray
         Grid values, in the rig file's units.
     df_verdict, sim_verdict : dict
-        Model name -> array of str, shape (len(x), len(y)): :data:`VERDICTS`
+        Model name -> array of str, shape (len(x), len(y)): :data:`~backlash_df.verdict.VERDICTS`
         (``sim_verdict`` is empty without simulation).
     df_amplitude, sim_amplitude : dict
         Model name -> float array: amplitude A (rad, first harmonic of
@@ -205,6 +127,11 @@ class DesignMap:
         return tuple(self.df_verdict)
 
     @property
+    def verdicts(self):
+        """The verdict classes a cell can have, in order (:data:`VERDICTS`)."""
+        return VERDICTS
+
+    @property
     def predicted(self):
         """Model name -> bool array: the DF predicts a stable cycle."""
         return {name: np.isin(v, ("limit cycle", "bistable")) for name, v in self.df_verdict.items()}
@@ -219,29 +146,14 @@ class DesignMap:
         return float(np.mean(self.predicted[name] == self.simulated[name]))
 
     def tables(self):
-        """The terminal's verdict grids: ``[(title, header, rows), ...]``, per law the DF's and the simulation's.
-
-        A row per ``x`` value, a column per ``y`` value (labelled with the values),
-        each cell one character of :data:`VERDICT_CODES`; :meth:`sentences` holds the key.
-        """
-        xs, ys = _labels(self.x), _labels(self.y)
-        tables = []
-        for name in self.models:
-            for kind, verdicts in (("DF", self.df_verdict), ("simulation", self.sim_verdict)):
-                if name in verdicts:
-                    rows = [[x, *(VERDICT_CODES[v] for v in row)] for x, row in zip(xs, verdicts[name])]
-                    tables.append((f"{name}, {kind} verdicts:", [f"{self.x_name} \\ {self.y_name}", *ys], rows))
-        return tables
+        """The terminal's verdict grids: ``[(title, header, rows), ...]``, per law the DF's and the simulation's
+        (:func:`~backlash_df.render.sweeps.map_tables`)."""
+        return map_tables(self)
 
     def sentences(self):
-        """The key of the grids' characters, then per law the DF's cells per verdict and the agreement."""
-        lines = ["  ".join(f"{code} {verdict}" for verdict, code in VERDICT_CODES.items())]
-        for name in self.models:
-            counts = ", ".join(f"{v} {int((self.df_verdict[name] == v).sum())}" for v in VERDICTS)
-            agree = (f"; agrees with simulation on {100 * self.agreement(name):.1f} %" if name in self.sim_verdict
-                     else "")
-            lines.append(f"{name}: DF {counts}{agree}")
-        return lines
+        """The key of the grids' characters, then per law the DF's cells per verdict and the agreement
+        (:func:`~backlash_df.render.sweeps.map_sentences`)."""
+        return map_sentences(self)
 
     def __repr__(self):
         sims = "with simulation" if self.sim_verdict else "DF only"
@@ -281,34 +193,12 @@ class DesignMap:
             Page title (default "Design map").
         rig_text : str
             The rig file's text, shown as it is.
+
+        See Also
+        --------
+        backlash_df.render.sweeps.map_report
         """
-        rows = []
-        for name in self.models:
-            counts = [int(np.sum(self.df_verdict[name] == v)) for v in VERDICTS]
-            agree = f"{100 * self.agreement(name):.1f} %" if name in self.sim_verdict else ""
-            rows.append([name, *counts, agree])
-        plotted = self.plot()
-        sections = [("", '<div class="summary"><p>Each cell: the describing-function verdict (left) and the '
-                         "closed-loop simulation with the same law (right); contours: amplitude A (rad, first "
-                         "harmonic of theta_d) of the stable cycle.</p></div>")]
-        if rig_text:
-            sections.append(("Rig", f"<pre>{html.escape(rig_text)}</pre>"))
-        sections += [("Map", figure_html(plotted.figure, f"{self.x_name} x {self.y_name}")),
-                     ("DF verdicts (cells) and agreement with simulation",
-                      table_html(["model", *VERDICTS, "agreement"], rows))]
-        key = "; ".join(f"{code}: {verdict}" for verdict, code in VERDICT_CODES.items())
-        for grid_title, header, grid in self.tables():
-            sections.append((grid_title.rstrip(":"), f"<p>{html.escape(key)}</p>" + table_html(header, grid)))
-        return html_page(title or "Design map", sections)
-
-
-def _labels(values):
-    """Grid values as labels: 4 significant digits, more where two values would read the same."""
-    for digits in range(4, 18):
-        labels = [f"{value:.{digits}g}" for value in values]
-        if len(set(labels)) == len(labels):
-            return labels
-    return [repr(float(value)) for value in values]
+        return map_report(self, self.plot().figure, title, rig_text)
 
 
 def _scale(values):
@@ -397,7 +287,7 @@ def _largest_stable(prediction):
 
 def _cell(settings, point):
     """One cell: per model (DF verdict, A, bias, simulated verdict, A, bias); a pure function of its inputs."""
-    tuned = rig_with(rig_with(settings.rig, settings.x_name, point[0]), settings.y_name, point[1])
+    tuned = settings.rig.with_values(**{settings.x_name: point[0], settings.y_name: point[1]})
     out = []
     for name in settings.models:
         prediction = predict_limit_cycles(tuned, name, grid=settings.grid)
@@ -424,7 +314,7 @@ def design_map(rig, x_values, y_values, *, x="kp", y="ti", models=None, simulate
     x_values, y_values : array_like
         Grid values of ``x`` and ``y`` (the rig file's units).
     x, y : str
-        Rig values to sweep (:func:`rig_with`); default the PI tuning (kp, ti).
+        Rig values to sweep (keys of :meth:`~backlash_df.config.Rig.with_values`); default the PI tuning (kp, ti).
     models : sequence of str, optional
         Torque laws (default: the rig's ``[model] backlash``).
     simulate : bool
@@ -463,7 +353,7 @@ def design_map(rig, x_values, y_values, *, x="kp", y="ti", models=None, simulate
     y_values = np.atleast_1d(np.asarray(y_values, dtype=float))
     models = tuple(models) if models is not None else (rig.model,)
     settings = _Settings(rig, x, y, models, bool(simulate), tuple(grid), float(t_end), float(max_t_end))
-    rig_with(rig_with(rig, x, x_values[0]), y, y_values[0])  # bad names fail here, not in a worker
+    rig.with_values(**{x: x_values[0], y: y_values[0]})  # bad names fail here, not in a worker
     points = [(float(a), float(b)) for a in x_values for b in y_values]
     inputs = describe(settings, omit={"source"})
     with opened(checkpoint, "map", inputs) as kept:

@@ -36,23 +36,22 @@ smallest hunting amplitude.
 
 import dataclasses
 import functools
-import html
 import math
 import time
 
 import numpy as np
 
 from ._json import json_ready
-from .checkpoint import describe, opened
+from .checkpoint import describe, opened, run_cells
 from .disturbances import shaft_mode
+from .equilibria import linear_stability
 from .limit_cycles import predict_limit_cycles, verify_limit_cycles
 from .loops import drive_loop
 from .models import BacklashModel
 from .plotting import ResultPlot, axes_or_new, cell_edges, legend_under, log_scale
-from .report import figure_html, html_page, table_html
-from .sweeps import rig_with, run_cells
+from .render.tuning import tuning_report, tuning_sentences, tuning_tables
 from .system import closed_loop_response
-from .verdict import judge_loop, linear_stability
+from .verdict import judge_loop
 
 __all__ = ["TUNABLE", "Candidate", "Certificate", "FrontPoint", "Tuning", "contact_bandwidth", "certify", "tune"]
 
@@ -141,7 +140,7 @@ def _validated(rig, vary, tolerance):
         if not (0.0 < low < high and math.isfinite(high)):
             raise ValueError(f"tune: the range of {name} needs 0 < low < high (searched on a log scale); "
                              f"got {low:g}, {high:g}")
-        rig_with(rig_with(rig, name, low), name, high)  # values the rig file accepts
+        rig.with_values(**{name: low}).with_values(**{name: high})  # values the rig file accepts
         names.append(name)
         ranges.append((low, high))
     if len(set(names)) != len(names):
@@ -150,9 +149,7 @@ def _validated(rig, vary, tolerance):
 
 
 def _tuned(rig, names, values):
-    for name, value in zip(names, values):
-        rig = rig_with(rig, name, float(value))
-    return rig
+    return rig.with_values(**{name: float(value) for name, value in zip(names, values)})
 
 
 # --------------------------------------------------------------------------- screening
@@ -393,6 +390,11 @@ class Tuning:
         point = self.best if point is None else point
         return dict(zip(self.names, point.values))
 
+    @property
+    def units(self):
+        """The varied values' units by name (:data:`TUNABLE`)."""
+        return {name: TUNABLE[name] for name in self.names}
+
     def __repr__(self):
         best = ", ".join(f"{name} = {value:.4g}" for name, value in self.values().items())
         word = "certified" if self.feasible else "NO tuning in range certified; least hunting"
@@ -440,6 +442,16 @@ class Tuning:
         _draw_front(self, axes[1])
         return ResultPlot(figure, axes, legend)
 
+    def sentences(self):
+        """The answer, its verdict and why, and the margin: the lines ``backlash-df tune`` prints
+        (:func:`~backlash_df.render.tuning.tuning_sentences`)."""
+        return tuning_sentences(self)
+
+    def tables(self):
+        """The terminal's tables: ``[(title, header, rows)]``, the front
+        (:func:`~backlash_df.render.tuning.tuning_tables`)."""
+        return tuning_tables(self)
+
     def report_html(self, title="", rig_text=""):
         """A self-contained HTML page: the answer and its certificate, the map with the boundary, the front.
 
@@ -449,63 +461,17 @@ class Tuning:
             Page title (default "Tuning" and the rig's source).
         rig_text : str
             The rig file's text, shown as it is.
+
+        See Also
+        --------
+        backlash_df.render.tuning.tuning_report
         """
-        best = ", ".join(f"{name} = {value:.5g} {TUNABLE[name]}" for name, value in self.values().items())
-        verdict = self.best.verdict
-        answer = (f"<b>{'Certified' if self.feasible else 'No tuning in the range is certified'}: {html.escape(best)}"
-                  f"</b>, bandwidth {self.best.bandwidth:.4g} rad/s; verdict <b>{verdict.verdict}</b>: "
-                  f"{html.escape(verdict.reason)}")
-        if self.margin:
-            answer += (f"<br>Margin: a factor {self.margin['factor']:.3g} toward the nearest hunting tuning found "
-                       f"({html.escape(', '.join(f'{k} = {v:.4g}' for k, v in self.margin['toward'].items()))}, "
-                       f"{self.margin['source']}).")
-        sections = [("", f'<div class="summary"><p>{answer}</p></div>')]
-        if rig_text:
-            sections.append(("Rig", f"<pre>{html.escape(rig_text)}</pre>"))
-        sections.append(("Searched range, boundary and front", figure_html(self.plot().figure,
-                                                                           _range_caption(self))))
-        probes = [[_disturbance_text(p), p.outcome, f"{p.measured.amplitude:.4g}" if p.measured.found else ""]
-                  for p in verdict.probes]
-        header = ["disturbance", "outcome", "cycle A (rad)"]
-        if not any(row[2] for row in probes):  # no probe found a cycle: no empty column
-            header, probes = header[:2], [row[:2] for row in probes]
-        sections.append(("Certificate: the probes", table_html(header, probes, text_columns=(0, 1))))
-        front = [[f"{p.tolerance:.4g}", ", ".join(f"{v:.4g}" for v in p.values), f"{p.bandwidth:.4g}",
-                  f"{p.amplitude:.4g}"] for p in self.front]
-        sections.append(("Front: bandwidth bought by accepted hunting", table_html(
-            ["tolerance (rad)", ", ".join(self.names), "bandwidth (rad/s)", "amplitude (rad)"], front)))
-        return html_page(title or f"Tuning: {self.source}", sections)
-
-
-def _disturbance_text(probe):
-    """A probe's disturbance in its unit."""
-    disturbance = probe.disturbance
-    return f"{disturbance:.4g} rad" if isinstance(disturbance, float) else str(disturbance)
+        return tuning_report(self, self.plot().figure, title, rig_text)
 
 
 def _best_words(tuning):
     """The star's legend entry: the best certified tuning, or the least hunting one where none is certified."""
     return "best certified" if tuning.feasible else "least hunting (none certified)"
-
-
-def _range_caption(tuning):
-    """The report's caption of :meth:`Tuning.plot`, naming only what the plot draws."""
-    hunts = [c for c in tuning.screen if c.hunts]
-    if len(tuning.names) == 1:
-        left = "Left: bandwidth over the range, the loop in contact"
-        if any(math.isfinite(c.bandwidth) for c in hunts):
-            left += "; x: the DF says it hunts"
-        if any(not math.isfinite(c.bandwidth) for c in hunts):
-            left += "; shaded: the loop in contact is unstable (no bandwidth)"
-        if tuning.boundary:
-            left += "; dotted lines and dots: the DF boundary (the last tunings it clears)"
-    else:
-        left = "Left: bandwidth over the grid" + ("; hatched: the DF says it hunts" if hunts else "")
-        if tuning.boundary:
-            left += "; dots: the DF boundary (the last tunings it clears)"
-    star = ("star: the best certified tuning" if tuning.feasible
-            else "star: the least hunting tuning (none in the range is certified)")
-    return f"{left}; {star}. Right: the best bandwidth against the accepted hunting amplitude."
 
 
 def _draw_range(tuning, ax):

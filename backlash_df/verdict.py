@@ -23,7 +23,7 @@ works from the loop's rest points outward (:mod:`backlash_df.equilibria`):
   (:func:`~backlash_df.simulation.measure_limit_cycle`), a probe still unsettled at
   320 s run once more up to four times as long; an oscillation that
   holds its level is confirmed by a longer run from the same start or by another
-  probe's at the same swing (:func:`~backlash_df.simulation.confirm_across_starts`);
+  probe's at the same swing (``simulation.cycles.confirm_across_starts``);
 * for a bistable loop, the **separating orbit**: the exact unstable periodic
   orbit by shooting (:mod:`backlash_df.orbits`) between rest and hunting;
 
@@ -64,17 +64,18 @@ import math
 
 
 from .disturbances import KINDS, TWIST, Disturbance, standard_disturbances
-from .equilibria import PADE_ORDER, LinearStability, contact_shaft, linear_stability, loop_rests
+from .equilibria import LinearStability, contact_shaft, linear_stability, loop_rests
 from .loops import drive_loop
 from .models import BacklashModel
 from .orbits import exact_orbits, periodic_orbit
 from .plotting import ResultPlot, axes_or_new, legend_beside, log_scale
 from .render.verdict import reason_text
-from .simulation import confirm_across_starts, default_step, longest_run, simulated_limit_cycle
+from .simulation import default_step, simulated_limit_cycle
+from .simulation.cycles import confirm_across_starts
+from .simulation.linear import longest_run
 from .system import lti_linear_part
 
-__all__ = ["Outcome", "VERDICTS", "RULES", "Evidence", "LONGER", "LinearStability", "Probe", "LoopVerdict",
-           "linear_stability", "probe", "ladder", "judge_loop", "PADE_ORDER"]
+__all__ = ["Outcome", "VERDICTS", "RULES", "Evidence", "LONGER", "Probe", "LoopVerdict", "probe", "ladder", "judge_loop"]
 
 
 class Outcome(enum.StrEnum):

@@ -153,7 +153,7 @@ def law_row(name, bias, amplitude, omega):
     mp_a = np.array([ratio * ALPHA for ratio, _ in MP_POINTS])
     mp_w = np.array([rate * K / C for _, rate in MP_POINTS])
     reference = np.array([mp_describing_function(name, a, w, bias)[0] for a, w in zip(mp_a, mp_w)])
-    ours_error = max_rel_error(evaluate(law, mp_a, mp_w, bias, "harmonic-balance")[0], reference)
+    ours_error = max_rel_error(evaluate(law, mp_a, mp_w, bias, "harmonic-balance").n, reference)
     ours_rate = points / serial_cpu
     label = f"{name}, biased" if bias else name
     row = f"   {label:<34s}{ours_rate:10.3g}{points / serial_wall:10.3g}{points / threaded_wall:10.3g}{ours_error:9.1e}"

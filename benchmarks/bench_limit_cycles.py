@@ -41,7 +41,7 @@ from scipy.integrate import solve_ivp
 from backlash_df import load_rig, simulate
 from backlash_df.sweeps import design_map
 from backlash_df.loops import drive_loop
-from backlash_df.models import exact_torque, mode_torque, static_torque
+from backlash_df._laws import exact_torque, mode_torque, static_torque
 from backlash_df.simulation import default_step, initial_state
 import compiled_rk
 from switched import phase_plane_guards, solve_switched

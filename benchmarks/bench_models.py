@@ -22,7 +22,7 @@ from scipy.integrate import solve_ivp
 from scipy.special import lambertw
 
 from backlash_df import make_model
-from backlash_df.models import EXACT, mode_torque, static_torque
+from backlash_df._laws import EXACT, mode_torque, static_torque
 from backlash_df.reproduce import PAPER_PLANT, SETUPS
 from backlash_df.simulation import simulate_two_mass
 from switched import phase_plane_guards, solve_switched

@@ -165,8 +165,7 @@ def _floor(repeat):
     for name in RIGS:
         out[f"predict {name}"] = asked(bd.load_rig(ROOT / "examples" / f"{name}.toml"), None, (60, 80))
     rig = bd.load_rig(ROOT / "examples" / f"{MAP_CELL[0]}.toml")
-    from backlash_df.sweeps import rig_with
-    tuned = rig_with(rig_with(rig, "kp", MAP_CELL[1]), "ti", MAP_CELL[2])
+    tuned = rig.with_values(kp=MAP_CELL[1], ti=MAP_CELL[2])
     cells = [asked(tuned, model, (30, 40)) for model in ("phase-plane", "damped-dead-zone")]
     out["map cell"] = (sum(c[0] for c in cells), sum(c[1] for c in cells))
     print(json.dumps(out))

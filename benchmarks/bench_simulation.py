@@ -44,7 +44,7 @@ them (``nfev``; the compiled pairs count their own, dense-output stages included
 After each case's table: the kernel's time as a cost per call plus a cost per step
 (least squares over its five runs); the **floor**, a numba loop doing the kernel's work per step
 (one product with the (n + 2) x (n + 2) mode matrix of the augmented state, the state,
-torque and mode recorded, the mode guard :func:`~backlash_df.models.held_mode`) and the
+torque and mode recorded, the mode guard ``backlash_df._laws.held_mode``) and the
 kernel's time per step against it; and the **profile** of the kernel's run by ``perf``
 (sampled at 4 kHz over 200 runs after the warm-up; numba's code named through a perf map
 written from the compiled libraries, which the worker compiles afresh for their symbols, the
@@ -76,9 +76,10 @@ from scipy.linalg import expm, matrix_balance
 
 from backlash_df import load_rig, make_model, simulate
 from backlash_df.loops import drive_loop
-from backlash_df.models import EQUATIONS, held_mode, mode_torque
+from backlash_df._laws import held_mode, mode_torque
+from backlash_df.models import EQUATIONS
 from backlash_df.simulation import initial_state
-from backlash_df.system import mode_matrices
+from backlash_df._switching import mode_matrices
 import compiled_rk
 from switched import dead_zone_surfaces, on_state, phase_plane_surfaces, solve_modes
 from timing import best_of

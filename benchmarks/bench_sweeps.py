@@ -34,7 +34,7 @@ import numpy as np
 from backlash_df import load_rig, simulated_limit_cycle
 from backlash_df.checkpoint import Checkpoint
 from backlash_df.continuation import continue_limit_cycles
-from backlash_df.sweeps import design_map, rig_with
+from backlash_df.sweeps import design_map
 
 ROOT = Path(__file__).resolve().parents[1]
 RIG = load_rig(ROOT / "examples" / "load_feedback.toml")
@@ -111,7 +111,7 @@ def continuation():
     print(f"  {branch!r}")
     for kp in (10.0, 30.0, 45.0):
         orbit = branch.orbit_at(kp)
-        measured, _ = simulated_limit_cycle(rig_with(RIG, "kp", kp), "phase-plane", t_end=20.0, max_t_end=80.0,
+        measured, _ = simulated_limit_cycle(RIG.with_values(kp=kp), "phase-plane", t_end=20.0, max_t_end=80.0,
                                             dt=2e-5, kick=orbit.amplitude * orbit.omega)
         print(f"  kp = {kp:4.0f}: A orbit {orbit.amplitude:.7g} rad, simulation {measured.amplitude:.7g} rad, "
               f"relative difference {orbit.amplitude / measured.amplitude - 1:+.1e}")

@@ -25,7 +25,6 @@ from pathlib import Path
 import numpy as np
 
 import backlash_df as bd
-from backlash_df.sweeps import rig_with
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
@@ -76,9 +75,7 @@ def brute_force(rig, vary, count):
     points = np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(names), -1).T
     rated = []
     for values in points:
-        tuned = rig
-        for name, value in zip(names, values):
-            tuned = rig_with(tuned, name, float(value))
+        tuned = rig.with_values(**{name: float(value) for name, value in zip(names, values)})
         rated.append((blocks_bandwidth(tuned), tuned, values))
     for bandwidth, tuned, values in sorted((r for r in rated if math.isfinite(r[0])), key=lambda r: -r[0]):
         if settles(tuned):

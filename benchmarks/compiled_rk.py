@@ -7,7 +7,7 @@ contact) is held through each step, as a user would write them for speed:
 
 * adaptive steps, error control as in Hairer's codes (DOP853: the 5th- and
   3rd-order estimators combined), ``atol = 1e-3 rtol``;
-* after each accepted step the law's :func:`~backlash_df.models.held_mode` is
+* after each accepted step the law's ``backlash_df._laws.held_mode`` is
   checked at the end; where it leaves the mode, the switch is bisected on the
   method's dense output (quartic for DP5, 7th order for DOP853, three more stages)
   and the integration restarts there in the new mode;
@@ -25,7 +25,7 @@ import numba
 import numpy as np
 from scipy.integrate import DOP853, RK45
 
-from backlash_df.models import held_mode
+from backlash_df._laws import held_mode
 
 DP5, DP8 = 0, 1
 _BISECTIONS = 60

@@ -19,7 +19,6 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import backlash_df as bd  # noqa: E402
-from backlash_df.sweeps import rig_with  # noqa: E402
 
 #: (rig file, model or None, grid, {rig value: value}); grid (24, 32) is the tuning screen's,
 #: (30, 40) the design map's, (60, 80) the default.
@@ -40,9 +39,7 @@ CASES = [
 
 def case_values(path, model, grid, changes):
     """The prediction's numbers of one case, JSON-ready."""
-    rig = bd.load_rig(ROOT / path)
-    for name, value in changes.items():
-        rig = rig_with(rig, name, value)
+    rig = bd.load_rig(ROOT / path).with_values(**changes)
     prediction = bd.predict_limit_cycles(rig, model, grid=grid)
     return {
         "cycles": [{"amplitude": c.amplitude, "omega": c.omega, "loeb": c.loeb, "residual": c.residual,

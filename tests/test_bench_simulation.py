@@ -15,7 +15,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
 import bench_simulation  # noqa: E402
 import compiled_rk  # noqa: E402
-from backlash_df.models import DAMPED_DEAD_ZONE  # noqa: E402
+from backlash_df._laws import DAMPED_DEAD_ZONE  # noqa: E402
 
 #: On one worker: the benchmark's compiled pairs and floor loops compile once, not on each.
 pytestmark = pytest.mark.xdist_group("benchmark-numerics")

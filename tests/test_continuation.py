@@ -14,7 +14,6 @@ from backlash_df.cli import main
 from backlash_df.continuation import continue_limit_cycles
 from backlash_df.loops import drive_loop
 from backlash_df.orbits import orbit_residual
-from backlash_df.sweeps import rig_with
 from conftest import EXAMPLES
 
 RIG = bd.load_rig(EXAMPLES / "load_feedback.toml")
@@ -37,7 +36,7 @@ def test_every_point_is_an_orbit_to_the_shooting_tolerance(short_branch):
     assert short_branch.values[0] == 25.0 and short_branch.values[-1] == 35.0
     for point in short_branch.points:
         unknowns = np.append(point.orbit.state, point.orbit.period)
-        residual, _ = orbit_residual(rig_with(RIG, "kp", point.parameter), "phase-plane", unknowns)
+        residual, _ = orbit_residual(RIG.with_values(kp=point.parameter), "phase-plane", unknowns)
         assert point.orbit.residual < 1e-10
         assert np.abs(residual[:-1]).max() < 1e-9 * max(np.abs(unknowns[:-1]).max(), 1.0)
         assert abs(residual[-1]) < 1e-9 * np.abs(point.orbit.dtheta_d).max()
@@ -48,7 +47,7 @@ def test_every_point_is_an_orbit_to_the_shooting_tolerance(short_branch):
 
 def test_branch_agrees_with_simulation_at_one_gain(short_branch):
     orbit = short_branch.orbit_at(30.0)
-    measured = _simulated(rig_with(RIG, "kp", 30.0), orbit)
+    measured = _simulated(RIG.with_values(kp=30.0), orbit)
     assert measured.found
     assert orbit.amplitude == pytest.approx(measured.amplitude, rel=1e-4)
     assert orbit.omega == pytest.approx(measured.omega, rel=1e-4)
@@ -77,12 +76,12 @@ def test_gain_branch_against_simulation_and_the_contact_loop_limit():
     branch = continue_limit_cycles(RIG, "kp", (5.0, 60.0), "phase-plane", df_values=5)
     for kp in (8.0, 15.0, 25.0, 35.0, 45.0):
         orbit = branch.orbit_at(kp)
-        measured = _simulated(rig_with(RIG, "kp", kp), orbit, t_end=20.0)
+        measured = _simulated(RIG.with_values(kp=kp), orbit, t_end=20.0)
         assert measured.found, kp
         assert orbit.amplitude == pytest.approx(measured.amplitude, rel=1e-4), kp
     (end,) = [s for s in branch.special if s.kind == "end"]
     kp_limit = float(end.detail.rsplit("=", 1)[1])
-    poles = [drive_loop(rig_with(RIG, "kp", kp)).linear_poles(5895.0, 3.0).real.max() for kp in
+    poles = [drive_loop(RIG.with_values(kp=kp)).linear_poles(5895.0, 3.0).real.max() for kp in
              (0.99 * kp_limit, 1.01 * kp_limit)]
     assert poles[0] < 0 < poles[1]
     assert end.parameter < kp_limit
@@ -96,7 +95,7 @@ def test_load_fold_is_where_simulation_loses_the_cycle():
     fold = next(s for s in branch.special if s.kind == "fold")
     stable = branch.points[int(np.argmax(branch.values))].orbit
     for torque, cycles in ((0.98 * fold.parameter, True), (1.02 * fold.parameter, False)):
-        rig = rig_with(RIG, "load.torque", torque)
+        rig = RIG.with_values(**{"load.torque": torque})
         assert _simulated(rig, stable, t_end=20.0).found is cycles, torque
 
 
@@ -169,7 +168,7 @@ def test_continue_prints_the_df_values_it_computed_and_round_off_bias_as_zero(tm
     assert [float(row[0]) for row in rows] == [25.0, 30.0, 35.0]
     for kp, amplitude, omega, bias, loeb in rows:
         # each printed cycle solves the harmonic balance 1 + G(jw) N(A, w) = 0 to its printed digits
-        g = drive_loop(rig_with(RIG, "kp", float(kp))).frequency_response(np.array([float(omega)]))
+        g = drive_loop(RIG.with_values(kp=float(kp))).frequency_response(np.array([float(omega)]))
         n = bd.describing_function(model, float(amplitude), np.array([float(omega)]))
         assert abs(1 + g * n)[0] < 3e-4 and (bias, loeb) == ("0", "stable")
     data = json.loads((tmp_path / "b.json").read_text())

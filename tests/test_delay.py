@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 from backlash_df import load_rig, simulate
-from backlash_df.models import PHASE_PLANE, held_mode, mode_torque
+from backlash_df._laws import PHASE_PLANE, held_mode, mode_torque
 from backlash_df.simulation import measure_limit_cycle
 from conftest import EXAMPLES
 

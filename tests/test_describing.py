@@ -145,7 +145,7 @@ def boundary_distances(law, x, v):
                                                 ("rubber", 3.0, 800.0), ("rubber", 20.0, 100.0)])
 def test_every_switch_is_located_to_the_last_ulp_on_a_boundary_of_the_law(name, ratio, omega):
     from backlash_df.describing._kernels import locate_switch, piece
-    from backlash_df.models import static_mode
+    from backlash_df._laws import static_mode
 
     law = model(name)
     amplitude = ratio * ALPHA
@@ -326,8 +326,8 @@ def test_closed_form_request_for_a_law_without_one():
 def test_phase_plane_contact_is_held_until_release_as_in_the_simulation():
     # Just above the gap at high rate, (23) read as a memoryless function would drop
     # contact for an instant before the peak (x < theta*(v) while v decays); the
-    # simulation holds contact until release (models.held_mode) and so does the DF.
-    from backlash_df.models import held_mode, mode_torque, static_mode
+    # simulation holds contact until release (_laws.held_mode) and so does the DF.
+    from backlash_df._laws import held_mode, mode_torque, static_mode
 
     law = model("phase-plane")
     amplitude, omega = 1.001 * ALPHA, 11595.0

@@ -22,7 +22,8 @@ from click.testing import CliRunner
 
 import backlash_df as bd
 from backlash_df.cli import main
-from backlash_df.simulation import simulate_rig, simulated_limit_cycle, upward_crossings
+from backlash_df.simulation import simulate_rig, simulated_limit_cycle
+from backlash_df.simulation.cycles import upward_crossings
 from backlash_df.system import command_channels
 from conftest import PLANT_TOML, example_rig
 

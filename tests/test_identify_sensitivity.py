@@ -13,7 +13,7 @@ from backlash_df.friction import friction, friction_kernel, friction_partials
 from backlash_df.identify._kernels import torque_partials
 from backlash_df.identify.calibrate import Shooting, sensitivity_jacobian
 from backlash_df.identify.predictors import TwoMassModel, nominal_values, segment_bounds
-from backlash_df.models import LAW_CODES, mode_torque, static_mode, theta_star_kernel, theta_star_partials
+from backlash_df._laws import LAW_CODES, mode_torque, static_mode, theta_star_kernel, theta_star_partials
 
 PLANT = {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0, "damping": 3.0, "half_gap": 0.02}
 CONTROLLER = {"kp": 20.0, "ti": 0.3, "feedback": "motor", "speed_filter": 0.002}
@@ -33,7 +33,7 @@ def _central(f, q, j, rel=1e-6, floor=1e-3):
 @pytest.mark.parametrize("law", STATIC_LAWS)
 def test_torque_partials_are_the_derivatives_of_the_held_mode_torque(law):
     """At 2,000 seeded points of each law's contact modes (rubber: its band too, beta = 0.4 alpha), the
-    closed forms equal central differences of ``models.mode_torque`` with the mode held."""
+    closed forms equal central differences of ``_laws.mode_torque`` with the mode held."""
     code = LAW_CODES[law]
     rng = np.random.default_rng(7)
     k, c, alpha, beta = 5895.0, 3.0, 0.02, 0.008
@@ -55,7 +55,7 @@ def test_torque_partials_are_the_derivatives_of_the_held_mode_torque(law):
 
 def test_theta_star_partials_are_its_derivatives():
     """theta*(v) of (19) and its derivatives by v, k, c and alpha against central differences of
-    ``models.theta_star_kernel``, over K = 2 alpha k / (c v) from 0.05 to 40 (both branches of its root)."""
+    ``_laws.theta_star_kernel``, over K = 2 alpha k / (c v) from 0.05 to 40 (both branches of its root)."""
     k, c, alpha = 5895.0, 3.0, 0.02
     for big_k in np.geomspace(0.05, 39.0, 40):
         v = 2.0 * alpha * k / (c * big_k)

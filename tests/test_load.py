@@ -10,7 +10,7 @@ import backlash_df as bd
 from backlash_df.describing import dual_input_describing_function
 from backlash_df.describing import dc_bias
 from backlash_df.loaded import load_limit, predict_loaded
-from backlash_df.simulation import upward_crossings
+from backlash_df.simulation.cycles import upward_crossings
 from conftest import EXAMPLES
 
 RIG = bd.load_rig(EXAMPLES / "load_feedback.toml")

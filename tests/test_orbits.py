@@ -240,19 +240,19 @@ def _flows_only(rig, model, orbit):
 
     The mode sequence and durations come from the orbit's events (contacts and
     releases, and the torque command's switches, merged by time); each mode's state
-    matrix from :func:`backlash_df.system.mode_matrices` (left contact, free, right
-    contact) and, with a torque limit, :func:`backlash_df.system.command_matrices`
+    matrix from ``backlash_df._switching.mode_matrices`` (left contact, free, right
+    contact) and, with a torque limit, ``_switching.command_matrices``
     (the loop has no dead time: its states, then theta_b for the exact model).
     """
     from scipy.linalg import expm
 
-    from backlash_df.system import COMMAND_MODES, command_matrices, mode_matrices
+    from backlash_df._switching import COMMAND_MODES, command_matrices, mode_matrices
 
     law = rig.make_model(model)
     part = bd.drive_loop(rig).linear_part()
     n = orbit.state.size
     matrices = mode_matrices(part, law, law.law)
-    per_mode = matrices[:, None] if part.command is None else command_matrices(part, matrices)[0]
+    per_mode = matrices[:, None] if part.command is None else command_matrices(part, matrices).per_mode
     switches = sorted([(t, 0, after) for t, _, after in orbit.events] +
                       [(t, 1, after) for t, _, after in orbit.command_events])
     mode = [orbit.events[0][1], orbit.command_events[0][1] if orbit.command_events else 0]

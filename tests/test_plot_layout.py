@@ -37,7 +37,7 @@ from backlash_df import plotting  # noqa: E402
 from backlash_df.config import RANGES  # noqa: E402
 from backlash_df.limit_cycles import limit_cycle_plot  # noqa: E402
 from backlash_df.models import MODEL_NAMES  # noqa: E402
-from backlash_df.report import figure_html  # noqa: E402
+from backlash_df.render.html import figure_html  # noqa: E402
 from backlash_df.reproduce import figure2  # noqa: E402
 from conftest import NOTEBOOKS, PLOTS, REPORTS, example_rig  # noqa: E402
 

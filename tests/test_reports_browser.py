@@ -31,8 +31,8 @@ from pathlib import Path
 import pytest
 
 from backlash_df.identify.calibrate import FitParameter
-from backlash_df.identify.diagnose import parameter_resolution
-from backlash_df.report import html_page, table_html
+from backlash_df.render.diagnosis import parameter_resolution
+from backlash_df.render.html import html_page, table_html
 
 ROOT = Path(__file__).resolve().parents[1]
 ARTIFACTS = ROOT / "build"
@@ -401,7 +401,7 @@ def test_diagnose_report_in_browser(examples_copy, tmp_path):
 
 def assert_parameters_at_their_resolution(diagnosis, text):
     """Each added parameter of the search table as the report prints it: 0 within a thousandth of its 95 %
-    interval's half-width (:func:`~backlash_df.identify.diagnose.parameter_resolution`: a Coulomb friction of
+    interval's half-width (:func:`~backlash_df.render.diagnosis.parameter_resolution`: a Coulomb friction of
     4.451e-10 N m with the interval -0.3487 .. 0.3487), else its value; the per-speed fit columns name the
     speeds."""
     for candidate in diagnosis["candidates"]:

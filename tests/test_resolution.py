@@ -12,7 +12,7 @@ import re
 import pytest
 
 import backlash_df as bd
-from backlash_df.report import below_text, resolved, signed_percent
+from backlash_df.render.html import below_text, resolved, signed_percent
 from backlash_df.simulation.cycles import BIAS_RESOLUTION, MeasuredCycle
 
 #: A bias printed in scientific notation: the round-off the text must not show.

@@ -220,7 +220,7 @@ def pi_rig(**controller):
 def loop_reference(rig, law, kick, t_end, time):
     """The same loop by solve_ivp (DOP853, tight tolerances) on the memoryless law, or (14) for the exact model."""
     from backlash_df.loops import drive_loop
-    from backlash_df.models import exact_torque, static_torque
+    from backlash_df._laws import exact_torque, static_torque
     from backlash_df.simulation import initial_state
 
     part, model = drive_loop(rig).linear_part(), rig.make_model(law)

@@ -22,7 +22,9 @@ import backlash_df.sweeps
 from backlash_df.checkpoint import Checkpoint
 from backlash_df.cli import main
 from backlash_df.loops import drive_loop
-from backlash_df.sweeps import VERDICTS, design_map, rig_with
+from backlash_df.render.sweeps import VERDICT_CODES
+from backlash_df.sweeps import design_map
+from backlash_df.verdict import VERDICTS
 from conftest import EXAMPLES
 
 RIG = bd.load_rig(EXAMPLES / "load_feedback.toml")
@@ -56,7 +58,7 @@ def test_predicted_amplitudes_solve_the_harmonic_balance(serial_map):
         for j, ti in enumerate(TI):
             if not np.isfinite(amplitude[i, j]):
                 continue
-            loop = drive_loop(rig_with(rig_with(RIG, "kp", kp), "ti", ti))
+            loop = drive_loop(RIG.with_values(kp=kp, ti=ti))
             # the cycle's frequency is where -1/N(A, w) meets G: |1 + G N| = 0 at some w near the shaft mode
             omega = np.geomspace(20.0, 400.0, 20001)
             distance = np.abs(1 + loop.frequency_response(omega) * bd.describing_function(model, amplitude[i, j], omega))
@@ -73,7 +75,7 @@ def test_verdicts_match_simulation_on_the_documented_tuning(serial_map):
 
 def test_unstable_contact_loop_grows_in_simulation():
     # ti far too short: the loop with the shaft in contact is unstable, the DF caps nothing
-    rig = rig_with(RIG, "ti", 0.002)
+    rig = RIG.with_values(ti=0.002)
     assert np.any(drive_loop(rig).linear_poles(5895.0, 3.0).real > 0)
     dmap = design_map(rig, [300.0], [0.002], models=("damped-dead-zone",), grid=(20, 30), t_end=1.0, max_t_end=2.0)
     assert dmap.df_verdict["damped-dead-zone"][0, 0] == "unstable"
@@ -92,15 +94,27 @@ def test_json_and_plot(serial_map):
     plt.close(drawn.figure)
 
 
-def test_rig_with_names_the_bad_parameter():
-    assert rig_with(RIG, "load.torque", 50.0).load.torque == 50.0
-    assert rig_with(RIG, "stiffness", 1000.0).plant.stiffness == 1000.0
+def test_with_values_names_the_bad_parameter():
+    assert RIG.with_values(**{"load.torque": 50.0}).load.torque == 50.0
+    assert RIG.with_values(stiffness=1000.0).plant.stiffness == 1000.0
+    both = RIG.with_values(kp=45.0, **{"controller.ti": 0.3, "load.torque": -20.0})
+    assert (both.controller.kp, both.controller.ti, both.load.torque) == (45.0, 0.3, -20.0)
+    assert both.with_values(kp=RIG.controller.kp, ti=RIG.controller.ti, torque=RIG.load.torque).to_dict() == RIG.to_dict()
+    assert RIG.with_values() is RIG
     with pytest.raises(ValueError, match="parameter 'gain': not a numeric value.*controller.kp"):
-        rig_with(RIG, "gain", 1.0)
+        RIG.with_values(gain=1.0)
     with pytest.raises(ValueError, match=r"\[controller\] kp must be > 0"):
-        rig_with(RIG, "kp", -1.0)
+        RIG.with_values(ti=0.3, kp=-1.0)
     with pytest.raises(ValueError, match="parameter 'feedback'"):
-        rig_with(RIG, "feedback", 1.0)
+        RIG.with_values(feedback=1.0)
+    with pytest.raises(ValueError, match="'kp' and 'controller.kp' name the same value, controller.kp"):
+        RIG.with_values(kp=40.0, **{"controller.kp": 50.0})
+
+
+def test_with_values_keeps_a_users_controller():
+    ct = pytest.importorskip("control")
+    user = RIG.with_controller(speed=ct.tf([30.0], [1.0]))
+    assert user.with_values(stiffness=6000.0).controller.speed_controller is user.controller.speed_controller
 
 
 # --------------------------------------------------------------------------- checkpoints: no finished cell lost
@@ -162,7 +176,7 @@ def test_a_line_cut_by_a_killed_run_is_dropped_and_its_cell_computed_again(df_ma
 def test_a_checkpoint_of_another_run_is_refused_in_one_line(tmp_path):
     path = tmp_path / "map.checkpoint"
     design_map(RIG, KP3[:1], TI2, checkpoint=path, **DF_ONLY)
-    other = rig_with(RIG, "stiffness", 6000.0)
+    other = RIG.with_values(stiffness=6000.0)
     with pytest.raises(ValueError, match=r"belongs to another run \(it differs in rig\.plant\.stiffness\)"):
         design_map(other, KP3[:1], TI2, checkpoint=Checkpoint(path, resume=True), **DF_ONLY)
     with pytest.raises(ValueError, match=r"differs in grid, t_end"):
@@ -298,7 +312,7 @@ def test_map_prints_the_verdict_grid_labelled_with_the_values(tmp_path):
     assert grid["30"]["0.5"] == "C" and grid["300"]["0.002"] == "U"
     verdicts = json.loads((tmp_path / "m.json").read_text())["models"][0]["df"]["verdict"]
     assert [[grid[kp][ti] for ti in ("0.002", "0.5")] for kp in ("30", "300")] == [
-        [backlash_df.sweeps.VERDICT_CODES[v] for v in row] for row in verdicts]
+        [VERDICT_CODES[v] for v in row] for row in verdicts]
     assert ". no oscillation  C limit cycle  B bistable  U unstable  ? undetermined" in lines
 
 

@@ -17,7 +17,6 @@ from click.testing import CliRunner
 import backlash_df as bd
 from backlash_df.cli import main
 from backlash_df.disturbances import shaft_mode, standard_disturbances
-from backlash_df.sweeps import rig_with
 from backlash_df.tuning import certify, contact_bandwidth
 from conftest import EXAMPLES, example_rig
 
@@ -175,11 +174,11 @@ def test_the_tuning_settles_and_every_faster_tuning_of_a_fine_grid_hunts(tunings
     rig, vary = CASES[case]
     (name, (low, high)), = vary.items()
     assert tuning.feasible
-    best = rig_with(rig, name, tuning.best.values[0])
+    best = rig.with_values(**{name: tuning.best.values[0]})
     assert tuning.best.bandwidth == pytest.approx(blocks_bandwidth(best), rel=1e-3)
     assert settles(best)
     grid = np.geomspace(low, high, int(math.ceil(math.log(high / low) / math.log(1.02))) + 1)  # 2 % apart
-    faster = [rig_with(rig, name, value) for value in grid]
+    faster = [rig.with_values(**{name: value}) for value in grid]
     faster = [r for r in faster if blocks_bandwidth(r) > tuning.best.bandwidth / 0.98]
     assert not any(settles(r, t_end=40.0) for r in faster)
     tolerance = [p.tolerance for p in tuning.front]  # the front: monotone, from the certified tuning
@@ -193,7 +192,7 @@ def test_a_load_feedback_loop_that_hunts_at_every_gain_is_infeasible_with_its_le
     tuning = bd.tune(rig, {"kp": (5.0, 100.0)})
     assert not tuning.feasible and not tuning.best.certified
     assert tuning.best.verdict.verdict in ("limit cycle", "bistable", "unstable")
-    assert not settles(rig_with(rig, "kp", tuning.best.values[0]))
+    assert not settles(rig.with_values(kp=tuning.best.values[0]))
     screened = [c.amplitude for c in tuning.screen if math.isfinite(c.bandwidth)]
     assert tuning.to_dict()["feasible"] is False and min(screened) > 0.0
 
@@ -245,9 +244,9 @@ def test_the_certificate_holds_under_refinement_at_a_sharp_boundary(tunings):
     rig, _ = CASES["motor_lag_feedback"]
     failed = [c for c in tuning.certificates if not c.certified and c.bandwidth > tuning.best.bandwidth]
     assert failed, "the case has a sharp boundary: a faster tuning failed its certificate"
-    refined = certify(rig_with(rig, "kp", tuning.best.values[0]), refinement=2)
+    refined = certify(rig.with_values(kp=tuning.best.values[0]), refinement=2)
     assert refined.certified and refined.verdict.verdict == tuning.best.verdict.verdict == "no oscillation"
-    assert not certify(rig_with(rig, "kp", failed[0].values[0]), refinement=2).certified
+    assert not certify(rig.with_values(kp=failed[0].values[0]), refinement=2).certified
 
 
 def first_harmonic(rig, disturbance, t_end=60.0):
@@ -272,7 +271,7 @@ def test_a_tolerance_buys_bandwidth_and_the_loop_hunts_within_it(tunings):
     loose = bd.tune(rig, vary, tolerance=tolerance)
     assert loose.feasible and loose.best.bandwidth > strict.best.bandwidth
     assert 0.0 < loose.best.amplitude <= tolerance
-    answer = rig_with(rig, "kp", loose.best.values[0])
+    answer = rig.with_values(kp=loose.best.values[0])
     amplitudes = [first_harmonic(answer, disturbance) for disturbance in standard_disturbances(answer)]
     assert max(amplitudes) <= 1.02 * tolerance
     assert max(amplitudes) == pytest.approx(loose.best.amplitude, rel=0.05)

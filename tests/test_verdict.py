@@ -23,14 +23,13 @@ from click.testing import CliRunner
 from backlash_df import load_rig, make_model, rig_from_dict, simulate
 from backlash_df.cli import main
 from backlash_df.disturbances import KINDS, MOTOR_SPEED, TWIST, Disturbance, standard_disturbances
-from backlash_df.equilibria import loop_rests
+from backlash_df.equilibria import linear_stability, loop_rests
 from backlash_df.limit_cycles import predict_limit_cycles, verify_limit_cycles
 from backlash_df.loops import drive_loop
-from backlash_df.simulation import (MeasuredCycle, SimulationResult, confirm_across_starts, measure_limit_cycle,
-                                     simulated_limit_cycle)
-from backlash_df.simulation.cycles import free_flights
+from backlash_df.simulation import MeasuredCycle, SimulationResult, measure_limit_cycle, simulated_limit_cycle
+from backlash_df.simulation.cycles import confirm_across_starts, free_flights
 from backlash_df.render.verdict import reason_text
-from backlash_df.verdict import RULES, VERDICTS, judge_loop, linear_stability, probe
+from backlash_df.verdict import RULES, VERDICTS, judge_loop, probe
 from conftest import EXAMPLES
 
 

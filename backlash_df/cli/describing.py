@@ -7,7 +7,7 @@ import click
 
 from ..config import load_rig
 from ..describing import describing_function_grid
-from ..report import roundoff_zero
+from ..render.html import roundoff_zero
 from .common import FINITE, MODEL, numbers
 from .outputs import Outputs
 

@@ -10,7 +10,6 @@ import click
 from ..config import load_rig
 from ..identify import diagnose as run_diagnosis
 from ..identify import load_measurements
-from ..identify.diagnose import GAIN_DEFINITION
 from .common import stage_bars
 from .outputs import Outputs
 
@@ -62,33 +61,8 @@ def diagnose_command(data, rig_file, json_out, report_out, strict, allow_unknown
     with contextlib.ExitStack() as stack, ThreadPoolExecutor(min(2, os.cpu_count() or 1)) as pool:
         result = run_diagnosis(measurements, rig, executor=pool,
                                progress=stage_bars(stack, unit="fit", prefix="diagnose: "))
-    shaft = result.shaft
-    click.echo(f"cause: {result.cause} (from the {result.structure.replace('_', '-')} model; shaft mode "
-               f"{shaft.mode_frequency:.3g} Hz, resolved band {shaft.resolved_frequency:.3g} Hz)")
-    for cause in result.causes:
-        side = f" ({cause.side} side)" if cause.side and cause.structure == "two_mass" else ""
-        for name in cause.parameters:
-            click.echo(f"  {cause.effect}{side}: {name} = {cause.value_text(name)}, gain {100 * cause.gain:.1f} %")
-    if result.causes:
-        click.echo(f"  (gain: {GAIN_DEFINITION})")
-    for label, causes in (("two-mass", result.two_mass_causes), ("rigid-body", result.rigid_body.causes)):
-        click.echo(f"  {label} model names: {'; '.join(cause.summary() for cause in causes) or 'none'}")
-    click.echo(result.sentence)
-    if result.encoder_skew is not None:
-        click.echo(f"  {result.skew_sentence()}")
-    for structure, models in (("two-mass", (result.baseline, result.extended)),
-                              ("rigid-body", (result.rigid_body.baseline, result.rigid_body.extended))):
-        for model in (models[:1] if models[1] is models[0] else models):  # no cause: the extended is the baseline
-            label = " + ".join(model.effects) or "baseline (no effect)"
-            fits = ", ".join(f"{name} {model.fit_percent[name]:.1f} % k-step / {model.ahead_fit_percent[name]:.1f} % "
-                             f"ahead / {model.free_run_fit_percent[name]:.1f} % free run" for name in model.fit_percent)
-            click.echo(f"  validation fit, {structure} {label}: {fits}")
-    click.echo("  (fit: 100 (1 - |y - y_pred| / |y - mean y|) % per speed over the validation part, as MATLAB's compare: "
-               "k-step from each segment's measured start, 0.4 s ahead, free run from the part's start; below 0 "
-               "where the prediction strays farther from the data than their mean, as a free run of a model that "
-               "lacks the data's friction does)")
-    for warning in result.warnings:
-        click.echo(f"warning: {warning}")
+    for line in result.sentences():
+        click.echo(line)
     texts = {}
     if "--json" in outputs:
         texts["--json"] = json.dumps(result.to_dict(), indent=2) + "\n"

@@ -18,7 +18,7 @@ import tempfile
 import uuid
 from pathlib import Path
 
-from ..report import FIGURE_FORMATS
+from ..render.html import FIGURE_FORMATS
 
 __all__ = ["Outputs", "check_output_path", "check_suffix", "plot_format", "SUFFIXES"]
 
@@ -42,7 +42,7 @@ def _listed(suffixes):
 def check_suffix(path, option):
     """Check that ``path``'s suffix fits what ``option`` writes, before anything is computed.
 
-    ``--plot`` takes a figure suffix (:data:`~backlash_df.report.FIGURE_FORMATS`) or
+    ``--plot`` takes a figure suffix (:data:`~backlash_df.render.html.FIGURE_FORMATS`) or
     none (PNG, as on a stream: ``-``); ``--json`` and ``--report`` take any suffix but
     that of another kind of file (:data:`SUFFIXES`: ``--json m.html``, ``--report
     r.json``).  Another option is not checked here.

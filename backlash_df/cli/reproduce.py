@@ -6,7 +6,8 @@ from pathlib import Path
 import click
 
 from .. import reproduce as paper
-from ..report import FIGURE_FORMATS, figure_bytes
+from ..render.html import FIGURE_FORMATS, figure_bytes
+from ..render.reproduce import figure2_summary
 from .outputs import Outputs, plot_format
 
 __all__ = ["reproduce_command"]
@@ -38,7 +39,7 @@ def reproduce_command(what, out, setup, driver, dt):
     outputs = Outputs({"--out": out})
     if what == "figure2":
         maps = paper.figure2_maps()
-        click.echo(paper.figure2_summary(maps))
+        click.echo(figure2_summary(maps))
         text = figure_bytes(paper.figure2(maps=maps)[0], plot_format(out), dpi=120) if out else None
     elif what == "figure3":
         comparison = paper.compare_torques(setup, driver=driver, dt=dt)

@@ -8,8 +8,8 @@ import numpy as np
 
 from ..config import load_rig
 from ..continuation import continue_limit_cycles
-from ..report import figure_bytes
-from ..sweeps import design_map, rig_with
+from ..render.html import figure_bytes
+from ..sweeps import design_map
 from .common import FINITE, MODEL, echo_table, read_text, stage_bars
 from .executors import checkpoint_for, checkpoint_options, executor_for, executor_options, stopped_note
 from .outputs import Outputs, plot_format
@@ -86,7 +86,7 @@ def map_command(rig_file, x_spec, y_spec, models, no_simulate, workers, dask, sc
     for name in models:
         rig.make_model(name)  # a law the rig cannot describe (rubber without beta) stops here
     x_values, y_values = parse_values("--x", x_spec[1]), parse_values("--y", y_spec[1])
-    rig_with(rig_with(rig, x_spec[0], x_values[0]), y_spec[0], y_values[0])  # names checked before any work
+    rig.with_values(**{x_spec[0]: x_values[0], y_spec[0]: y_values[0]})  # names checked before any work
     checkpoint = checkpoint_for(outputs, "map", checkpoint_path, resume)
     with stopped_note(checkpoint, "cells", x_values.size * y_values.size), \
             executor_for(workers, dask, scheduler) as executor, contextlib.ExitStack() as stack:

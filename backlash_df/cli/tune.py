@@ -61,24 +61,12 @@ def tune_command(rig_file, vary, tolerance, model_name, workers, dask, scheduler
         with stopped_note(checkpoint, "cells"), executor_for(workers, dask, scheduler) as executor:
             tuning = tune(rig, vary, tolerance=tolerance, model=model_name, executor=executor, progress=progress,
                           checkpoint=checkpoint)
-    best = tuning.best
-    values = ", ".join(f"{name} = {value:.5g} {TUNABLE[name]}" for name, value in tuning.values().items())
-    if tuning.feasible:
-        click.echo(f"certified: {values}: bandwidth {best.bandwidth:.4g} rad/s")
-    else:
-        click.echo(f"no tuning in the range is certified; the least hunting: {values}: bandwidth "
-                   f"{best.bandwidth:.4g} rad/s, hunting at A = {best.amplitude:.4g} rad")
-    click.echo(f"{tuning.model}: {best.verdict.verdict}: {best.verdict.reason}")
-    if tuning.margin:
-        toward = ", ".join(f"{name} = {value:.4g}" for name, value in tuning.margin["toward"].items())
-        click.echo(f"margin: a factor {tuning.margin['factor']:.3g} toward the nearest hunting tuning found "
-                   f"({toward}, {tuning.margin['source']})")
+    for line in tuning.sentences():
+        click.echo(line)
     click.echo("")
-    header = ["tolerance (rad)", *tuning.names, "bandwidth (rad/s)", "amplitude (rad)"]
-    rows = [[f"{p.tolerance:.4g}", *(f"{v:.4g}" for v in p.values), f"{p.bandwidth:.4g}", f"{p.amplitude:.4g}"]
-            for p in tuning.front]
-    click.echo("front: the best bandwidth for each accepted hunting amplitude")
-    echo_table(header, rows)
+    for title, header, rows in tuning.tables():
+        click.echo(title)
+        echo_table(header, rows)
     texts = {}
     if "--json" in outputs:
         texts["--json"] = json.dumps(tuning.to_dict(), indent=2) + "\n"

@@ -22,7 +22,7 @@ How each law is computed:
   (x, y = x + (c/k) v, z = x - (c/k) v, x + 2 (c/k) v), crossed at phases in closed
   form.  Right contact is integrated for the bias, left contact as its mirror image
   (odd symmetry).  Contact of the phase plane law, once made at theta*, holds until
-  the release (Theorem 1, :func:`~backlash_df.models.held_mode`): it spans the arc
+  the release (Theorem 1, ``backlash_df._laws.held_mode``): it spans the arc
   where y >= alpha from its first phase with ``x >= theta*(v)`` or ``v <= 0``.  The
   theta* boundaries ``x = theta*(v) (+- beta / 2)`` are located by Newton on (19) written
   with one exponential, in brackets where ``x - theta*(v)`` is monotone: it rises for
@@ -32,7 +32,7 @@ How each law is computed:
   Gauss-Kronrod (7-15), the error test of ``_kernels.integrate_adaptive``.  No sample count enters.
 * Static laws, reference (``_evaluation.evaluate(..., samples=..., gauss_order=...)``): the
   walk of earlier releases.  The mode is followed as the simulation follows it
-  (:func:`~backlash_df.models.held_mode`).  The mode
+  (``_laws.held_mode``).  The mode
   changes (contact, release, theta*, rubber band edges, the kink of the
   ElastoBacklash law) are bracketed by 64 phase samples, located to a few
   ulps as zeros of the law's boundary functions (regula falsi, Illinois) and
@@ -126,7 +126,7 @@ def describing_function(model, amplitude, omega, *, bias=0.0, method="auto"):
     >>> bool(np.all(np.angle(n) > 0))
     True
     """
-    return evaluate(model, amplitude, omega, bias, method)[0]
+    return evaluate(model, amplitude, omega, bias, method).n
 
 
 def dual_input_describing_function(model, amplitude, omega, *, bias=0.0, method="auto"):
@@ -158,7 +158,7 @@ def dual_input_describing_function(model, amplitude, omega, *, bias=0.0, method=
     >>> round(float(n.real), 9), round(float(mean), 9)
     (100.0, 20.0)
     """
-    return evaluate(model, amplitude, omega, bias, method)
+    return tuple(evaluate(model, amplitude, omega, bias, method))
 
 
 def saturation_describing_function(amplitude, limit):
@@ -249,7 +249,7 @@ def _balanced_bias(model, amplitude, omega, load_torque, iterations=40):
         if active.size == 0:
             break
         bb, low, high = b[active], lo[active], hi[active]
-        slope = (balance(model, a[active], w[active], bb + step[active])[1] - target - f) / step[active]
+        slope = (balance(model, a[active], w[active], bb + step[active]).mean - target - f) / step[active]
         low, high = np.where(f < 0.0, bb, low), np.where(f > 0.0, bb, high)
         newton = bb - f / np.where(slope > 0.0, slope, 1.0)
         inside = (slope > 0.0) & (newton > low) & (newton < high)
@@ -257,7 +257,7 @@ def _balanced_bias(model, amplitude, omega, load_torque, iterations=40):
         b[active] = np.where(inside, newton, 0.5 * (low + high))
     else:  # the last steps' points: N at the bias they ended on
         if active.size:
-            n[active] = balance(model, a[active], w[active], b[active])[0]
+            n[active] = balance(model, a[active], w[active], b[active]).n
     return b.reshape(shape), n.reshape(shape)
 
 

@@ -7,16 +7,12 @@ Private to the package; :func:`evaluate` is the one door of the public functions
 """
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
-from ..models import (
-    DAMPED_DEAD_ZONE,
-    DEAD_ZONE,
-    EXACT,
-    REVISED_DEAD_ZONE,
-    BacklashModel,
-)
+from .._laws import DAMPED_DEAD_ZONE, DEAD_ZONE, EXACT, REVISED_DEAD_ZONE
+from ..models import BacklashModel
 from ._kernels import (
     SAMPLES,
     SCAN_STEP,
@@ -24,6 +20,13 @@ from ._kernels import (
     harmonic_balance,
     switch_exact_kernel,
 )
+
+
+class Balance(NamedTuple):
+    """What the harmonic balance gives at each point: N (N m/rad, complex) and the mean torque N0 (N m)."""
+
+    n: np.ndarray
+    mean: np.ndarray
 
 
 def _tustin(excess):
@@ -107,7 +110,7 @@ def check_scales(model, a, w, b):
 
 def evaluate(model, amplitude, omega, bias, method, samples=None, gauss_order=None, scan_step=SCAN_STEP,
               parallel=False):
-    """N and mean torque.
+    """N and mean torque, a :class:`Balance`.
 
     The harmonic balance of a static law runs the switch-exact kernels, unless ``samples`` or
     ``gauss_order`` is given: then the sampled walk (:func:`static_harmonics`) with
@@ -134,7 +137,7 @@ def balance(model, a, w, b, method="auto", samples=None, gauss_order=None, scan_
     if method == "closed-form" and closed is None:
         raise ValueError(f"no closed-form describing function for {model.name!r} (or with a bias)")
     if closed is not None:
-        return np.asarray(closed, dtype=complex), np.zeros(a.shape)
+        return Balance(np.asarray(closed, dtype=complex), np.zeros(a.shape))
     n_out = np.empty(a.size, dtype=complex)
     mean_out = np.empty(a.size)
     # np.array copies: broadcast views are flagged "warn on write", and numba's typeof
@@ -153,4 +156,4 @@ def balance(model, a, w, b, method="auto", samples=None, gauss_order=None, scan_
     unbiased = b == 0.0
     if unbiased.any():
         mean_out = np.where(unbiased & (np.abs(mean_out) <= _MEAN_ROUND_OFF * np.abs(n_out) * a), 0.0, mean_out)
-    return n_out, mean_out
+    return Balance(n_out, mean_out)

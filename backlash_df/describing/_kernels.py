@@ -15,13 +15,17 @@ import numpy as np
 
 from .._jit import borrowing_unchecked as _borrowing
 from .._jit import jit_unchecked as _jit
-from ..models import (
+from .._laws import (
     DAMPED_DEAD_ZONE,
+    DAMPING,
     DEAD_ZONE,
     ELASTO_BACKLASH,
+    HALF_GAP,
     PHASE_PLANE,
     REVISED_DEAD_ZONE,
     RUBBER,
+    RUBBER_THICKNESS,
+    STIFFNESS,
     held_mode,
     mode_torque,
     static_mode,
@@ -64,13 +68,13 @@ KRONROD = np.array((
 def piece(law, mode, phi, amp, omega, bias, p):
     """(mode, smooth-piece index) at phase phi for a trajectory that held ``mode``.
 
-    The mode follows :func:`~backlash_df.models.held_mode`, as in the simulation:
+    The mode follows ``_laws.held_mode``, as in the simulation:
     contact of the phase plane law, once made at theta*, holds until release.
     The piece index adds the side of the ElastoBacklash kink ``min(tau_c, tau_d)``
     and the sign of v in the rubber band (the two lines of (36) meet with a kink
     at v = 0).
     """
-    k, c, alpha, beta = p[0], p[1], p[2], p[3]
+    k, c, alpha, beta = p[STIFFNESS], p[DAMPING], p[HALF_GAP], p[RUBBER_THICKNESS]
     x = bias + amp * math.sin(phi)
     v = amp * omega * math.cos(phi)
     m = held_mode(law, mode, x, v, k, c, alpha, beta)
@@ -102,7 +106,8 @@ def _integrate_fixed(law, m, a, e, amp, omega, bias, p, nodes, weights, acc):
             phi = centre + 0.5 * width * nodes[i]
             sn = math.sin(phi)
             cs = math.cos(phi)
-            torque = mode_torque(law, m, bias + amp * sn, amp * omega * cs, p[0], p[1], p[2], p[3])
+            torque = mode_torque(law, m, bias + amp * sn, amp * omega * cs, p[STIFFNESS], p[DAMPING], p[HALF_GAP],
+                                 p[RUBBER_THICKNESS])
             w = 0.5 * width * weights[i] * torque
             acc[0] += w * sn
             acc[1] += w * cs
@@ -172,7 +177,8 @@ def integrate_adaptive(law, m, a, e, amp, omega, bias, p, stack, acc):
     while top > 0:
         top -= 1
         lo, hi, level = stack[top, 0], stack[top, 1], stack[top, 2]
-        k_sin, k_cos, k_one, error, total = _kronrod(law, m, lo, hi, amp, omega, bias, p[0], p[1], p[2], p[3])
+        k_sin, k_cos, k_one, error, total = _kronrod(law, m, lo, hi, amp, omega, bias, p[STIFFNESS], p[DAMPING],
+                                                     p[HALF_GAP], p[RUBBER_THICKNESS])
         panels += 1
         if (error <= _KRONROD_TOLERANCE * total or level >= _MAX_LEVEL or top + 2 > stack.shape[0]
                 or panels >= _MAX_PANELS):
@@ -207,7 +213,7 @@ _SIDE = 9
 @_jit
 def _boundary_of(index, x, v, ts, p):
     """Right-side boundary function ``index`` at (x, v), with ts = theta*(v)."""
-    k, c, alpha, beta = p[0], p[1], p[2], p[3]
+    k, c, alpha, beta = p[STIFFNESS], p[DAMPING], p[HALF_GAP], p[RUBBER_THICKNESS]
     s = c * v / k
     if index == _X_ALPHA:  # contact of the dead-zones (24), (26)
         return x - alpha
@@ -235,7 +241,10 @@ def _boundary(index, phi, amp, omega, bias, p):
     v = amp * omega * math.cos(phi)
     if index >= _SIDE:
         x, v, index = -x, -v, index - _SIDE
-    ts = theta_star_kernel(v, p[0], p[1], p[2]) if index >= _THETA_STAR and index <= _BAND_BOTTOM else p[2]
+    if index >= _THETA_STAR and index <= _BAND_BOTTOM:
+        ts = theta_star_kernel(v, p[STIFFNESS], p[DAMPING], p[HALF_GAP])
+    else:
+        ts = p[HALF_GAP]
     return _boundary_of(index, x, v, ts, p)
 
 
@@ -250,11 +259,11 @@ def _boundary_values(law, phi, amp, omega, bias, p):
     order of :func:`_boundaries`; one theta* evaluation per side at most)."""
     x = bias + amp * math.sin(phi)
     v = amp * omega * math.cos(phi)
-    i = _boundaries(law, p[3])
-    ts = theta_star_kernel(v, p[0], p[1], p[2])
+    i = _boundaries(law, p[RUBBER_THICKNESS])
+    ts = theta_star_kernel(v, p[STIFFNESS], p[DAMPING], p[HALF_GAP])
     right = (_slot(i[0], x, v, ts, p), _slot(i[1], x, v, ts, p), _slot(i[2], x, v, ts, p),
              _slot(i[3], x, v, ts, p), _slot(i[4], x, v, ts, p), _slot(i[5], x, v, ts, p))
-    ts = theta_star_kernel(-v, p[0], p[1], p[2])
+    ts = theta_star_kernel(-v, p[STIFFNESS], p[DAMPING], p[HALF_GAP])
     left = (_slot(i[0], -x, -v, ts, p), _slot(i[1], -x, -v, ts, p), _slot(i[2], -x, -v, ts, p),
             _slot(i[3], -x, -v, ts, p), _slot(i[4], -x, -v, ts, p), _slot(i[5], -x, -v, ts, p))
     return right, left
@@ -314,7 +323,7 @@ def _hinted_switch(law, mode, current, lo, hi, amp, omega, bias, p):
     """
     right_lo, left_lo = _boundary_values(law, lo, amp, omega, bias, p)
     right_hi, left_hi = _boundary_values(law, hi, amp, omega, bias, p)
-    indices = _boundaries(law, p[3])
+    indices = _boundaries(law, p[RUBBER_THICKNESS])
     tried = 0
     while True:
         first, f_first_lo, f_first_hi, estimate = -1, 0.0, 0.0, math.inf
@@ -371,7 +380,7 @@ def static_harmonics(law, amp, omega, bias, p, nodes, weights, samples, stack, a
     The walk starts at phi = pi/2, where v = 0 and the held mode does not depend
     on the history, and runs one period.
     """
-    tau_omega = p[1] * omega / p[0]
+    tau_omega = p[DAMPING] * omega / p[STIFFNESS]
     psi = math.atan(tau_omega)
     phi0 = 0.5 * math.pi
     grid = np.empty(samples + 7)
@@ -387,7 +396,7 @@ def static_harmonics(law, amp, omega, bias, p, nodes, weights, samples, stack, a
     acc[2] = 0.0
     start = phi0
     x0 = bias + amp * math.sin(phi0)
-    mode = static_mode(law, x0, 0.0, p[0], p[1], p[2], p[3])
+    mode = static_mode(law, x0, 0.0, p[STIFFNESS], p[DAMPING], p[HALF_GAP], p[RUBBER_THICKNESS])
     mode, current = piece(law, mode, phi0, amp, omega, bias, p)
     for j in range(1, grid.shape[0]):
         if grid[j] <= grid[j - 1]:
@@ -409,7 +418,7 @@ def static_harmonics(law, amp, omega, bias, p, nodes, weights, samples, stack, a
 @_jit
 def _contact_integrals(a, e, amp, omega, bias, side, p, acc):
     """Closed-form Fourier integrals of T = k (y - side alpha) over [a, e]."""
-    k, c, alpha = p[0], p[1], p[2]
+    k, c, alpha = p[STIFFNESS], p[DAMPING], p[HALF_GAP]
     p0 = k * (bias - side * alpha)
     p1 = k * amp
     p2 = c * amp * omega
@@ -488,7 +497,7 @@ def _exact_harmonics(amp, omega, bias, p, scan_step, acc):
 
     Returns the number of input periods the response repeats over (1 normally).
     """
-    k, c, alpha = p[0], p[1], p[2]
+    k, c, alpha = p[STIFFNESS], p[DAMPING], p[HALF_GAP]
     tau_omega = c * omega / k
     radius = amp * math.sqrt(1.0 + tau_omega * tau_omega)
     acc[0] = 0.0
@@ -552,7 +561,7 @@ def _exact_harmonics(amp, omega, bias, p, scan_step, acc):
 # boundary is monotone (critical_points).  Right contact is integrated for the bias, left
 # contact as the mirror image, right contact of -bias (odd symmetry, reading notes item 3).
 
-_TAIL_W = -41.0  # ln u at K = 40, where theta* rounds to alpha (models.theta_star_kernel); u ~ 1.6e-18
+_TAIL_W = -41.0  # ln u at K = 40, where theta* rounds to alpha (_laws.theta_star_kernel); u ~ 1.6e-18
 _CRIT_FLOOR = 1.0233  # min over u of p(u; r = 0) = 1.023388 is a lower bound of p: no critical points below
 
 
@@ -977,7 +986,7 @@ def _phase_plane_side(amp, omega, bias, p, crit):
     where the law closes the gap (x >= theta*(v) while v > 0, or anywhere v <= 0) to the
     release where y falls through alpha.  T = k (y - alpha) there.
     """
-    k, c, alpha = p[0], p[1], p[2]
+    k, c, alpha = p[STIFFNESS], p[DAMPING], p[HALF_GAP]
     rate = c * omega / k
     cos_psi, sin_psi, psi = _rate_geometry(rate)
     radius = amp * math.sqrt(1.0 + rate * rate)
@@ -1002,7 +1011,7 @@ def _phase_plane_side(amp, omega, bias, p, crit):
 
 # The rubber law (28)-(40): the band torque needs theta*(v) at the quadrature nodes, computed
 # from a table of the contact fraction (u - ln u = 1 + K) with quintic Hermite interpolation.
-_FRACTION_MAX = 40.0  # K beyond which theta* = alpha to round-off (models.theta_star_kernel)
+_FRACTION_MAX = 40.0  # K beyond which theta* = alpha to round-off (_laws.theta_star_kernel)
 _FRACTION_NODES = 4096  # u itself interpolated, fine enough to keep its error relative (u ~ e^(-1-K))
 _FRACTION_STEP = math.sqrt(_FRACTION_MAX) / _FRACTION_NODES
 
@@ -1050,7 +1059,7 @@ def contact_fraction(big_k):
 
 @_jit
 def _band_torque(x, v, k, c, alpha, beta):
-    """Right rubber-band torque (36) of models.right_torque, mode 1 (N m), theta* by contact_fraction."""
+    """Right rubber-band torque (36) of _laws.right_torque, mode 1 (N m), theta* by contact_fraction."""
     s = c * v / k
     if v > 0.0:
         ts = alpha if 20.0 * s < alpha else alpha - s * contact_fraction(2.0 * alpha / s)
@@ -1136,7 +1145,7 @@ def _rubber_side(amp, omega, bias, p, crit, stack, acc, events):
     (all three set by gamma against -+ beta / 2 - bias).  v <= 0: contact where x >= alpha +
     beta / 2 and y >= alpha, else the band of (28) second line where x > alpha - beta / 2 - 2 c v / k.
     """
-    k, c, alpha, beta = p[0], p[1], p[2], p[3]
+    k, c, alpha, beta = p[STIFFNESS], p[DAMPING], p[HALF_GAP], p[RUBBER_THICKNESS]
     acc[0] = acc[1] = acc[2] = 0.0
     rate = c * omega / k
     cos_psi, sin_psi, psi = _rate_geometry(rate)
@@ -1188,7 +1197,7 @@ def _both_sides(amp, right, left):
 @_jit
 def _closed_form_point(law, p, amp, omega, bias):
     """(N, mean torque) of (24), (26) or (27) at one point."""
-    k, c, alpha = p[0], p[1], p[2]
+    k, c, alpha = p[STIFFNESS], p[DAMPING], p[HALF_GAP]
     if law == REVISED_DEAD_ZONE:
         right = _revised_side(amp, omega, bias, k, c, alpha)
         return _both_sides(amp, right, _revised_side(amp, omega, -bias, k, c, alpha) if bias != 0.0 else right)
@@ -1200,8 +1209,9 @@ def _closed_form_point(law, p, amp, omega, bias):
 @_jit
 def _elasto_point(p, amp, omega, bias, events):
     """(N, mean torque) of the ElastoBacklash law at one point."""
-    right = _elasto_side(amp, omega, bias, p[0], p[1], p[2], events)
-    return _both_sides(amp, right, _elasto_side(amp, omega, -bias, p[0], p[1], p[2], events) if bias != 0.0 else right)
+    right = _elasto_side(amp, omega, bias, p[STIFFNESS], p[DAMPING], p[HALF_GAP], events)
+    left = _elasto_side(amp, omega, -bias, p[STIFFNESS], p[DAMPING], p[HALF_GAP], events) if bias != 0.0 else right
+    return _both_sides(amp, right, left)
 
 
 @_jit
@@ -1329,7 +1339,7 @@ def exact_balance(p, amp, omega, bias, scan_step, n_out, mean_out):
     acc = np.zeros(3)
     for i in range(amp.shape[0]):
         a, w, b = amp[i], omega[i], bias[i]
-        if p[1] > 0.0 and w > 0.0:
+        if p[DAMPING] > 0.0 and w > 0.0:
             scale = 1.0 / (math.pi * _exact_harmonics(a, w, b, p, scan_step, acc))
             n_out[i] = complex(acc[0] * scale / a, acc[1] * scale / a)
             mean_out[i] = 0.5 * acc[2] * scale

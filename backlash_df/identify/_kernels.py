@@ -21,7 +21,7 @@ the actuator delay (through the delayed torque's slope) and the segment's initia
 :meth:`~backlash_df.identify.predictors.TwoMassModel.speed_sensitivities` maps them to the
 fit's values.  The law's partial derivatives (:func:`torque_partials`) are closed forms of
 (24)-(27), (33), the Modelica ElastoBacklash and the rubber band (36) with theta*(v) of (19)
-differentiated through its defining equation (:func:`~backlash_df.models.theta_star_partials`).
+differentiated through its defining equation (``backlash_df._laws.theta_star_partials``).
 
 **Layouts.**  A kernel's values arrive as one vector ``p`` (a tuple inside the step loop: not
 reference-counted) indexed by the module's integer constants, which numba folds.
@@ -34,7 +34,7 @@ from .._jit import inline as _inline
 from .._jit import jit as _jit
 from .._jit import jit_unchecked as _jit_unchecked
 from ..friction import friction_kernel, friction_partials
-from ..models import DEAD_ZONE, ELASTO_BACKLASH, held_mode, mode_torque, theta_star_partials
+from .._laws import DEAD_ZONE, ELASTO_BACKLASH, held_mode, mode_torque, theta_star_partials
 
 #: The two-mass kernel's values ``p``, by their names in a model's values, in the vector's order
 #: (:data:`~backlash_df.identify.predictors.MODEL_PARAMETERS`); ``p[SAMPLE_INTERVAL]``, after them, is the
@@ -175,7 +175,7 @@ def _band_partials(x, v, k, c, alpha, beta):
 
 @_jit
 def _right_partials(law, m, x, v, k, c, alpha, beta):
-    """Partial derivatives of :func:`~backlash_df.models.right_torque` of mode ``m`` (held)."""
+    """Partial derivatives of ``_laws.right_torque`` of mode ``m`` (held)."""
     if m == 0:
         return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     if law == DEAD_ZONE:
@@ -191,7 +191,7 @@ def _right_partials(law, m, x, v, k, c, alpha, beta):
 
 @_jit
 def torque_partials(law, m, x, v, k, c, alpha, beta):
-    """``(dT/dx, dT/dv, dT/dk, dT/dc, dT/dalpha, dT/dbeta)`` of :func:`~backlash_df.models.mode_torque`
+    """``(dT/dx, dT/dv, dT/dk, dT/dc, dT/dalpha, dT/dbeta)`` of ``_laws.mode_torque``
     with the signed mode ``m`` held (N m/rad, N m s/rad, rad, rad/s, N m/rad, N m/rad)."""
     if m >= 0:
         return _right_partials(law, m, x, v, k, c, alpha, beta)

@@ -85,7 +85,6 @@ bounded pool could wait forever.  The numbers do not depend on the executor.
 
 import dataclasses
 import functools
-import html
 import itertools
 import math
 import threading
@@ -94,14 +93,17 @@ import numpy as np
 
 from .._json import json_ready
 from ..plotting import ResultPlot, axes_or_new, legend_beside
-from ..report import below_text, figure_html, html_page, table_html
+from ..render.diagnosis import (cause_sentence, cause_summary, diagnosis_report, diagnosis_sentence,
+                                diagnosis_sentences, disagreement_note, prediction_mode_text, skew_sentence,
+                                value_text)
+from ..render.html import below_text
 from .calibrate import calibrate, refine, single_threaded_blas
 from .effects import COULOMB_GRID, EFFECT_NAMES, STRIBECK_GRID, get_effect, peak_speed, smoothing_speeds
 from .predictors import DEFAULT_HORIZON, PLANT_PARAMETERS, RIGID_PARAMETERS, predict, segment_bounds
 from .residuals import residual_analysis
 from .signals import data_states, encoder_speeds, shaft_resolution, speed_noise
 
-__all__ = ["GAIN_DEFINITION", "CandidateResult", "Cause", "Stage", "Diagnosis", "diagnose", "check_speed_units", "check_excitation",
+__all__ = ["CandidateResult", "Cause", "Stage", "Diagnosis", "diagnose", "check_speed_units", "check_excitation",
            "MIN_GAIN",
            "MIN_T", "BASELINE_MIN_FIT", "VALIDATION_HORIZON", "MIN_TORQUE_SHARE", "MIN_RUBBER_SHARE",
            "EXTENDED_MIN_AHEAD_FIT", "MIN_SEGMENTS", "RIGID_BODY_EFFECTS", "MIN_SKEW_SHARE",
@@ -109,9 +111,6 @@ __all__ = ["GAIN_DEFINITION", "CandidateResult", "Cause", "Stage", "Diagnosis", 
 
 #: Smallest relative decrease of the validation RSS of an accepted effect.
 MIN_GAIN = 0.05
-#: What a cause's gain is, in the words the terminal and the report print.
-GAIN_DEFINITION = ("the share of the validation residual sum of squares (k-step or 0.4 s ahead, whichever passes "
-                   "the significance rule) the effect removes from the model it is added to")
 #: Smallest t statistic of the per-block validation RSS decrease.
 MIN_T = 2.0
 #: Smallest torque of a named torque effect (friction at the RMS speed, offset) as a share of the
@@ -299,37 +298,22 @@ class Cause:
     def value_text(self, name):
         """Parameter ``name`` as printed: ``value unit (95 % CI low .. high)``; ``not determined`` for the value
         where the cause is not :attr:`determined`, and the fit's range for the interval where it is
-        :attr:`on_bound`."""
-        p = self.parameters[name]
-        if self.on_bound:
-            return (f"not determined: on the bound of the fit's range, {p.value:.4g} {p.unit} "
-                    f"({p.lower:.4g} .. {p.upper:.4g})")
-        value = f"{p.value:.4g}" if self.determined else "not determined"
-        return f"{value} {p.unit} (95 % CI {p.ci95[0]:.4g} .. {p.ci95[1]:.4g})"
+        :attr:`on_bound` (:func:`~backlash_df.render.diagnosis.value_text`)."""
+        return value_text(self, name)
 
     def summary(self):
         """``effect (side): value unit (95 % CI low .. high)`` (:meth:`value_text`), the side left out on the rigid
-        body (one inertia)."""
-        side = f" ({self.side} side)" if self.side and self.structure != "rigid_body" else ""
-        return f"{self.effect}{side}: {self.value_text(self.effect)}"
+        body (one inertia; :func:`~backlash_df.render.diagnosis.cause_summary`)."""
+        return cause_summary(self)
 
     def describe(self):
         """The cause in a sentence a person can act on (:meth:`.effects.Effect.describe`), or, where its value
-        is not :attr:`determined`, that the drive has it but the record does not determine its size, and why."""
+        is not :attr:`determined`, that the drive has it but the record does not determine its size, and why
+        (:func:`~backlash_df.render.diagnosis.cause_sentence`)."""
         parameter = self.parameters[self.effect]
-        if self.determined:
-            sentence = get_effect(self.key).describe(parameter.value, *parameter.ci95,
-                                                     rigid=self.structure == "rigid_body")
-            if self.stribeck_speed is None:
-                return sentence
-            return (f"{sentence} Its Stribeck speed w_s is {self.stribeck_speed:.3g} rad/s; the size holds for that "
-                    f"w_s in -F_s exp(-(w/w_s)^2) sign(w).")
-        why = (f"the fit ends on the bound of the range it allows ({parameter.value:.4g} {parameter.unit}) and asks "
-               f"for a value beyond it, so the value is a bound, not an estimate; the effect may stand in for "
-               f"something outside the catalogue" if self.on_bound
-               else "the rigid-body and the two-mass model disagree beyond their intervals")
-        return (f"The drive has {self.effect.replace('_', ' ')}, but this record does not determine its size: "
-                f"{why} (see the warnings).")
+        described = (get_effect(self.key).describe(parameter.value, *parameter.ci95,
+                                                   rigid=self.structure == "rigid_body") if self.determined else None)
+        return cause_sentence(self, described)
 
     def __repr__(self):
         values = ", ".join(f"{name} = {self.value_text(name)}" for name in self.parameters)
@@ -389,6 +373,25 @@ class Stage:
         """Catalogue keys of the named causes, in order."""
         return [cause.key for cause in self.causes]
 
+    @property
+    def weak_baseline(self):
+        """Whether the baseline explains too little of the validation data to name a cause (k-step fit below
+        :data:`BASELINE_MIN_FIT` % on a speed)."""
+        return _weak(self.baseline)
+
+    @property
+    def unexplained(self):
+        """Whether the named causes leave much of the data unexplained (the extended model's ahead fit below
+        :data:`EXTENDED_MIN_AHEAD_FIT` % on a speed)."""
+        return bool(self.causes) and not self.weak_baseline and _unexplained(self.extended)
+
+    @property
+    def nominal_values(self):
+        """The structure's plant values (:data:`~.predictors.PLANT_PARAMETERS`, or
+        :data:`~.predictors.RIGID_PARAMETERS` on the rigid body) as the whole record calibrates them."""
+        names = RIGID_PARAMETERS if self.structure == "rigid_body" else PLANT_PARAMETERS
+        return {name: self.whole_record.values[name] for name in names}
+
     def to_dict(self):
         """JSON-ready ``{"structure", "causes", "baseline", "extended", "whole_record", "candidates", "warnings"}``."""
         return json_ready({"structure": self.structure, "causes": [cause.to_dict() for cause in self.causes],
@@ -412,7 +415,7 @@ class Diagnosis:
         :attr:`Cause.structure` says which stage's value it is (:attr:`structure`), :attr:`Cause.determined`
         is False where the two stages disagree beyond their intervals (:attr:`disagreements`).
     sentence : str
-        The causes in sentences a person can act on.
+        The causes in sentences a person can act on (:func:`~backlash_df.render.diagnosis.diagnosis_sentence`).
     baseline, extended : CandidateResult
         The two-mass model's nominal structure and selected set, refined (``polish``).
     candidates : list of CandidateResult
@@ -473,10 +476,8 @@ class Diagnosis:
 
     @property
     def prediction_mode(self):
-        """How the fit numbers were computed."""
-        return (f"{self.baseline.prediction.mode}: each segment simulated from the data's state, driven by the "
-                f"measured torques; free run: one simulation from the data's state at the validation start; "
-                f"both scored on the validation part only")
+        """How the fit numbers were computed (:func:`~backlash_df.render.diagnosis.prediction_mode_text`)."""
+        return prediction_mode_text(self.baseline.prediction.mode)
 
     def __repr__(self):
         names = ", ".join(c.key for c in self.causes) or "none"
@@ -515,18 +516,16 @@ class Diagnosis:
         return self.encoder_skew.to_dict() | {"held": self.baseline.calibration.values.get("encoder_skew", 0.0)}
 
     def skew_sentence(self):
-        """The encoder skew in words ("" without angle columns)."""
+        """The encoder skew in words, "" without angle columns
+        (:func:`~backlash_df.render.diagnosis.skew_sentence`)."""
         skew = self.encoder_skew
-        if skew is None:
-            return ""
-        low, high = (1e3 * value for value in skew.ci95)
-        if _skew_shown(skew, self.measurements):
-            return (f"The load encoder is read {1e3 * skew.value:.3g} ms (95 % CI {low:.3g} to {high:.3g} ms) later "
-                    f"than the motor encoder: the measured twist holds that time the load speed, removed before "
-                    f"any fit.")
-        return (f"No encoder skew shows ({1e3 * skew.value:.2g} ms, 95 % CI {low:.2g} to {high:.2g} ms: its interval "
-                f"holds zero, or its twist is below {100 * MIN_SKEW_SHARE:g} % of the measured twist's spread): the "
-                f"twist is taken as measured.")
+        return "" if skew is None else skew_sentence(skew, _skew_shown(skew, self.measurements), MIN_SKEW_SHARE)
+
+    def sentences(self):
+        """The lines ``backlash-df diagnose`` prints: the cause, each named value, what each model names,
+        :attr:`sentence`, the encoder skew, the validation fits, the warnings
+        (:func:`~backlash_df.render.diagnosis.diagnosis_sentences`)."""
+        return diagnosis_sentences(self)
 
     def plot(self, ax=None):
         """Measured against the k-step predictions (validation part) of the two-mass baseline and extended model,
@@ -565,72 +564,16 @@ class Diagnosis:
             Page title (default "Diagnosis of" and the record's source).
         rig_text : str
             The rig file's text, shown as it is (not shown when empty).
+
+        See Also
+        --------
+        backlash_df.render.diagnosis.diagnosis_report
         """
-        overlay = figure_html(self.plot().figure, "Validation part: measured speeds against the k-step predictions, "
-                                                  "before (baseline) and after (extended) the extension.")
-        residual_figures = []
-        for label, analysis in (("baseline", self.residuals_baseline), ("extended", self.residuals_extended)):
-            fig = analysis.plot(title=f"Residuals of the {label} model").figure
-            residual_figures.append(figure_html(
-                fig, f"{label}: residual over time, against theta_d and shaft torque, spectrum, "
-                     f"autocorrelation and cross-correlation with the motor torque (99 % band grey)."))
-        search = [[str(step), _effects_name(c), f"{c.mean_fit_percent:.2f}", f"{100 * c.gain:.1f}",
-                   f"{c.t_statistic:.1f}", _format_parameter(c.parameter), "yes" if c.accepted else "no"]
-                  for step, c in enumerate(self.candidates, start=1)]
-        search_table = table_html(["#", "model", "k-step fit % (mean)", "gain %", "t", "added parameter (95 % CI)",
-                                   "accepted"], search, text_columns=(1, 5, 6))
-        why = "".join(f"<li><b>{html.escape(_effects_name(c))}</b>: {html.escape(c.reason)}</li>"
-                      for c in self.candidates)
-        search_table += f"<p>Why each model was accepted or not (numbered as in the table):</p><ol>{why}</ol>"
-        speeds = list(self.candidates[0].fit_percent) if self.candidates else []
-        kinds = (("k-step", "fit_percent"), (f"{VALIDATION_HORIZON:g} s ahead", "ahead_fit_percent"),
-                 ("free run", "free_run_fit_percent"))
-        fits = [[str(step), *(f"{getattr(c, key)[name]:.2f}" for name in speeds for _, key in kinds)]
-                for step, c in enumerate(self.candidates, start=1)]
-        fit_table = table_html(["#", *(f"{name}: {kind}" for name in speeds for kind, _ in kinds)],
-                               fits, text_columns=())
-        parameter_rows = [[name, f"{p.nominal:.5g}", f"{_shown_value(p):.5g}", f"{p.stderr:.3g}",
-                           f"{p.ci95[0]:.5g} .. {p.ci95[1]:.5g}", f"{p.lower:.4g} .. {p.upper:.4g}", p.unit]
-                          for name, p in self.whole_record.parameters.items()]
-        parameters = table_html(["parameter", "start (rig file)", "fitted", "std. error", "95 % CI", "bounds", "unit"],
-                                parameter_rows, text_columns=(0, 6))
-        structures = self._structures_html()
-        warnings = "".join(f"<li>{html.escape(w)}</li>" for w in self.warnings)
-        summary = (f'<p class="summary"><b>Causes: {html.escape(self._cause_list())}.</b> '
-                   f"{html.escape(self.sentence)}</p>"
-                   + (f"<p><b>Warnings</b></p><ul>{warnings}</ul>" if warnings else "")
-                   + f"<p>Prediction mode: {html.escape(self.prediction_mode)}.</p>")
-        rig = [("Rig", f"<pre>{html.escape(rig_text)}</pre>")] if rig_text else []
-        return html_page(title or f"Diagnosis of {self.measurements.source}", [
-            ("", summary), *rig,
-            ("Measured against predicted", overlay),
-            ("Two-mass and rigid-body model", structures),
-            ("Forward selection and backward check (two-mass model)", search_table + f"<p>{html.escape(RULE)}</p>"),
-            ("Validation fit per speed (%) of each model searched, numbered as above", fit_table),
-            ("What the model gets wrong", "\n".join(residual_figures)),
-            ("Calibrated parameters of the extended model on the whole record (start = rig file value; effects start "
-             "at 0)", parameters),
-        ])
-
-    def _structures_html(self):
-        """The shaft's resolution, which stage names the causes, and both stages' causes and fits side by side."""
-        if self.rigid_body is None:
-            return ""
-        rows = []
-        for label, causes, stage in (("two-mass", self.two_mass_causes, self),
-                                     ("rigid body", self.rigid_body.causes, self.rigid_body)):
-            named = "; ".join(cause.summary() for cause in causes) or "none"
-            fits = " / ".join(f"{v:.2f}" for v in stage.extended.fit_percent.values())
-            ahead = " / ".join(f"{v:.2f}" for v in stage.extended.ahead_fit_percent.values())
-            rows.append([label, named, fits, ahead])
-        speeds = " / ".join(name.removesuffix("_speed") for name in self.extended.fit_percent) + " speed"
-        table = table_html(["model", "causes (95 % CI)", f"k-step fit %, {speeds}",
-                            f"{VALIDATION_HORIZON:g} s ahead fit %, {speeds}"], rows, text_columns=(0, 1))
-        skew = f"<p>{html.escape(self.skew_sentence())}</p>" if self.encoder_skew is not None else ""
-        return f"<p>{html.escape(_resolution_sentence(self.shaft, self.measurements))}</p>" + skew + table
-
-    def _cause_list(self):
-        return ", ".join(c.effect + (f" ({c.side} side)" if c.side else "") for c in self.causes) or "none"
+        residuals = (("baseline", self.residuals_baseline), ("extended", self.residuals_extended))
+        return diagnosis_report(self, self.plot().figure,
+                                {label: analysis.plot(title=f"Residuals of the {label} model").figure
+                                 for label, analysis in residuals},
+                                rule=RULE, horizon=VALIDATION_HORIZON, title=title, rig_text=rig_text)
 
 
 RULE = (f"an effect is added (forward selection, then backward elimination) if the validation RSS falls by at "
@@ -650,67 +593,6 @@ def _skew_shown(skew, measurements):
     speed = float(np.sqrt(np.mean(measurements.speeds[:, -1] ** 2)))
     return bool((low > 0.0 or high < 0.0)
                 and abs(skew.value) * speed >= MIN_SKEW_SHARE * float(np.std(measurements.twist)))
-
-
-def _effects_name(candidate):
-    """A candidate model by its effects ("rubber + torque_offset"; "none" for the baseline)."""
-    return " + ".join(candidate.effects) or "none"
-
-
-def _format_parameter(parameter):
-    """An added parameter in the report's search table: ``name = value (low .. high) unit``, the value as
-    :func:`_shown_value` prints it."""
-    if parameter is None:
-        return "-"
-    low, high = parameter.ci95
-    return f"{parameter.name} = {_shown_value(parameter):.4g} ({low:.4g} .. {high:.4g}) {parameter.unit}"
-
-
-#: A fitted value within this share of its own 95 % interval's half-width prints as 0 (:func:`parameter_resolution`).
-FAR_BELOW_INTERVAL = 1e-3
-#: The fit's resolution as a share of the range it allows (:func:`parameter_resolution`).
-FIT_RESOLUTION = 1e-8
-
-
-def parameter_resolution(parameter):
-    """The smallest magnitude of a fitted value the diagnosis report prints: below it the value prints as 0.
-
-    The rule, for the report's rendering only (the JSON, the objects and the terminal
-    keep every number as fitted): a fitted value prints as 0 where its magnitude is at
-    most
-
-    - :data:`FAR_BELOW_INTERVAL` (1e-3) times its own 95 % interval's half-width: the
-      data cannot tell it from 0, and the digits printed beside the interval would be
-      those of where the solver stopped, not of the data (a motor-side Coulomb friction
-      of 4.451e-10 N m, 95 % CI -0.3487 .. 0.3487 N m, prints as 0); or
-    - :data:`FIT_RESOLUTION` (1e-8) times the range the fit allows (its bounds' width):
-      the relative step at which the trust-region solver stops (scipy's
-      ``least_squares`` ``xtol``), the finest the fit resolves whatever the interval
-      (an actuator delay of 3.5e-12 s fitted within [0, 0.05] s prints as 0).
-
-    A value the rule keeps prints as fitted, to the digits the table shows.  The
-    interval and the standard error always print as computed.
-
-    Parameters
-    ----------
-    parameter : FitParameter
-
-    Returns
-    -------
-    float
-        The resolution, the parameter's unit; 0 where neither the interval nor the
-        bounds are finite.
-    """
-    low, high = parameter.ci95
-    half_width = 0.5 * (high - low)
-    width = parameter.upper - parameter.lower
-    return max(FAR_BELOW_INTERVAL * half_width if math.isfinite(half_width) else 0.0,
-               FIT_RESOLUTION * width if math.isfinite(width) else 0.0)
-
-
-def _shown_value(parameter):
-    """The parameter's value as the report prints it: 0.0 at or below :func:`parameter_resolution`."""
-    return 0.0 if abs(parameter.value) <= parameter_resolution(parameter) else float(parameter.value)
 
 
 def check_speed_units(measurements, rig):
@@ -1172,18 +1054,30 @@ _UNEXPLAINED = "the named causes leave much of the data unexplained"
 _WEAK_BASELINE = "the baseline explains too little"
 
 
+def _weak(baseline):
+    """Whether a baseline explains too little to name a cause: its k-step fit below :data:`BASELINE_MIN_FIT` %
+    on a speed."""
+    return not min(baseline.fit_percent.values()) >= BASELINE_MIN_FIT
+
+
+def _unexplained(extended):
+    """Whether an extended model leaves much of the data unexplained: its ahead fit below
+    :data:`EXTENDED_MIN_AHEAD_FIT` % on a speed."""
+    return not min(extended.ahead_fit_percent.values()) >= EXTENDED_MIN_AHEAD_FIT
+
+
 def _warnings(measurements, baseline, extended, whole, keys, structure="two_mass"):
     """Loading notes (decimation), a weak baseline or extended model, a short record, values of the whole-record
     calibration ``whole`` on a bound, unphysical intervals, initial states; for the rigid-body stage only what
     concerns its own values."""
     two_mass = structure == "two_mass"
     notes = list(measurements.notes) if two_mass else []
-    worst = min(baseline.fit_percent.values())
-    if not worst >= BASELINE_MIN_FIT:
+    if _weak(baseline):
+        worst = min(baseline.fit_percent.values())
         notes.append(f"{_WEAK_BASELINE} of the validation data (k-step fit {worst:.1f} % on a speed, "
                      f"below {BASELINE_MIN_FIT:g} %): no cause is named; check the rig file (inertias, stiffness, "
                      f"gear ratio, units) and the record")
-    elif keys and not min(extended.ahead_fit_percent.values()) >= EXTENDED_MIN_AHEAD_FIT:
+    elif keys and _unexplained(extended):
         name, fit = min(extended.ahead_fit_percent.items(), key=lambda item: item[1])
         notes.append(f"{_UNEXPLAINED}: with the named causes the model still predicts {name} {VALIDATION_HORIZON:g} s "
                      f"ahead only to {fit:.1f} % (below {EXTENDED_MIN_AHEAD_FIT:g} %); something outside the "
@@ -1234,20 +1128,6 @@ def _initial_state_notes(measurements, calibration):
     return notes
 
 
-def _resolution_sentence(shaft, measurements):
-    """Which stage names the causes, and why (the shaft's mode against the band the record resolves)."""
-    mode, band = f"{shaft.mode_frequency:.3g} Hz", f"{shaft.resolved_frequency:.3g} Hz"
-    if shaft.resolved:
-        return (f"The record resolves the shaft's mode ({mode} from the rig file, inside the {band} band in which "
-                f"the motor speed rises above its noise): the causes are named from the two-mass model, the "
-                f"rigid-body model is reported beside it.")
-    start = (" (without angle columns its segments start on the rigid body's state)"
-             if getattr(measurements, "twist", None) is None else "")
-    return (f"The record does not resolve the shaft's mode ({mode} from the rig file, above the {band} up to which "
-            f"the motor speed rises above its noise): the drive moves as one rigid body here, so the causes are "
-            f"named from the rigid-body model, with the two-mass model{start} as the cross-check.")
-
-
 def stage_disagreements(answer, other):
     """The effects two stages both name with disjoint 95 % intervals.
 
@@ -1279,48 +1159,8 @@ def stage_disagreements(answer, other):
             found.append({"effect": name, answer.structure: {"value": mine.value, "ci95": list(mine.ci95),
                                                              "unit": mine.unit},
                           other.structure: summed})
-            found[-1]["note"] = _disagreement_note(found[-1])
+            found[-1]["note"] = disagreement_note(found[-1])
     return found
-
-
-def _disagreement_note(disagreement):
-    name, rigid, two_mass = disagreement["effect"], disagreement["rigid_body"], disagreement["two_mass"]
-    return (f"{name}: the rigid-body model gives {rigid['value']:.4g} ({rigid['ci95'][0]:.4g} .. {rigid['ci95'][1]:.4g}) "
-            f"{rigid['unit']}, the two-mass model {two_mass['value']:.4g} ({two_mass['ci95'][0]:.4g} .. "
-            f"{two_mass['ci95'][1]:.4g}) {two_mass['unit']}: they disagree beyond their 95 % intervals, so no value "
-            f"is named; the record does not determine it")
-
-
-def _sentence(answer, causes, shaft, measurements):
-    """The answer in sentences: which stage names the causes (where it is the rigid body), each cause's action,
-    absorbed and undetermined values, what is left unexplained, and the validation fit."""
-    baseline, extended, warnings, rigid = answer.baseline, answer.extended, answer.warnings, \
-        answer.structure == "rigid_body"
-    gain = (f" Validation fit (mean over the speeds{', rigid-body model' if rigid else ''}): k-step "
-            f"{baseline.mean_fit_percent:.1f} % -> {extended.mean_fit_percent:.1f} %, {VALIDATION_HORIZON:g} s ahead "
-            f"{baseline.mean_ahead_fit_percent:.1f} % -> {extended.mean_ahead_fit_percent:.1f} %.")
-    sentences = [_resolution_sentence(shaft, measurements)] if rigid else []
-    if not causes:
-        if any(warning.startswith(_WEAK_BASELINE) for warning in warnings):
-            sentences.append("No cause named: the nominal model explains too little of the data to attribute the rest.")
-            return " ".join(sentences) + gain
-        values = answer.whole_record.values
-        sentences.append("No effect of the catalogue improves the prediction of the validation part enough to be "
-                         "named: the nominal model is the best supported, calibrated "
-                         + ", ".join(f"{name} = {values[name]:.4g}" for name in
-                                     (RIGID_PARAMETERS if rigid else PLANT_PARAMETERS))
-                         + "; an effect smaller than this record's noise and length can show may still be present.")
-        return " ".join(sentences) + gain
-    for cause in causes:
-        sentences.append(cause.describe())
-    if answer.absorbed:
-        pairs = "; ".join(f"{kept} absorbs {dropped}" for kept, dropped, _ in answer.absorbed)
-        sentences.append(f"Not separated from another effect by this record ({pairs}; see the warnings): the "
-                         f"named value holds both.")
-    if any(warning.startswith(_UNEXPLAINED) for warning in warnings):
-        sentences.append("These causes are the catalogue's best approximation, not the whole explanation: "
-                         "the extended model still misses much of the data (see the warnings).")
-    return " ".join(sentences) + gain
 
 
 def _select(search, keys):
@@ -1328,7 +1168,7 @@ def _select(search, keys):
     backward elimination and the free-run refinement, unless the baseline explains too little; a :class:`Stage`."""
     baseline = search.settle_skew(search.fit(()))
     tried = [dataclasses.replace(baseline, reason="the nominal structure (reference)")]
-    weak = not min(baseline.fit_percent.values()) >= BASELINE_MIN_FIT
+    weak = _weak(baseline)
     search.baseline = baseline
     chosen, order = (None, []) if weak else _backward(search, *_forward(search, baseline, keys, tried), tried)
     base_final = search.polish(baseline)
@@ -1449,7 +1289,8 @@ def _diagnose(measurements, rig, candidates, estimation_fraction, transient_frac
                                  p.load_speed, p.names)
 
     return Diagnosis(
-        causes=causes, sentence=_sentence(answer, causes, shaft, measurements), baseline=two_mass.baseline,
+        causes=causes, sentence=diagnosis_sentence(answer, causes, shaft, measurements, VALIDATION_HORIZON),
+        baseline=two_mass.baseline,
         extended=two_mass.extended, candidates=two_mass.candidates, warnings=warnings,
         residuals_baseline=analysis(two_mass.baseline), residuals_extended=analysis(two_mass.extended),
         measurements=measurements, rig=rig, estimation=estimation, validation=validation, structure=answer.structure,

@@ -65,7 +65,7 @@ import numpy as np
 
 from .._json import json_ready
 from ..friction import friction
-from ..models import LAW_CODES, PHASE_PLANE, RUBBER
+from .._laws import LAW_CODES, PHASE_PLANE, RUBBER
 from ..plotting import ResultPlot, axes_or_new, legend_beside
 from ._kernels import (BREAKAWAY_LOAD, BREAKAWAY_MOTOR, COULOMB_LOAD, COULOMB_MOTOR, DELAY, HALF_GAP, KERNEL_VALUES,
                        LOAD_INERTIA, MOTOR_INERTIA, RIGID_BREAKAWAY, RIGID_COULOMB, RIGID_INERTIA, RIGID_OFFSET,

@@ -8,7 +8,7 @@ in its own unit (a twist in rad, a motor-speed kick in rad/s).
 import math
 
 from ..disturbances import kind_words
-from ..report import roundoff_zero, signed_percent, text_table
+from .html import roundoff_zero, signed_percent, text_table
 
 __all__ = ["reason_text", "verdict_rows", "orbit_rows", "VERDICT_NOTE", "ORBIT_NOTE"]
 
@@ -187,7 +187,7 @@ def orbit_rows(verdicts):
     The DF error compares the orbit with the predicted cycle of the same
     stability nearest in amplitude; the DF columns are left out where no orbit
     has such a cycle.  The bias is the orbit's mean of theta_d, round-off
-    printed as 0 (:func:`~backlash_df.report.roundoff_zero`): 0 by symmetry
+    printed as 0 (:func:`~backlash_df.render.html.roundoff_zero`): 0 by symmetry
     without a load torque.
 
     Returns

@@ -25,7 +25,7 @@ So the jump of the phase plane law at theta*, and the dead-zone's jump at
 ``|theta_d| = alpha``, are crossed exactly instead of being smeared or
 chattered over.  Contact of the phase plane law, once made at theta*, holds
 until the release condition of Theorem 1, as in the paper's derivation of (20)
-(:func:`~backlash_df.models.held_mode`): read as a memoryless function, (20)
+(``backlash_df._laws.held_mode``): read as a memoryless function, (20)
 lets a strongly damped contact slide along the jump at theta* with an event
 every few nanoseconds.
 
@@ -39,16 +39,16 @@ Two kernels share these rules:
   in time over a step (through their samples at 0, dt/2, dt).  So one step is a
   product with ``exp(M dt)`` of an augmented state matrix, exact between events
   whatever the step and stable for any ``c / k``; the bisection walks a ladder
-  of ``exp(M dt 2^-j)`` (:func:`~backlash_df.system.exp_ladder`).  Only a dead
+  of ``exp(M dt 2^-j)`` (``_switching.exp_ladder``).  Only a dead
   time (its interpolation between samples) or inputs that are not quadratic over
   a step leave an error depending on dt.
 * **Classical RK4** otherwise (the rubber band (36), elasto-backlash, friction),
   every stage of an unsplit step on an input sample; the exact model's theta_b
-  by the exponential step :func:`~backlash_df.models.exact_step`.
+  by the exponential step ``_laws.exact_step``.
 """
 
-from .cycles import MeasuredCycle, confirm_across_starts, measure_limit_cycle, upward_crossings
-from .linear import MAX_STEPS, SimulationResult, default_step, longest_run, simulate_linear, simulate_two_mass
+from .cycles import MeasuredCycle, measure_limit_cycle
+from .linear import MAX_STEPS, SimulationResult, default_step, simulate_linear, simulate_two_mass
 from .rig import initial_state, simulate_rig, simulated_limit_cycle
 
 __all__ = [
@@ -57,11 +57,8 @@ __all__ = [
     "simulate_two_mass",
     "default_step",
     "MAX_STEPS",
-    "longest_run",
     "MeasuredCycle",
     "measure_limit_cycle",
-    "confirm_across_starts",
-    "upward_crossings",
     "simulate_rig",
     "simulated_limit_cycle",
     "initial_state",

@@ -7,14 +7,14 @@ by bisection (:mod:`backlash_df.simulation` explains both):
 
 * :func:`run_rk4`, classical RK4 for any law and for friction;
 * :func:`run_exact`, exact discretisation of a loop that is affine inside every mode,
-  stepping with the ladders ``exp(M dt 2^-j)`` of :func:`backlash_df.system.exp_ladder`.
+  stepping with the ladders ``exp(M dt 2^-j)`` of ``_switching.exp_ladder``.
 
 With a torque limit (:class:`~backlash_df.system.Command`) a run carries a second
-mode, the command's (:data:`~backlash_df.system.COMMAND_MODES`: linear, saturated,
+mode, the command's (``COMMAND_MODES`` of ``backlash_df._switching``: linear, saturated,
 integrator clamped, sliding on the limit), switched and located like the backlash's.
-:func:`run_rk4` takes the command as ``cmd = (column, row, error, limit, integrator)``,
-:func:`run_exact` as ``command = (u_row, e_row, rates, limit, clamps)`` of
-:func:`~backlash_df.system.command_matrices`; both ``None`` without a limit: numba then
+:func:`run_rk4` takes the command as ``cmd``, a :class:`CommandRows`,
+:func:`run_exact` as ``command``, an :class:`AugmentedCommand` of
+``_switching.command_matrices``; both ``None`` without a limit: numba then
 compiles the kernel without the command's code (it prunes the branches on ``is None``
 before typing): 1 s of the exact kernel's first compile, 2.5 s of the RK4 kernel's.
 """
@@ -23,20 +23,47 @@ import math
 
 import numpy as np
 
+from typing import NamedTuple
+
 from .._jit import borrowing as _borrowing
 from .._jit import inline as _inline
 from .._jit import jit as _jit
 from .._jit import jit_unchecked as _jit_unchecked
+from .._laws import DAMPING, EXACT, HALF_GAP, RUBBER_THICKNESS, STIFFNESS, exact_step, held_mode, mode_torque
+from .._switching import (CHAIN, CHAINS, CURVATURE, RATE, THETA_B, VALUE, command_index, command_mode_of,
+                          initial_command_mode)
 from ..friction import friction_kernel
-from ..models import EXACT, exact_step, held_mode, mode_torque
-from ..system import command_index, command_mode_of, initial_command_mode
 
-__all__ = ["run_rk4", "run_exact", "LEVELS", "BLOW_UP"]
+__all__ = ["CommandRows", "AugmentedCommand", "run_rk4", "run_exact", "LEVELS", "BLOW_UP"]
 
 _MAX_EVENTS_PER_STEP = 32
 _BISECTIONS = 52
+_COMMAND_ROW = 5  # the row of the RK4 kernel's work array that the command's rate uses (rows 0-3: the stages)
 #: Dyadic sub-steps dt 2^-j, j < LEVELS, of the exact-discretisation kernel.
 LEVELS = 42
+
+
+
+
+class CommandRows(NamedTuple):
+    """A :class:`~backlash_df.system.Command` as the RK4 kernel takes it: rows over ``[z, w, u_d]``."""
+
+    column: np.ndarray
+    row: np.ndarray
+    error: np.ndarray
+    limit: float
+    integrator: int
+
+
+class AugmentedCommand(NamedTuple):
+    """A torque limit as the exact kernel takes it: ``_switching.command_matrices``' rows over the
+    augmented state, the limit (N m) and whether the loop clamps an integrator."""
+
+    u_row: np.ndarray
+    e_row: np.ndarray
+    rates: np.ndarray
+    limit: float
+    clamps: bool
 
 
 # --------------------------------------------------------------------------- RK4 kernel (any law)
@@ -84,11 +111,11 @@ def _history(hist, position, last, col):
 def _torque(law, mode, x, v, p):
     if law == EXACT:
         if mode > 0:
-            return p[0] * (x - p[2]) + p[1] * v
+            return p[STIFFNESS] * (x - p[HALF_GAP]) + p[DAMPING] * v
         if mode < 0:
-            return p[0] * (x + p[2]) + p[1] * v
+            return p[STIFFNESS] * (x + p[HALF_GAP]) + p[DAMPING] * v
         return 0.0
-    return mode_torque(law, mode, x, v, p[0], p[1], p[2], p[3])
+    return mode_torque(law, mode, x, v, p[STIFFNESS], p[DAMPING], p[HALF_GAP], p[RUBBER_THICKNESS])
 
 
 @_jit_unchecked
@@ -219,9 +246,9 @@ def _command_mode_rk4(mode, cmode, z, t, sys, cmd, law, p, W, hist, dt, work, wv
     if side == 0:
         return 0
     _stage(z, t, mode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, (f_level, f_eps, f_break, f_ws), delay,
-           W, hist, dt, wvals, dvals, work, np.int64(5))
+           W, hist, dt, wvals, dvals, work, np.int64(_COMMAND_ROW))
     _command_field(z, 2 * side if integrator >= 0 else side, column, row, limit, integrator, wvals, dvals, work,
-                   np.int64(5))  # not a literal 5: one compile of _command_field (_jit docs)
+                   np.int64(_COMMAND_ROW))  # not a literal: one compile of _command_field (_jit docs)
     clamped = 0.0
     for j in range(z.shape[0]):
         clamped += row[j] * work[5, j]
@@ -263,10 +290,10 @@ def _xv(z, c_x, c_v):
 def _mode_of(law, p, mode, x, v, theta_b):
     """Mode at a state reached in ``mode``: the law's region, or the exact model's contact."""
     if law != EXACT:
-        return held_mode(law, mode, x, v, p[0], p[1], p[2], p[3])
-    if theta_b >= p[2] and p[0] * (x - p[2]) + p[1] * v >= 0.0:
+        return held_mode(law, mode, x, v, p[STIFFNESS], p[DAMPING], p[HALF_GAP], p[RUBBER_THICKNESS])
+    if theta_b >= p[HALF_GAP] and p[STIFFNESS] * (x - p[HALF_GAP]) + p[DAMPING] * v >= 0.0:
         return 1
-    if theta_b <= -p[2] and p[0] * (x + p[2]) + p[1] * v <= 0.0:
+    if theta_b <= -p[HALF_GAP] and p[STIFFNESS] * (x + p[HALF_GAP]) + p[DAMPING] * v <= 0.0:
         return -1
     return 0
 
@@ -275,12 +302,12 @@ def _mode_of(law, p, mode, x, v, theta_b):
 def _must_leave(law, p, mode, x, v, theta_b):
     """True if a state reached with ``mode`` frozen lies outside that mode (release, contact, or region)."""
     if law != EXACT:
-        return held_mode(law, mode, x, v, p[0], p[1], p[2], p[3]) != mode
+        return held_mode(law, mode, x, v, p[STIFFNESS], p[DAMPING], p[HALF_GAP], p[RUBBER_THICKNESS]) != mode
     if mode > 0:
-        return p[0] * (x - p[2]) + p[1] * v < 0.0
+        return p[STIFFNESS] * (x - p[HALF_GAP]) + p[DAMPING] * v < 0.0
     if mode < 0:
-        return p[0] * (x + p[2]) + p[1] * v > 0.0
-    return abs(theta_b) >= p[2]
+        return p[STIFFNESS] * (x + p[HALF_GAP]) + p[DAMPING] * v > 0.0
+    return abs(theta_b) >= p[HALF_GAP]
 
 
 @_borrowing
@@ -315,9 +342,9 @@ def _backlash_after(law, p, mode, theta_b, x0, v0, x1, v1, h):
     if law != EXACT:
         return theta_b, _must_leave(law, p, mode, x1, v1, theta_b)
     if mode != 0:
-        return p[2] if mode > 0 else -p[2], _must_leave(law, p, mode, x1, v1, theta_b)
-    theta_new = exact_step(theta_b, x0, v0, x1, v1, h, p[0], p[1], p[2])
-    return theta_new, abs(theta_new) >= p[2]
+        return p[HALF_GAP] if mode > 0 else -p[HALF_GAP], _must_leave(law, p, mode, x1, v1, theta_b)
+    theta_new = exact_step(theta_b, x0, v0, x1, v1, h, p[STIFFNESS], p[DAMPING], p[HALF_GAP])
+    return theta_new, abs(theta_new) >= p[HALF_GAP]
 
 
 @_inline
@@ -420,8 +447,8 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
     event count of the steps taken.
     """
     n = z0.shape[0]
-    d_rows = sys[5]
-    work = np.empty((6, n))
+    d_rows = sys.d
+    work = np.empty((_COMMAND_ROW + 1, n))
     wvals = np.zeros(W.shape[1])
     dvals = np.zeros(d_rows.shape[0])
     ahead = np.empty(W.shape[1] + d_rows.shape[0])
@@ -432,14 +459,14 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
     mode = mode0
     cmode = cmode0
     if first == 0:
-        x, v = _xv(z, sys[3], sys[4])
+        x, v = _xv(z, sys.c_x, sys.c_v)
         mode = _mode_of(law, p, np.int64(0), x, v, theta_b)
         cmode = 0
         _record(0, z, n, theta_b, mode, cmode, _torque(law, mode, x, v, p), d_rows, Z, T, THETA, MODES, CMODES, hist)
         if cmd is not None:  # the command mode of the initial state
-            _signals(0.0, sys[7], W, hist, dt, wvals, dvals)
-            cmode = initial_command_mode(_row_value(cmd[1], z, wvals, dvals), _row_value(cmd[2], z, wvals, dvals),
-                                         cmd[3], cmd[4] >= 0)
+            _signals(0.0, sys.delay, W, hist, dt, wvals, dvals)
+            cmode = initial_command_mode(_row_value(cmd.row, z, wvals, dvals), _row_value(cmd.error, z, wvals, dvals),
+                                         cmd.limit, cmd.integrator >= 0)
     events = 0
     tmp = np.empty(n)
     # unpacked once: a tuple of arrays passed on, even to an inlined helper, is reference-counted member by member
@@ -479,7 +506,7 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
                                     dvals, ahead, z_try)
             x, v = _xv(z_try, c_x, c_v)
             if law == EXACT and mode == 0:
-                theta_try = p[2] if theta_try > 0.0 else -p[2]
+                theta_try = p[HALF_GAP] if theta_try > 0.0 else -p[HALF_GAP]
             new_mode = _mode_of(law, p, mode, x, v, theta_try)
             new_cmode = 0 if cmd is None else _command_mode_rk4(new_mode, cmode, z_try, t + h, sys, cmd, law, p, W,
                                                                 hist, dt, work, wvals, dvals, ahead)
@@ -531,9 +558,9 @@ def _apply(ladders, which, level, q, out, rows):
 @_jit
 def _set_inputs(q, base, f0, fm, f1, dt):
     """Value, slope and curvature of the quadratic through samples at 0, dt/2, dt."""
-    q[base] = f0
-    q[base + 1] = (4.0 * fm - 3.0 * f0 - f1) / dt
-    q[base + 2] = 4.0 * (f0 - 2.0 * fm + f1) / (dt * dt)
+    q[base + VALUE] = f0
+    q[base + RATE] = (4.0 * fm - 3.0 * f0 - f1) / dt
+    q[base + CURVATURE] = 4.0 * (f0 - 2.0 * fm + f1) / (dt * dt)
 
 
 @_jit
@@ -581,7 +608,7 @@ def _command_rates(q, e_row, rates, b, s):
 @_jit
 def _command_mode_exact(mode, cmode, q, u_row, e_row, rates, limit, clamps):
     """The command mode of augmented state ``q`` reached in ``cmode``; ``u_row, e_row, rates`` those
-    of :func:`~backlash_df.system.command_matrices`."""
+    of ``_switching.command_matrices``."""
     u = _dot(u_row, q)
     side = _command_side(cmode, u, limit)
     if side == 0:
@@ -595,11 +622,12 @@ def _leaves(law, p, mode, cmode, q, c_x, c_v, command):
     """True if ``q``, reached with both modes frozen, lies outside the backlash mode or the command mode."""
     n = c_x.shape[0]
     x, v = _xv(q, c_x, c_v)
-    if _must_leave(law, p, mode, x, v, q[n]):
+    if _must_leave(law, p, mode, x, v, q[n + THETA_B]):
         return True
     if command is None:
         return False
-    return _command_mode_exact(mode, cmode, q, *command) != cmode
+    return _command_mode_exact(mode, cmode, q, command.u_row, command.e_row, command.rates, command.limit,
+                               command.clamps) != cmode
 
 
 @_jit
@@ -635,12 +663,12 @@ def _set_step_inputs(q, i, W, hist, delay, dt, n):
     row = i * rows_per_step
     for j in range(W.shape[1]):
         f0, fm, f1 = _lerp(W, row, j), _lerp(W, row + 0.5 * rows_per_step, j), _lerp(W, row + rows_per_step, j)
-        _set_inputs(q, n + 2 + 3 * j, f0, fm, f1, dt)
+        _set_inputs(q, n + CHAINS + CHAIN * j, f0, fm, f1, dt)
     if delay > 0.0:
         row = i - delay / dt
         for k in range(hist.shape[1]):
             f0, fm, f1 = _history(hist, row, i, k), _history(hist, row + 0.5, i, k), _history(hist, row + 1.0, i, k)
-            _set_inputs(q, n + 2 + 3 * (W.shape[1] + k), f0, fm, f1, dt)
+            _set_inputs(q, n + CHAINS + CHAIN * (W.shape[1] + k), f0, fm, f1, dt)
 
 
 @_jit
@@ -656,7 +684,7 @@ def _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, command, q_new, q_l
     n, size = c_x.shape[0], q.shape[0]
     # z and theta_b only: the other entries are constant or reset every step (all of them when the
     # command, which reads the inputs and delayed signals, can switch)
-    first_rows = n + 1 if command is None else size
+    first_rows = n + THETA_B + 1 if command is None else size
     left = 1.0  # fraction of the step still to go
     events = 0
     for _ in range(_MAX_EVENTS_PER_STEP):
@@ -674,10 +702,11 @@ def _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, command, q_new, q_l
             _copy_vector(q_new, q_hi, size)
         h = _locate(ladders, which, q, left, law, p, mode, cmode, c_x, c_v, command, q_lo, trial, q_hi)
         if law == EXACT and mode == 0:
-            q_hi[n] = p[2] if q_hi[n] > 0.0 else -p[2]
+            q_hi[n + THETA_B] = p[HALF_GAP] if q_hi[n + THETA_B] > 0.0 else -p[HALF_GAP]
         x, v = _xv(q_hi, c_x, c_v)
-        new_mode = _mode_of(law, p, mode, x, v, q_hi[n])
-        new_cmode = 0 if command is None else _command_mode_exact(new_mode, cmode, q_hi, *command)
+        new_mode = _mode_of(law, p, mode, x, v, q_hi[n + THETA_B])
+        new_cmode = 0 if command is None else _command_mode_exact(new_mode, cmode, q_hi, command.u_row, command.e_row,
+                                                                  command.rates, command.limit, command.clamps)
         if new_mode == mode and new_cmode == cmode:  # grazing or round-off at a boundary: no real switch
             break
         _copy_vector(q_hi, q, size)
@@ -695,11 +724,11 @@ def _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, command, q_new, q_l
 @_jit
 def run_exact(ladders, command, law, p, W, q, delay, d_rows, c_x, c_v, dt, n_steps, Z, T, THETA, MODES, CMODES, hist,
               first, mode0, cmode0):
-    """Exact-discretisation run on the augmented state ``q`` of :func:`~backlash_df.system.mode_matrices`.
+    """Exact-discretisation run on the augmented state ``q`` of ``_switching.mode_matrices``.
 
-    ``ladders`` holds :func:`~backlash_df.system.exp_ladder` of the left-contact,
+    ``ladders`` holds ``_switching.exp_ladder`` of the left-contact,
     free and right-contact matrices (each by command mode with a limit,
-    :func:`~backlash_df.system.command_matrices`, whose rows ``u_row, e_row, rates``
+    ``_switching.command_matrices``, whose rows ``u_row, e_row, rates``
     it switches on; ``command`` holds them, or is None without a limit).  ``W`` is None
     where neither an input varies nor a signal is delayed.  The run goes
     from ``q`` at sample ``first`` (0, the modes
@@ -714,13 +743,14 @@ def run_exact(ladders, command, law, p, W, q, delay, d_rows, c_x, c_v, dt, n_ste
     cmode = cmode0
     if first == 0:
         x, v = _xv(q, c_x, c_v)
-        mode = _mode_of(law, p, np.int64(0), x, v, q[n])
+        mode = _mode_of(law, p, np.int64(0), x, v, q[n + THETA_B])
         cmode = 0
     events = 0
-    first_rows = n + 1 if command is None else size  # the rows _step_exactly advances over a whole step
+    first_rows = n + THETA_B + 1 if command is None else size  # the rows _step_exactly advances over a whole step
     for i in range(first, n_steps + 1):
         x, v = _xv(q, c_x, c_v)
-        _record(i, q, n, q[n], mode, cmode, _torque(law, mode, x, v, p), d_rows, Z, T, THETA, MODES, CMODES, hist)
+        _record(i, q, n, q[n + THETA_B], mode, cmode, _torque(law, mode, x, v, p), d_rows, Z, T, THETA, MODES, CMODES,
+                hist)
         if i == n_steps or _diverged(i, q, n, Z, T, THETA, MODES, CMODES):
             break
         if W is not None:
@@ -733,7 +763,7 @@ def run_exact(ladders, command, law, p, W, q, delay, d_rows, c_x, c_v, dt, n_ste
         # without calls (whose arrays numba does not reference-count)
         _apply(ladders, _ladder_of(ladders.shape[0], mode, cmode), 0, q, q_new, first_rows)
         x, v = _xv(q_new, c_x, c_v)
-        stays = not _must_leave(law, p, mode, x, v, q_new[n])
+        stays = not _must_leave(law, p, mode, x, v, q_new[n + THETA_B])
         if stays and command is not None:
             u_row, e_row, rates, limit, clamps = command
             u = _dot(u_row, q_new)

@@ -7,10 +7,9 @@ import math
 import numpy as np
 
 from .._json import json_ready
-from ..report import resolved
+from ..render.html import resolved
 
-__all__ = ["MeasuredCycle", "measure_limit_cycle", "confirm_across_starts", "motion_trend", "free_flights",
-           "upward_crossings", "DYING", "TREND_WINDOWS", "BIAS_RESOLUTION"]
+__all__ = ["MeasuredCycle", "measure_limit_cycle", "BIAS_RESOLUTION"]
 
 #: The share of a measured cycle's amplitude below which its bias is not resolved: the text prints 0.
 #: The bias is the mean of theta_d over the measured periods of a run taken as periodic once its

@@ -12,14 +12,14 @@ import math
 import numpy as np
 
 from .._json import json_ready
-from ..models import (DAMPED_DEAD_ZONE, DEAD_ZONE, EXACT, PHASE_PLANE, REVISED_DEAD_ZONE, RUBBER, BacklashModel,
-                      make_model)
+from .._laws import DAMPED_DEAD_ZONE, DEAD_ZONE, EXACT, PHASE_PLANE, REVISED_DEAD_ZONE, RUBBER
+from .._switching import THETA_B, UNIT, command_matrices, exp_ladder, mode_matrices
+from ..models import BacklashModel, make_model
 from ..plotting import ResultPlot, axes_or_new
-from ..system import closed_loop_matrix, command_matrices, exp_ladder, mode_matrices, two_mass_system
-from ._kernels import LEVELS, run_exact, run_rk4
+from ..system import closed_loop_matrix, two_mass_system
+from ._kernels import LEVELS, AugmentedCommand, CommandRows, run_exact, run_rk4
 
-__all__ = ["SimulationResult", "simulate_linear", "simulate_two_mass", "timed_inputs", "default_step", "MAX_STEPS",
-           "longest_run"]
+__all__ = ["SimulationResult", "simulate_linear", "simulate_two_mass", "timed_inputs", "default_step", "MAX_STEPS"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -50,7 +50,7 @@ class SimulationResult:
         With a torque limit: the torque command ``clip(u, -limit, limit)`` at each sample (N m).
     command_mode : ndarray or None
         With a torque limit: the command's mode at each sample
-        (:data:`~backlash_df.system.COMMAND_MODES`: 0 linear, +-1 saturated,
+        (``_switching.COMMAND_MODES``: 0 linear, +-1 saturated,
         +-2 the integrator clamped, +-3 sliding on the limit).
     """
 
@@ -190,12 +190,12 @@ def _simulate_exactly(system, model, w, dt, n_steps, outputs, start, first):
     if system.command is not None:
         per_mode, u_row, e_row, rates = command_matrices(system, matrices, varying, constant)
         matrices = per_mode.reshape(-1, size, size)
-        command = (u_row, e_row, rates, float(system.command.limit), system.command.integrator >= 0)
+        command = AugmentedCommand(u_row, e_row, rates, float(system.command.limit), system.command.integrator >= 0)
     ladders = np.stack([exp_ladder(m_aug, dt, LEVELS) for m_aug in matrices])
     if first == 0:
         n = system.A.shape[0]
         q = np.zeros(size)
-        q[:n], q[n], q[n + 1] = start.state[:n], start.state[n], 1.0
+        q[:n], q[n + THETA_B], q[n + UNIT] = start.state[:n], start.state[n], 1.0  # start.state: [z, theta_b]
     else:
         q = start.state.copy()
     # None: nothing varies over a step, and the kernel is compiled without the inputs' code
@@ -219,12 +219,12 @@ def _law_params(model):
 
 
 def _command_arrays(system):
-    """The command as the RK4 kernel takes it: ``(column, row, error, limit, integrator)``, None without a limit
+    """The command as the RK4 kernel takes it (a ``_kernels.CommandRows``), None without a limit
     (the kernel then compiled without the command's code)."""
     command = system.command
     if command is None:
         return None
-    return command.column, command.row, command.error, float(command.limit), int(command.integrator)
+    return CommandRows(command.column, command.row, command.error, float(command.limit), int(command.integrator))
 
 
 def _command_trace(system, time, states, w_grid):

@@ -1,7 +1,9 @@
 """What users read: the pieces of the self-contained HTML reports, and number formats.
 
 Reports have their figures inline and no external files or scripts; every
-result's ``report_html(title="", rig_text="")`` builds its page from these.
+result's ``report_html(title="", rig_text="")`` builds its page from these (through
+the other modules of :mod:`backlash_df.render`).  The module imports nothing of the
+package: the floor under every module that writes a number for a person.
 """
 
 import base64
@@ -9,8 +11,9 @@ import html
 import io
 import math
 
-__all__ = ["figure_png", "figure_bytes", "FIGURE_FORMATS", "figure_html", "table_html", "html_page", "signed_percent",
-           "ROUNDOFF", "roundoff_zero", "resolved", "below_text", "bias_text", "text_table", "number_cell"]
+__all__ = ["figure_png", "figure_bytes", "FIGURE_FORMATS", "figure_html", "table_html", "html_page", "rig_sections",
+           "signed_percent", "ROUNDOFF", "roundoff_zero", "resolved", "below_text", "bias_text", "text_table",
+           "number_cell"]
 
 #: Relative size below which a computed value is round-off: printed as 0 (the JSON keeps the value).
 ROUNDOFF = 1e-12
@@ -135,6 +138,11 @@ def html_page(title, sections):
         f"<title>{html.escape(title)}</title><style>{_STYLE}</style></head>\n"
         f"<body><h1>{html.escape(title)}</h1>\n" + "\n".join(parts) + "\n</body></html>\n"
     )
+
+
+def rig_sections(rig_text):
+    """A report's "Rig" section, the rig file's text as it is: ``[("Rig", html)]``, none without a text."""
+    return [("Rig", f"<pre>{html.escape(rig_text)}</pre>")] if rig_text else []
 
 
 def signed_percent(value):
