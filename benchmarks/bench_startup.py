@@ -46,6 +46,8 @@ for _ in range({repeat}):
     best = min(best, time.perf_counter() - start)
 print(best)
 """
+#: What ``backlash-df predict`` imports before it computes: the command line and the stages it runs.
+PREDICT_IMPORTS = "import backlash_df.cli, backlash_df.cli.predict, backlash_df.analysis"
 #: The floor of a program built on numba: one trivial kernel, cached beside a script of its own.
 NUMBA_FLOOR = """
 import numba
@@ -96,10 +98,12 @@ def main():
     python = [sys.executable, "-c"]
     floor, _ = wall(python + ["import numpy"], repeat=5)
     ours, _ = wall(python + ["import backlash_df"], repeat=5)
-    print("1. import (fresh interpreter, best of 5)")
+    stages, _ = wall(python + [PREDICT_IMPORTS], repeat=5)
+    print("1. import (fresh interpreter, best of 5; the package's names load on first use)")
     print(f"   python -c 'import numpy'         {floor:6.2f} s")
     print(f"   python -c 'import backlash_df'   {ours:6.2f} s   {verdict(ours, 1.0)}")
     print(f"   -X importtime total of backlash_df {importtime_total():6.2f} s")
+    print(f"   what predict imports (cli, analysis) {stages:6.2f} s   {verdict(stages, 1.0)}")
     predict = CLI + ["predict", RIG]
     with tempfile.TemporaryDirectory(prefix="numba-floor-") as floor_dir:
         script = Path(floor_dir) / "floor.py"
