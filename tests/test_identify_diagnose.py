@@ -2,6 +2,7 @@
 
 import dataclasses
 import json
+import re
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -43,6 +44,8 @@ def test_hidden_effects_are_named_with_intervals(rig, effects, seed, threads):
     record = synthesize(rig, dict.fromkeys(effects), seed=seed, duration=2.0)
     result = diagnose(record.measurements, rig, executor=threads)
     assert _keys(result) == set(effects)
+    reasons = [candidate.reason for candidate in result.candidates]  # issue 49: no round-off printed as a value
+    assert not any(re.search(r"\de-[1-9]\d |-0\.0 %", reason) for reason in reasons), reasons  # 4.45e-10 N m
     if not effects:
         assert result.cause == "none" and result.extended.effects == ()
         return

@@ -67,3 +67,4 @@ def test_a_value_below_a_bound_reads_below_it(value, text):
     assert below_text(value, 2.0) == text
     if value < 2.0:
         assert float(text) < 2.0
+

@@ -94,9 +94,9 @@ import numpy as np
 from .._json import json_ready
 from ..plotting import ResultPlot, axes_or_new, legend_beside
 from ..render.diagnosis import (cause_sentence, cause_summary, diagnosis_report, diagnosis_sentence,
-                                diagnosis_sentences, disagreement_note, prediction_mode_text, skew_sentence,
-                                value_text)
-from ..render.html import below_text
+                                diagnosis_sentences, disagreement_note, prediction_mode_text, shown_value,
+                                skew_sentence, value_text)
+from ..render.html import below_text, percent_text
 from .calibrate import calibrate, refine, single_threaded_blas
 from .effects import COULOMB_GRID, EFFECT_NAMES, STRIBECK_GRID, get_effect, peak_speed, smoothing_speeds
 from .predictors import DEFAULT_HORIZON, PLANT_PARAMETERS, RIGID_PARAMETERS, predict, segment_bounds
@@ -730,7 +730,8 @@ class _Search:
             failures.append(_NULL["actuator_delay"])
         torque = self.effect_torque(effect, value)
         if torque is not None and not torque >= MIN_TORQUE_SHARE * self.torque_rms:
-            failures.append(f"its torque {torque:.3g} N m is below {100 * MIN_TORQUE_SHARE:g} % of the record's RMS "
+            shown = self.effect_torque(effect, shown_value(parameter))  # a value the data cannot tell from 0 is 0
+            failures.append(f"its torque {shown:.3g} N m is below {100 * MIN_TORQUE_SHARE:g} % of the record's RMS "
                             f"torque {self.torque_rms:.3g} N m")
         if effect.name == "rubber":
             half_gap = self.rig.plant.half_gap
@@ -859,11 +860,11 @@ class _Search:
         gain, t_stat, label = max(passing or tests)
         failures = []
         if not gain >= MIN_GAIN:
-            failures.append(f"gain {100 * gain:.1f} % ({label}) below {100 * MIN_GAIN:g} %")
+            failures.append(f"gain {percent_text(gain)} % ({label}) below {100 * MIN_GAIN:g} %")
         if not t_stat >= MIN_T:
             failures.append(f"t {below_text(t_stat, MIN_T)} ({label}) below {MIN_T:g}")
         failures += self.size_failures(added, parameter)
-        reason = "; ".join(failures) if failures else f"gain {100 * gain:.1f} % ({label}), t {t_stat:.1f}, CI excludes 0"
+        reason = "; ".join(failures) if failures else f"gain {percent_text(gain)} % ({label}), t {t_stat:.1f}, CI excludes 0"
         return dataclasses.replace(candidate, added=added, gain=gain, t_statistic=t_stat, accepted=not failures,
                                    reason=reason)
 

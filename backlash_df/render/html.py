@@ -12,6 +12,7 @@ import io
 import math
 
 __all__ = ["figure_png", "figure_bytes", "FIGURE_FORMATS", "figure_html", "table_html", "html_page", "rig_sections",
+           "percent_text",
            "signed_percent", "ROUNDOFF", "roundoff_zero", "resolved", "below_text", "bias_text", "text_table",
            "number_cell"]
 
@@ -158,6 +159,17 @@ def signed_percent(value):
         return ""
     text = f"{100.0 * value:+.2f}"
     return f"{'0.00' if float(text) == 0.0 else text} %"
+
+
+def percent_text(value, digits=1):
+    """A relative value in per cent with ``digits`` decimals, ``0.0`` (no sign) where it rounds to zero.
+
+    Examples
+    --------
+    >>> percent_text(-0.0004), percent_text(0.1234), percent_text(-0.05)
+    ('0.0', '12.3', '-5.0')
+    """
+    return f"{round(100.0 * value, digits) + 0.0:.{digits}f}"
 
 
 def roundoff_zero(value, scale):
