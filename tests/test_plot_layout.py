@@ -311,18 +311,24 @@ def test_figure2_is_readable():
 @pytest.mark.parametrize("name", REPORTS)
 def test_report_figures_are_readable(results, name, monkeypatch):
     """The figures a report embeds, as it draws them (suptitles included), read before they are closed."""
+    problems = report_figure_problems(results[name], layout_problems, monkeypatch)
+    assert not problems, "\n".join(problems)
+
+
+def report_figure_problems(result, check, monkeypatch):
+    """``check(figure)``'s problems over the figures ``result.report_html()`` embeds, read before they are closed."""
     problems = []
 
     def checked(figure, *args, **kwargs):
-        problems.extend(layout_problems(figure))
+        problems.extend(check(figure))
         return figure_html(figure, *args, **kwargs)
 
     for module in list(sys.modules.values()):
         if module.__name__.startswith("backlash_df") and getattr(module, "figure_html", None) is figure_html:
             monkeypatch.setattr(module, "figure_html", checked)
-    results[name].report_html()
+    result.report_html()
     plt.close("all")
-    assert not problems, "\n".join(problems)
+    return problems
 
 
 def _notebook_cell(notebook, starts):
@@ -486,17 +492,7 @@ def test_every_axis_of_a_result_plot_shows_two_tick_labels(results, name):
 @pytest.mark.parametrize("name", ["LoopAnalysis", "Tuning", "Diagnosis"])
 def test_every_axis_of_the_report_figures_shows_two_tick_labels(results, name, monkeypatch):
     """The figures of the ``predict``, ``tune`` and ``diagnose`` reports, as the reports draw them."""
-    problems = []
-
-    def checked(figure, *args, **kwargs):
-        problems.extend(thin_axes(figure))
-        return figure_html(figure, *args, **kwargs)
-
-    for module in list(sys.modules.values()):
-        if module.__name__.startswith("backlash_df") and getattr(module, "figure_html", None) is figure_html:
-            monkeypatch.setattr(module, "figure_html", checked)
-    results[name].report_html()
-    plt.close("all")
+    problems = report_figure_problems(results[name], thin_axes, monkeypatch)
     assert not problems, "\n".join(problems)
 
 

@@ -30,6 +30,16 @@ def _modules():
     return found
 
 
+def _source_module(name, is_package, node):
+    """The module a ``from ... import`` of module ``name`` reads from, relative levels resolved; None outside
+    the package."""
+    if node.level:
+        base = name.split(".") if is_package else name.split(".")[:-1]
+        base = base[: len(base) - (node.level - 1)]
+        return ".".join(base + ([node.module] if node.module else []))
+    return node.module if node.module and node.module.startswith("backlash_df") else None
+
+
 def _imports(name, path, modules):
     """``[(imported module, imported name or None)]`` of one module, relative imports resolved."""
     is_package = path.name == "__init__.py"
@@ -37,15 +47,7 @@ def _imports(name, path, modules):
     for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
         if isinstance(node, ast.Import):
             out += [(alias.name, None) for alias in node.names if alias.name.startswith("backlash_df")]
-        elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = name.split(".") if is_package else name.split(".")[:-1]
-                base = base[: len(base) - (node.level - 1)]
-                target = ".".join(base + ([node.module] if node.module else []))
-            elif node.module and node.module.startswith("backlash_df"):
-                target = node.module
-            else:
-                continue
+        elif isinstance(node, ast.ImportFrom) and (target := _source_module(name, is_package, node)) is not None:
             for alias in node.names:
                 sub = f"{target}.{alias.name}"
                 out.append((sub, None) if sub in modules else (target, alias.name))
@@ -113,15 +115,7 @@ def _exports(modules):
         for node in tree.body:
             if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "__all__" for t in node.targets):
                 exports[name] = list(ast.literal_eval(node.value))
-            elif isinstance(node, ast.ImportFrom):
-                if node.level:
-                    base = name.split(".") if is_package else name.split(".")[:-1]
-                    base = base[: len(base) - (node.level - 1)]
-                    target = ".".join(base + ([node.module] if node.module else []))
-                elif node.module and node.module.startswith("backlash_df"):
-                    target = node.module
-                else:
-                    continue
+            elif isinstance(node, ast.ImportFrom) and (target := _source_module(name, is_package, node)) is not None:
                 for alias in node.names:
                     if f"{target}.{alias.name}" not in modules:
                         bound[alias.asname or alias.name] = (target, alias.name)
