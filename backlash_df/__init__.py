@@ -41,12 +41,14 @@ _lazy_getattr, __dir__, _ = _lazy.attach(__name__, submodules=_SUBMODULES, submo
 
 
 def __getattr__(name):
-    """A public name, its module imported on first use; ``simulate`` is :func:`backlash_df.simulation.simulate_rig`."""
+    """A public name, its module imported on first use and the name kept here (later uses cost a dict
+    lookup); ``simulate`` is :func:`backlash_df.simulation.simulate_rig`."""
     if name == "simulate":
-        from .simulation import simulate_rig
-
-        return simulate_rig
-    return _lazy_getattr(name)
+        from .simulation import simulate_rig as value
+    else:
+        value = _lazy_getattr(name)
+    globals()[name] = value
+    return value
 
 
 __all__ = [
