@@ -45,20 +45,7 @@ from .predictors import (DEFAULT_HORIZON, INITIAL_STATE_STEP, PLANT_PARAMETERS, 
                          predict, prediction_model, segment_bounds)
 from .signals import SMOOTHED_NOISE_SHARE, data_states, speed_noise
 
-__all__ = [
-    "FitParameter",
-    "Calibration",
-    "calibrate",
-    "refine",
-    "FREE_RUN_MIN",
-    "information_criterion",
-    "theta_d0_range",
-    "Shooting",
-    "parallel_jacobian",
-    "sensitivity_jacobian",
-    "cluster_robust_stderr",
-    "single_threaded_blas",
-]
+__all__ = ["FitParameter", "Calibration", "calibrate", "refine", "FREE_RUN_MIN"]
 
 _UNITS = {"motor_inertia": "kg m^2", "load_inertia": "kg m^2", "stiffness": "N m/rad", "damping": "N m s/rad",
           "half_gap": "rad", "theta_d0": "rad", "inertia": "kg m^2", "encoder_skew": "s"}

@@ -31,9 +31,8 @@ import dataclasses
 
 import numpy as np
 
-__all__ = ["Effect", "EFFECTS", "EFFECT_NAMES", "get_effect", "COULOMB_SMOOTHING", "STRIBECK_SPEED",
-           "STRIBECK_GRID", "COULOMB_GRID", "peak_speed",
-           "smoothing_speeds"]
+__all__ = ["Effect", "EFFECTS", "EFFECT_NAMES", "get_effect", "COULOMB_SMOOTHING", "STRIBECK_SPEED", "STRIBECK_GRID",
+           "COULOMB_GRID"]
 
 #: Coulomb smoothing speed ``eps`` as a fraction of the record's largest speed: ``F tanh(w / eps)``.
 COULOMB_SMOOTHING = 0.01

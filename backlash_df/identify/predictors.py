@@ -74,25 +74,8 @@ from ._kernels import (BREAKAWAY_LOAD, BREAKAWAY_MOTOR, COULOMB_LOAD, COULOMB_MO
 from .effects import smoothing_speeds
 from .signals import measured_twist, shaft_resolution, smoothed_speeds
 
-__all__ = [
-    "PLANT_PARAMETERS",
-    "MODEL_PARAMETERS",
-    "RIGID_PARAMETERS",
-    "STRUCTURES",
-    "DEFAULT_HORIZON",
-    "INITIAL_STATE_STEP",
-    "nominal_values",
-    "segment_bounds",
-    "horizon_samples",
-    "RecordInputs",
-    "TwoMassModel",
-    "RigidBodyModel",
-    "prediction_model",
-    "Replay",
-    "predict",
-    "replay",
-    "fit_percent",
-]
+__all__ = ["PLANT_PARAMETERS", "MODEL_PARAMETERS", "RIGID_PARAMETERS", "STRUCTURES", "DEFAULT_HORIZON",
+           "nominal_values", "TwoMassModel", "RigidBodyModel", "Replay", "predict", "replay", "fit_percent"]
 
 #: Plant values of the rig file that calibration adjusts.
 PLANT_PARAMETERS = ("motor_inertia", "load_inertia", "stiffness", "damping", "half_gap")

@@ -15,21 +15,7 @@ import math
 
 import numpy as np
 
-__all__ = [
-    "smoothed_speeds",
-    "speed_noise",
-    "SMOOTHED_NOISE_SHARE",
-    "angle_rate",
-    "encoder_speeds",
-    "ENCODER_SPEED_GAIN",
-    "ENCODER_SPEED_AGREEMENT",
-    "integrated_displacement",
-    "measured_twist",
-    "data_states",
-    "ShaftResolution",
-    "shaft_resolution",
-    "RESOLVED_SNR",
-]
+__all__ = ["encoder_speeds", "ShaftResolution", "shaft_resolution", "RESOLVED_SNR"]
 
 #: Noise of a smoothed speed (:func:`smoothed_speeds`, Savitzky-Golay 11 points, order 2) as a share of
 #: the raw speed's: ``sqrt(h_0)`` with ``h_0 = 89 / 429`` the filter's centre weight.

@@ -40,7 +40,7 @@ from ..system import LinearPart
 from .effects import COULOMB_SMOOTHING, STRIBECK_SPEED, get_effect
 from .measurements import measurements_from_arrays
 
-__all__ = ["Experiment", "SyntheticRecord", "synthesize", "random_effect_size"]
+__all__ = ["Experiment", "SyntheticRecord", "synthesize"]
 
 
 @dataclasses.dataclass(frozen=True)
