@@ -292,7 +292,8 @@ class Evidence:
         ``unsettled``: the run that did not settle; ``diverged in stable contact``:
         the run that diverged; ``bistable``: the smallest disturbance that hunts.
     settles : tuple of Disturbance
-        Per kind, the largest disturbance up to which every one settled.
+        Per kind, the largest disturbance up to which every one settled (``settles``,
+        ``bistable``, ``runaway in contact`` with settling probes).
     smallest : tuple of Disturbance
         ``hunts``: per kind, the smallest disturbance that ends on the cycle.
     diverged : tuple of Disturbance
@@ -353,44 +354,23 @@ class LoopVerdict:
     ----------
     model : str
         Torque-law name.
-    verdict : Outcome
-        One of :data:`VERDICTS` (an :class:`Outcome`, equal to its word).
     evidence : Evidence
-        Why: the rule that decided and what it rests on (:attr:`reason` in words).
+        Why: the rule that decided and what it rests on.  :attr:`verdict`,
+        :attr:`reason`, :attr:`disturbance_to_start`, :attr:`disturbance_source`,
+        :attr:`settles_up_to`, :attr:`cycle`, :attr:`df_agrees` and :attr:`saturated`
+        are read from it.
     contact_loop, open_loop : LinearStability
         The loop with the gear in contact (shaft ``k + c s``; ``k`` alone for the
         dead zone (24)) and open (``T = 0``).
     probes : tuple of Probe
         Simulations from the rests, each with one disturbance: the rests' reach
         probes, then the ladder, in the order :func:`ladder` gives.
-    disturbance_to_start : float or None
-        ``bistable`` (and ``unstable`` with settling probes): the amplitude of theta_d
-        (rad) of the separating cycle, beyond which the loop hunts or runs away.
-    disturbance_source : str
-        Where ``disturbance_to_start`` comes from: ``"exact orbit"`` (the
-        unstable periodic orbit by shooting, :attr:`separatrix`), ``"DF unstable
-        cycle"`` or ``"simulations"`` (the geometric mean of the largest settling and
-        the smallest cycling twist); ``""`` if none.
-    settles_up_to : tuple of Disturbance
-        Per kind, the largest disturbance tried up to which every one of that kind
-        settled; empty where none did.
-    cycle : MeasuredCycle or None
-        The stable cycle the simulations reached (the smallest, if several).
-    df_agrees : bool or None
-        Whether the DF's stable cycles agree with the simulations (a stable DF
-        cycle within 20 % in amplitude and 10 % in frequency of the simulated
-        one, or none where none is simulated); None where the simulations
-        decided nothing.  False flags nearly tangent loci or a motion far from
-        the DF's sinusoid: the verdict rests on the simulations.
     orbits : tuple of PeriodicOrbit
         Exact periodic orbits by shooting (:func:`~backlash_df.orbits.exact_orbits`),
         if asked for; empty otherwise.
     orbit_note : str
         Why there are no exact orbits when they were asked for (unsupported law,
         shooting failed); ``""`` otherwise.
-    saturated : bool
-        The stable cycle the simulations reached has its torque command on the
-        limit: with a contact loop that is unstable, the limit is what caps the growth.
     rests : tuple of Rest
         The loop's rest points (:func:`~backlash_df.equilibria.loop_rests`).
     rest_note : str
@@ -403,28 +383,64 @@ class LoopVerdict:
     """
 
     model: str
-    verdict: Outcome
     evidence: Evidence
     contact_loop: LinearStability
     open_loop: LinearStability
     probes: tuple
-    disturbance_to_start: float = None
-    disturbance_source: str = ""
-    settles_up_to: tuple = ()
-    cycle: object = None
-    df_agrees: bool = None
     orbits: tuple = ()
     orbit_note: str = ""
-    saturated: bool = False
     rests: tuple = ()
     rest_note: str = ""
     separatrix: object = None
     prediction: object = dataclasses.field(default=None, repr=False, compare=False)
 
     @property
+    def verdict(self):
+        """One of :data:`VERDICTS` (an :class:`Outcome`, equal to its word)."""
+        return self.evidence.outcome
+
+    @property
     def reason(self):
         """One sentence: why, every disturbance in its own unit (rendered from :attr:`evidence`)."""
         return reason_text(self.evidence)
+
+    @property
+    def disturbance_to_start(self):
+        """``bistable`` (and ``unstable`` with settling probes): the amplitude of theta_d (rad) of the
+        separating cycle, beyond which the loop hunts or runs away; None otherwise."""
+        return self.evidence.separating
+
+    @property
+    def disturbance_source(self):
+        """Where :attr:`disturbance_to_start` comes from: ``"exact orbit"`` (the unstable periodic orbit by
+        shooting, :attr:`separatrix`), ``"DF unstable cycle"`` or ``"simulations"`` (the geometric mean of
+        the largest settling and the smallest cycling twist); ``""`` if none."""
+        return self.evidence.separating_source
+
+    @property
+    def settles_up_to(self):
+        """Per kind, the largest disturbance tried up to which every one of that kind settled; empty where
+        none did."""
+        return self.evidence.settles
+
+    @property
+    def cycle(self):
+        """The stable cycle the simulations reached (the smallest, if several), or None."""
+        return self.evidence.cycle
+
+    @property
+    def df_agrees(self):
+        """Whether the DF's stable cycles agree with the simulations (a stable DF cycle within 20 % in
+        amplitude and 10 % in frequency of the simulated one, or none where none is simulated); None where
+        the simulations decided nothing.  False flags nearly tangent loci or a motion far from the DF's
+        sinusoid: the verdict rests on the simulations."""
+        return self.evidence.df_agrees
+
+    @property
+    def saturated(self):
+        """The stable cycle the simulations reached has its torque command on the limit: with a contact
+        loop that is unstable, the limit is what caps the growth."""
+        return self.cycle is not None and bool(self.cycle.saturated)
 
     def __repr__(self):
         return f"LoopVerdict({self.model}: {self.verdict}; {self.reason})"
@@ -583,58 +599,46 @@ def _fragile(probes):
 
 
 def _decide(prediction, contact, rests, probes, orbits=()):
-    """``(Outcome, Evidence, fields)`` from the probes (module docs); ``fields`` go to :class:`LoopVerdict`."""
+    """The :class:`Evidence` of the probes (module docs): the rule that decides and what it rests on."""
     by = {kind: [p for p in probes if p.outcome == kind] for kind in ("rest", "cycle", "diverged", "unsettled")}
     cycles, diverged = by["cycle"], by["diverged"]
     calm = [p for p in by["rest"] if _calm(p)]
     seen = dict(contact=contact, prediction=prediction)
     if by["unsettled"]:
-        return _decided(Evidence("unsettled", probe=by["unsettled"][0], **seen))
+        return Evidence("unsettled", probe=by["unsettled"][0], **seen)
     runaway_in_contact = contact.status == "unstable"  # a marginal pole (a free integrator) is no runaway
     # every motion that left the rest settling, none diverging: contact does not last long enough to grow
     if runaway_in_contact and not cycles and (diverged or not calm):
-        fields = {}
         if calm:
             amplitude, source = _separating(prediction, orbits, calm, diverged)
-            fields = {"disturbance_to_start": amplitude, "disturbance_source": source,
-                      "settles_up_to": _settling(probes)}
-        return _decided(Evidence("runaway in contact", diverged=_smallest(diverged), **seen), fields)
+            seen.update(settles=_settling(probes), separating=amplitude, separating_source=source)
+        return Evidence("runaway in contact", diverged=_smallest(diverged), **seen)
     if diverged and not runaway_in_contact:
-        return _decided(Evidence("diverged in stable contact", probe=diverged[0], **seen))
+        return Evidence("diverged in stable contact", probe=diverged[0], **seen)
     if not cycles:  # a DF cycle, started on by a probe of the ladder, settled too: df_agrees False
-        settles, agrees = _settling(probes), not prediction.stable_cycles
-        return _decided(Evidence("settles", settles=settles, df_agrees=agrees, **seen),
-                        {"settles_up_to": settles, "df_agrees": agrees})
+        return Evidence("settles", settles=_settling(probes), df_agrees=not prediction.stable_cycles, **seen)
     return _cycling(prediction, contact, rests, probes, orbits, calm)
 
 
-def _decided(evidence, fields=None):
-    return evidence.outcome, evidence, fields or {}
-
-
 def _cycling(prediction, contact, rests, probes, orbits, calm):
-    """The decision where some probe ends on a stable cycle: ``hunts`` (limit cycle) or ``bistable``."""
+    """The evidence where some probe ends on a stable cycle: ``hunts`` (limit cycle) or ``bistable``."""
     cycles = [p for p in probes if p.outcome == "cycle"]
     cycle = min((p.measured for p in cycles), key=lambda m: m.amplitude)
-    agrees = _matching_df_cycle(prediction, cycle) is not None
-    fields = {"cycle": cycle, "df_agrees": agrees, "saturated": cycle.saturated}
     # a sustained oscillation's dominant harmonic wanders from run to run: only a periodic one is another cycle
     distinct = [p.measured for p in cycles if p.measured.periodic != cycle.periodic
                 or (cycle.periodic and abs(p.measured.amplitude / cycle.amplitude - 1.0) > _SAME_CYCLE)]
-    seen = dict(contact=contact, prediction=prediction, cycle=cycle, df_agrees=agrees,
+    seen = dict(contact=contact, prediction=prediction, cycle=cycle,
+                df_agrees=_matching_df_cycle(prediction, cycle) is not None,
                 exact_orbit=_exact_match(orbits, cycle), other_cycle=distinct[0] if distinct else None,
                 diverged=_smallest([p for p in probes if p.outcome == "diverged"]))
     holding = _holding(rests, probes)
     if not holding and not calm:
         inside = any(p.outcome == "rest" and not p.left_mode for p in probes)
-        return _decided(Evidence("hunts", smallest=_smallest(cycles), inside=inside, fragile=tuple(_fragile(probes)),
-                                 **seen), fields)
+        return Evidence("hunts", smallest=_smallest(cycles), inside=inside, fragile=tuple(_fragile(probes)), **seen)
     amplitude, source = _separating(prediction, orbits, calm, cycles)
-    settles = _settling(probes)
-    fields.update(disturbance_to_start=amplitude, disturbance_source=source, settles_up_to=settles)
-    return _decided(Evidence("bistable", probe=min(cycles, key=lambda p: p.scale), settles=settles,
-                             holding=holding[0] if holding else None, separating=amplitude,
-                             separating_source=source, **seen), fields)
+    return Evidence("bistable", probe=min(cycles, key=lambda p: p.scale), settles=_settling(probes),
+                    holding=holding[0] if holding else None, separating=amplitude, separating_source=source,
+                    **seen)
 
 
 def _exact(rig, prediction, probes, t_end, max_t_end, dt=None, near_misses=1):
@@ -706,8 +710,7 @@ def judge_loop(rig, prediction, *, linear=None, t_end=10.0, max_t_end=320.0, dis
     rests, rest_note = loop_rests(rig, model, user_linear)
     if not rests:
         evidence = Evidence("no rest", contact=contact, prediction=prediction, rest_note=rest_note)
-        return LoopVerdict(prediction.model, evidence.outcome, evidence, contact, opened, (), rest_note=rest_note,
-                           prediction=prediction)
+        return LoopVerdict(prediction.model, evidence, contact, opened, (), rest_note=rest_note, prediction=prediction)
     dt = None if refinement == 1 else default_step(part, model) / refinement
     probes = _confirmed_across_starts([probe(rig, model, disturbance, rest, user_linear, t_end, max_t_end, role, dt)
                                        for disturbance, rest, role in ladder(rig, rests, disturbances, user_linear,
@@ -716,14 +719,14 @@ def judge_loop(rig, prediction, *, linear=None, t_end=10.0, max_t_end=320.0, dis
     probes = _confirmed_across_starts([_longer(rig, model, p, user_linear, max_t_end, step) for p in probes])
     orbits, note = (_exact(rig, prediction, probes, t_end, max_t_end, dt, refinement) if exact and user_linear is None
                     else ((), ""))
-    verdict, evidence, fields = _decide(prediction, contact, rests, probes, orbits)
+    evidence = _decide(prediction, contact, rests, probes, orbits)
     separatrix = None
-    if verdict == Outcome.BISTABLE and user_linear is None:
-        separatrix = _separatrix(rig, prediction, orbits, fields["cycle"])
+    if evidence.outcome == Outcome.BISTABLE and user_linear is None:
+        separatrix = _separatrix(rig, prediction, orbits, evidence.cycle)
         if separatrix is not None and separatrix not in orbits:
-            verdict, evidence, fields = _decide(prediction, contact, rests, probes, orbits + (separatrix,))
-    return LoopVerdict(prediction.model, verdict, evidence, contact, opened, probes, orbits=orbits, orbit_note=note,
-                       rests=rests, rest_note=rest_note, separatrix=separatrix, prediction=prediction, **fields)
+            evidence = _decide(prediction, contact, rests, probes, orbits + (separatrix,))
+    return LoopVerdict(prediction.model, evidence, contact, opened, probes, orbits=orbits, orbit_note=note,
+                       rests=rests, rest_note=rest_note, separatrix=separatrix, prediction=prediction)
 
 
 def _longer(rig, model, unsettled, linear, max_t_end, dt):
