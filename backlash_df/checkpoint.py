@@ -24,9 +24,11 @@ import concurrent.futures
 import contextlib
 import dataclasses
 import hashlib
+import itertools
 import json
 import os
 import pickle
+import threading
 import time
 from pathlib import Path
 
@@ -288,6 +290,22 @@ def opened(checkpoint, command, run):
     """A context for one run: the checkpoint opened for it, or a do-nothing context for ``None``."""
     checkpoint = _as_checkpoint(checkpoint)
     return contextlib.nullcontext() if checkpoint is None else checkpoint.open(command, run)
+
+
+def step_counter(progress, stage):
+    """A ``step()`` that reports each call as ``progress(stage, count, None)``, in order, from any thread.
+
+    For a stage whose length is not known ahead (a branch's steps, a search's fits);
+    ``progress`` None makes it do nothing.
+    """
+    lock, count = threading.Lock(), itertools.count(1)
+
+    def step():
+        with lock:
+            if progress is not None:
+                progress(stage, next(count), None)
+
+    return step
 
 
 def run_cells(function, items, *, executor=None, checkpoint=None, keys=None, progress=None, stage="cells"):

@@ -68,7 +68,7 @@ import itertools
 
 import numpy as np
 
-from .checkpoint import describe, opened, run_cells
+from .checkpoint import describe, opened, run_cells, step_counter
 from .limit_cycles import predict_limit_cycles
 from .loops import drive_loop
 from .orbits import OrbitNotFound, orbit_residual, periodic_orbit
@@ -452,18 +452,6 @@ def _step(extended, trace, direction, bound, ds_max, max_points, amplitude_bound
             "scale": extended.scale.copy()}
 
 
-def _counted(progress):
-    """A ``step()`` that reports each branch step to ``progress`` as stage ``"branch"`` (or does nothing)."""
-    count = itertools.count(1)
-
-    def step():
-        done = next(count)
-        if progress is not None:
-            progress("branch", done, None)
-
-    return step
-
-
 def _trace(extended, start, direction, bound, ds, ds_max, max_points, amplitude_bounds, kept=None, name="forward",
            step_done=None):
     """Continue from ``start`` (a polished orbit) with the parameter first moving in ``direction``.
@@ -670,7 +658,7 @@ def _branch(rig, parameter, model, value_range, seed, steps, kept, progress=None
     amplitude_bounds = (1e-3 * rig.plant.half_gap, max_amplitude * rig.plant.half_gap)
     direction = 1.0 if hi > lo else -1.0
     extended = _Extended(rig, parameter, model, np.append(_state_scale(unknowns), abs(hi - lo)))
-    counted = _counted(progress)
+    counted = step_counter(progress, "branch")
     forward, t_forward, why_forward, folds = _trace(extended, start, direction, hi, ds, ds_max, max_points,
                                                     amplitude_bounds, kept, "forward", counted)
     points, tangents, reasons = forward, t_forward, [why_forward]

@@ -87,11 +87,11 @@ import dataclasses
 import functools
 import itertools
 import math
-import threading
 
 import numpy as np
 
 from .._json import json_ready
+from ..checkpoint import step_counter
 from ..plotting import ResultPlot, axes_or_new, legend_beside
 from ..render.diagnosis import (cause_sentence, cause_summary, diagnosis_report, diagnosis_sentence,
                                 diagnosis_sentences, disagreement_note, prediction_mode_text, shown_value,
@@ -1245,18 +1245,6 @@ def diagnose(measurements, rig, *, candidates=None, estimation_fraction=0.6, tra
                          progress)
 
 
-def _fit_counter(progress):
-    """A ``fitted()`` for the search's threads: each call reports ``progress("fits", count, None)``, in order."""
-    lock, count = threading.Lock(), itertools.count(1)
-
-    def fitted():
-        with lock:
-            if progress is not None:
-                progress("fits", next(count), None)
-
-    return fitted
-
-
 def _diagnose(measurements, rig, candidates, estimation_fraction, transient_fraction, horizon, executor, progress):
     keys = [get_effect(key).key for key in (candidates if candidates is not None else EFFECT_NAMES) if key != "none"]
     if not 0.0 <= transient_fraction < estimation_fraction < 1.0:
@@ -1270,7 +1258,7 @@ def _diagnose(measurements, rig, candidates, estimation_fraction, transient_frac
     check_excitation(measurements, validation, f"the validation part (the last {100 * (1 - estimation_fraction):g} %)")
     measurements = encoder_speeds(measurements)
     search = functools.partial(_Search, measurements, rig, estimation, validation, horizon, executor,
-                               _fit_counter(progress))
+                               step_counter(progress, "fits"))
     rigid = _select(search("rigid_body"), _rigid_keys(keys))
     shaft = shaft_resolution(measurements, rig)
     two_mass = _select(search("two_mass"), keys if shaft.resolved else _cross_check_keys(rigid, keys))
