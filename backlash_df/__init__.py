@@ -12,14 +12,14 @@ command or script imports only the stages it calls, so a ``predict`` does not im
 the diagnosis or the tuning.
 """
 
+import pkgutil as _pkgutil
+
 import lazy_loader as _lazy
 
 from ._version import __version__
 
-_SUBMODULES = ["analysis", "checkpoint", "config", "continuation", "describing", "disturbances", "equilibria",
-               "friction", "identify", "limit_cycles", "loaded", "loops", "models", "orbits", "plotting", "render",
-               "report", "reproduce", "simulation", "sweeps", "system", "testing", "tuning", "verdict"]
-_lazy_getattr, __dir__, _ = _lazy.attach(__name__, submodules=_SUBMODULES, submod_attrs={
+#: The public names, by the module that holds them.
+_EXPORTS = {
     "config": ["Controller", "Load", "Plant", "Rig", "RigError", "load_rig", "rig_from_dict"],
     "models": ["MODEL_NAMES", "ExactModel", "StaticModel", "make_model", "theta_star"],
     "describing": ["DescribingFunctionResult", "ValidityMap", "describing_function", "describing_function_grid",
@@ -37,7 +37,10 @@ _lazy_getattr, __dir__, _ = _lazy.attach(__name__, submodules=_SUBMODULES, submo
     "continuation": ["Branch", "continue_limit_cycles"],
     "reproduce": ["TableOne", "TorqueComparison", "compare_torques", "integrated_torque", "table1"],
     "identify": ["Diagnosis", "Measurements", "diagnose", "load_measurements"],
-})
+}
+_lazy_getattr, __dir__, _ = _lazy.attach(
+    __name__, submod_attrs=_EXPORTS,
+    submodules=[name for _, name, _ in _pkgutil.iter_modules(__path__) if not name.startswith("_")])
 
 
 def __getattr__(name):
