@@ -921,7 +921,6 @@ def limit_cycle_plot(predictions, ax=None, *, n_loci=7, n_amplitudes=200, g_omeg
     """
     import matplotlib.pyplot as plt
 
-
     first = predictions[0]
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     loci = [_loci(prediction, colors[index % len(colors)], n_loci, n_amplitudes)

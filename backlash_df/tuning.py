@@ -478,7 +478,6 @@ def _draw_range(tuning, ax):
     """The screened range: bandwidth and hunting cells; boundary points; the best tuning.  Returns the legend."""
     from matplotlib.patches import Patch  # here: importing backlash_df does not import matplotlib
 
-
     points = np.array([c.values for c in tuning.screen])
     bandwidth = np.array([c.bandwidth for c in tuning.screen])
     hunts = np.array([c.hunts for c in tuning.screen])

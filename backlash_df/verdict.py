@@ -466,7 +466,6 @@ class LoopVerdict:
             "exact_orbits": [orbit.to_dict() for orbit in self.orbits],
         }
 
-
     def plot(self, ax=None):
         """What each disturbance ended in: the probes' cycle amplitudes against their size.
 

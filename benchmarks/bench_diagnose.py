@@ -139,6 +139,7 @@ def sweep(seeds, processes, duration, counts, sets=SETS):
     print(f"mean time per record ({duration:g} s at 1 kHz, whole catalogue): "
           f"wall {np.mean([r.seconds for r in results]):.1f} s, cpu {np.mean([r.cpu for r in results]):.1f} s")
 
+
 def timing(repeat):
     rig = load_rig(RIG)
     record = synthesize(rig, {"coulomb_friction@load": None, "viscous_friction@load": None}, seed=7, duration=4.0,

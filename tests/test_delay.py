@@ -31,7 +31,6 @@ from backlash_df.simulation import measure_limit_cycle
 from conftest import EXAMPLES
 
 
-
 def critical_rig():
     rig = load_rig(EXAMPLES / "motor_lag_feedback.toml")
     controller = dataclasses.replace(rig.controller, kp=222.0, ti=0.3, speed_filter=0.0076, torque_lag=0.0015,

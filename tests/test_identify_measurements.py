@@ -410,7 +410,6 @@ def test_bundled_diagnosis_records_are_what_their_script_writes(tmp_path, name):
 # ---- the real record: KUKA KR300 axis 1 (examples/kuka)
 
 
-
 def _converter():
     spec = importlib.util.spec_from_file_location("convert_kuka", KUKA / "convert_kuka.py")
     module = importlib.util.module_from_spec(spec)

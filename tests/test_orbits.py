@@ -27,7 +27,6 @@ from backlash_df.simulation import measure_limit_cycle, simulate_linear, simulat
 from conftest import EXAMPLES
 
 
-
 @pytest.fixture(scope="module")
 def load_rig():
     return bd.load_rig(EXAMPLES / "load_feedback.toml")

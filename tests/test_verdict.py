@@ -445,6 +445,7 @@ def test_the_ladder_starts_a_run_on_each_stable_cycle_of_the_df():
     assert on_cycle and all(p.outcome == "cycle" and p.amplitude == pytest.approx(verdict.cycle.amplitude, rel=1e-3)
                             for p in on_cycle)
 
+
 def _corpus_rig(plant, controller):
     """A rig of the benchmark corpora (``benchmarks/bench_verdicts.py``): the values drawn there, the phase plane law."""
     return rig_from_dict({"plant": plant, "controller": controller, "model": {"backlash": "phase-plane"}})

@@ -79,7 +79,6 @@ __all__ = [
 ]
 
 
-
 def describing_function(model, amplitude, omega, *, bias=0.0, method="auto"):
     """Describing function N(A, w, bias) of a backlash torque law.
 

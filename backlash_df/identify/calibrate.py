@@ -71,6 +71,7 @@ class _FitRow(NamedTuple):
     nominal: float
     unit: str
 
+
 @dataclasses.dataclass(frozen=True)
 class FitParameter:
     """A fitted (or fixed) parameter with its uncertainty.
@@ -124,7 +125,6 @@ class FitParameter:
     def __repr__(self):
         low, high = self.ci95
         return f"<FitParameter {self.name} = {self.value:.6g} +/- {self.stderr:.3g} {self.unit} (95 % CI {low:.4g}..{high:.4g})>"
-
 
 
 @dataclasses.dataclass(frozen=True, repr=False)

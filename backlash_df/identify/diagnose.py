@@ -320,7 +320,6 @@ class Cause:
         return f"<Cause {self.key} ({_STRUCTURE_NAMES[self.structure]}): {values}; gain {100 * self.gain:.1f} %>"
 
 
-
 def _model_dict(candidate):
     return candidate.to_dict() | {"parameters": candidate.calibration.to_dict()["parameters"]}
 

@@ -43,8 +43,6 @@ _COMMAND_ROW = 5  # the row of the RK4 kernel's work array that the command's ra
 LEVELS = 42
 
 
-
-
 class CommandRows(NamedTuple):
     """A :class:`~backlash_df.system.Command` as the RK4 kernel takes it: rows over ``[z, w, u_d]``."""
 

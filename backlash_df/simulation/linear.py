@@ -164,7 +164,6 @@ class SimulationResult:
         return ResultPlot(figure, axes)
 
 
-
 def _piecewise_affine(system, model):
     """True if the loop is linear within every mode: no friction, torque affine in (theta_d, dtheta_d)."""
     if system.friction > 0.0 or system.breakaway > 0.0:
@@ -172,7 +171,6 @@ def _piecewise_affine(system, model):
     if model.law == RUBBER:
         return model.rubber_thickness == 0.0
     return model.law in (DEAD_ZONE, DAMPED_DEAD_ZONE, REVISED_DEAD_ZONE, PHASE_PLANE, EXACT)
-
 
 
 def _simulate_exactly(system, model, w, dt, n_steps, outputs, start, first):
@@ -402,7 +400,6 @@ def _run(system, model, inputs, dt, n_steps, outputs, start, first):
     )
 
 
-
 def simulate_two_mass(plant, model, t_end, dt, motor_torque=0.0, load_torque=0.0, z0=None, theta_b0=0.0):
     """Open-loop two-mass drive with backlash under given external torques.
 
@@ -451,7 +448,6 @@ def timed_inputs(*values):
     if not any(callable(value) for value in values) and all(np.ndim(value) == 0 for value in values):
         inputs.constant = tuple(float(value) for value in values)
     return inputs
-
 
 
 def default_step(system, model):

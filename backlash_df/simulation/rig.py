@@ -35,7 +35,6 @@ def initial_state(system, initial=None, kick=0.0):
     return z0
 
 
-
 def simulate_rig(rig, model=None, *, t_end=20.0, dt=None, speed_reference=0.0, load_torque=None,
                  initial=None, kick=0.0, linear=None, theta_b0=0.0):
     """Closed-loop time simulation of a rig's PI speed loop with a backlash torque law.
