@@ -32,6 +32,7 @@ from backlash_df.simulation import simulate_two_mass
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 KUKA = EXAMPLES / "kuka"
+EMPS = EXAMPLES / "emps"
 DOCS = ROOT / "docs"
 NOTEBOOKS = ROOT / "notebooks"
 
