@@ -121,7 +121,7 @@ def emps_measurements(mat_path, stop=STOP):
 
 
 def emps_reference(mat_path, stop=STOP):
-    """The position reference up to ``stop``: ``(time, reference)``, s and m, the instants of :func:`emps_measurements`."""
+    """The position reference up to ``stop``: ``(time, reference)`` in s and m, at :func:`emps_measurements`' instants."""
     record = load_record(mat_path)
     keep, _ = _part(record, stop)
     return np.round(record["t"][keep], 6), record["qg"][keep]
