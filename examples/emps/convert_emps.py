@@ -141,7 +141,10 @@ def main(argv=None):
     parser.add_argument("reference", nargs="?", default=HERE / "emps_reference.csv", type=Path)
     parser.add_argument("--stop", type=float, default=STOP, help=f"end of the part kept, s (default {STOP:g})")
     args = parser.parse_args(argv)
-    measurements = emps_measurements(args.mat, args.stop)
+    try:
+        measurements = emps_measurements(args.mat, args.stop)
+    except ValueError as error:
+        parser.error(str(error))
     write_measurements(args.csv, measurements, precision=PRECISION)
     write_reference(args.reference, *emps_reference(args.mat, args.stop))
     print(f"{args.csv}, {args.reference}: {measurements.n_samples} samples at {measurements.dt:g} s")
