@@ -650,12 +650,17 @@ def _diagnosed_rig(diagnosis):
     if diagnosis.structure == "rigid_body":
         inertia = diagnosis.rigid_body.whole_record.parameters["inertia"]
         scale = 1.0 / (rig.plant.motor_inertia + rig.plant.load_inertia)
-        for name in ("motor_inertia", "load_inertia"):
-            share = getattr(rig.plant, name) * scale
-            estimated[name] = ("plant", share * inertia.value, tuple(share * end for end in inertia.ci95))
-        notes.append(f"the record does not resolve the shaft's mode: the rigid-body model's inertia "
-                     f"{inertia.value:.6g} kg m^2 is split between motor and load in the rig's ratio, and stiffness, "
-                     f"damping and half gap stay the rig's")
+        if inertia.on_bound:
+            notes.append(f"the record does not resolve the shaft's mode, and the rigid-body model's inertia ended on "
+                         f"a bound of the range it was allowed ({inertia.value:.6g} kg m^2): every plant value stays "
+                         f"the rig's")
+        else:
+            for name in ("motor_inertia", "load_inertia"):
+                share = getattr(rig.plant, name) * scale
+                estimated[name] = ("plant", share * inertia.value, tuple(share * end for end in inertia.ci95))
+            notes.append(f"the record does not resolve the shaft's mode: the rigid-body model's inertia "
+                         f"{inertia.value:.6g} kg m^2 is split between motor and load in the rig's ratio, and "
+                         f"stiffness, damping and half gap stay the rig's")
     else:
         for name in PLANT_PARAMETERS:
             parameter = whole.parameters[name]
