@@ -61,39 +61,39 @@ A value outside its range is refused with the key, the value and the range (a
 value of 1e300 is a typing error, not a drive).
 
 =================================  ====================  ==========================================
-key                              range                 why
+key                                range                 why
 =================================  ====================  ==========================================
-motor_inertia, load_inertia      [1e-10, 1e10] kg m^2  miniature motors to wind-turbine rotors
-stiffness                        [1e-6, 1e12] N m/rad  torsion springs to the stiffest drive trains
-damping                          [0, 1e12] N m s/rad   as the stiffness, times 1 s
-half_gap                         [1e-9, pi] rad        the total play 2 alpha is below one turn
-rubber_thickness                 [0, 2 half_gap] rad   the rubber band lies inside the gap (28)
-gear_ratio                       [1e-4, 1e5]           motor turns per load turn, gear-ups included
-kp                               (0, 1e10] N m s/rad   the loop gain kp / J of any drive above
-ti                               [1e-6, 1e6] s or inf  integral action from microseconds to days (inf: P)
-speed_filter, torque_lag         [0, 100] s            first-order lags
-delay                            [0, 10] s             dead time of a speed loop
-kv                               (0, 1e6] 1/s          position-loop gain (cascade only)
-torque_limit                     [0, 1e9] N m          torque-command limit (0: none)
-[load] torque                    [-1e9, 1e9] N m       load torque of either sign
-[load] torque_offset             [-1e9, 1e9] N m       a constant torque added to the motor torque
-coulomb_motor, coulomb_load      [0, 1e9] N m          as a torque limit
-viscous_motor, viscous_load      [0, 1e12] N m s/rad   as the damping
-breakaway_motor, breakaway_load  [0, 1e9] N m          as a torque limit
-stribeck_speed                   [0, 1e6] rad/s        speeds of any drive (> 0 with a breakaway friction)
+motor_inertia, load_inertia        [1e-10, 1e10] kg m^2  miniature motors to wind-turbine rotors
+stiffness                          [1e-6, 1e12] N m/rad  torsion springs to the stiffest drive trains
+damping                            [0, 1e12] N m s/rad   as the stiffness, times 1 s
+half_gap                           [1e-9, pi] rad        the total play 2 alpha is below one turn
+rubber_thickness                   [0, 2 half_gap] rad   the rubber band lies inside the gap (28)
+gear_ratio                         [1e-4, 1e5]           motor turns per load turn, gear-ups included
+kp                                 (0, 1e10] N m s/rad   the loop gain kp / J of any drive above
+ti                                 [1e-6, 1e6] s or inf  integral action from microseconds to days (inf: P)
+speed_filter, torque_lag           [0, 100] s            first-order lags
+delay                              [0, 10] s             dead time of a speed loop
+kv                                 (0, 1e6] 1/s          position-loop gain (cascade only)
+torque_limit                       [0, 1e9] N m          torque-command limit (0: none)
+[load] torque                      [-1e9, 1e9] N m       load torque of either sign
+[load] torque_offset               [-1e9, 1e9] N m       a constant torque added to the motor torque
+coulomb_motor, coulomb_load        [0, 1e9] N m          as a torque limit
+viscous_motor, viscous_load        [0, 1e12] N m s/rad   as the damping
+breakaway_motor, breakaway_load    [0, 1e9] N m          as a torque limit
+stribeck_speed                     [0, 1e6] rad/s        speeds of any drive (> 0 with a breakaway friction)
 =================================  ====================  ==========================================
 
-``[friction]`` is the friction law of :mod:`backlash_df.friction` on each side,
-``F(w) = viscous w + (coulomb + breakaway exp(-(w / stribeck_speed)^2)) sign(w)``, the
-catalogue's effects (:mod:`backlash_df.identify.effects`) as a diagnosis names them.  No
-analysis models friction or ``torque_offset`` yet: the loop (:func:`~backlash_df.loops.drive_loop`)
-refuses a rig that has them (:meth:`Rig.require_no_friction`); the rig still loads, so that
-a diagnosed rig (:meth:`~backlash_df.identify.Diagnosis.rig`) can be written and read.
+``[friction]`` is the friction la  w of :mod:`backlash_df.friction` on each side,
+``F(w) = viscous w + (coulomb + b  reakaway exp(-(w / stribeck_speed)^2)) sign(w)``, the
+catalogue's effects (:mod:`backla  sh_df.identify.effects`) as a diagnosis names them.  No
+analysis models friction or ``tor  que_offset`` yet: the loop (:func:`~backlash_df.loops.drive_loop`)
+refuses a rig that has them (:met  h:`Rig.require_no_friction`); the rig still loads, so that
+a diagnosed rig (:meth:`~backlash  _df.identify.Diagnosis.rig`) can be written and read.
 
-``[uncertainty]`` gives, for any numeric ``[plant]``, ``[friction]`` or ``[load]`` key, the
-absolute interval ``[low, high]`` the real drive's value lies in (each end inside the
-key's range, ``low <= high``, the rig's own value inside); :attr:`Rig.uncertainty`.  No
-command reads it yet.  :func:`write_rig` writes a rig back as a file.
+``[uncertainty]`` gives, for any   numeric ``[plant]``, ``[friction]`` or ``[load]`` key, the
+absolute interval ``[low, high]``   the real drive's value lies in (each end inside the
+key's range, ``low <= high``, the   rig's own value inside); :attr:`Rig.uncertainty`.  No
+command reads it yet.  :func:`wri  te_rig` writes a rig back as a file.
 """
 
 import collections.abc
@@ -748,7 +748,7 @@ def rig_to_toml(rig, *, comments=None, header=""):
         A trailing comment for a key's line, by key (``"coulomb_load"``, a key of the
         value tables) or by ``"table.key"`` (``"uncertainty.load_inertia"``); one line each.
     header : str
-        Comment lines put first (each line after ``# ``).
+        Comment lines put first (each line after ``#`` and a space).
 
     Returns
     -------

@@ -644,7 +644,7 @@ _RIG_KEYS = {"coulomb_friction": ("friction", "coulomb"), "viscous_friction": ("
 
 def _diagnosed_rig(diagnosis):
     """:meth:`Diagnosis.rig_out`."""
-    rig, whole = diagnosis.rig, diagnosis.whole_record
+    rig = diagnosis.rig
     data = rig.to_dict()
     estimated, dropped, notes = {}, [], []  # rig key -> (table, value, (low, high))
     if diagnosis.structure == "rigid_body":
@@ -663,7 +663,7 @@ def _diagnosed_rig(diagnosis):
                          f"stiffness, damping and half gap stay the rig's")
     else:
         for name in PLANT_PARAMETERS:
-            parameter = whole.parameters[name]
+            parameter = diagnosis.whole_record.parameters[name]
             if parameter.on_bound:
                 notes.append(f"[plant] {name} stays the rig's {getattr(rig.plant, name):g}: its fit ended on a bound "
                              f"of the range it was allowed ({parameter.value:.6g} {parameter.unit})")
@@ -671,8 +671,8 @@ def _diagnosed_rig(diagnosis):
                 estimated[name] = ("plant", parameter.value, parameter.ci95)
     for cause in diagnosis.causes:
         parameter = cause.parameters[cause.effect]
-        (low, high), shown = parameter.ci95, f"{parameter.value:.6g} {parameter.unit} (95 %: [{parameter.ci95[0]:.6g}, " \
-                                               f"{parameter.ci95[1]:.6g}])"
+        low, high = parameter.ci95
+        shown = f"{parameter.value:.6g} {parameter.unit} (95 %: [{low:.6g}, {high:.6g}])"
         if not cause.determined:
             dropped.append(f"{cause.key}: named, but the record does not determine its value")
         elif cause.effect not in _RIG_KEYS:  # the actuator delay
