@@ -7,6 +7,7 @@ command that analyses a rig with friction exits with code 2 and writes nothing.
 
 import dataclasses
 import math
+import pickle
 import tomllib
 
 import pytest
@@ -119,6 +120,8 @@ def test_uncertainty_is_a_hashable_mapping_of_absolute_boxes():
     assert not _rig().uncertainty and dict(_rig().uncertainty) == {}
     with pytest.raises(TypeError):
         rig.uncertainty["load_inertia"] = (1.0, 2.0)
+    sent = pickle.loads(pickle.dumps(rig))  # as an executor sends a rig to its workers
+    assert sent == rig and hash(sent) == hash(rig) and dict(sent.uncertainty) == dict(rig.uncertainty)
 
 
 def test_a_checkpoint_describes_the_new_values_by_name():
