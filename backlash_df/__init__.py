@@ -20,7 +20,8 @@ from ._version import __version__
 
 #: The public names, by the module that holds them.
 _EXPORTS = {
-    "config": ["Controller", "Load", "Plant", "Rig", "RigError", "load_rig", "rig_from_dict"],
+    "config": ["Controller", "Friction", "Load", "Plant", "Rig", "RigError", "load_rig", "rig_from_dict",
+               "write_rig"],
     "models": ["MODEL_NAMES", "ExactModel", "StaticModel", "make_model", "theta_star"],
     "describing": ["DescribingFunctionResult", "ValidityMap", "describing_function", "describing_function_grid",
                    "dual_input_describing_function", "phase_plane_validity"],
@@ -74,6 +75,8 @@ __all__ = [
     "Plant",
     "Controller",
     "Load",
+    "Friction",
+    "write_rig",
     "LinearPart",
     "DriveLoop",
     "drive_loop",

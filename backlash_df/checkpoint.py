@@ -20,6 +20,7 @@ each one in a :class:`Checkpoint` as it finishes.
 """
 
 import base64
+import collections.abc
 import concurrent.futures
 import contextlib
 import dataclasses
@@ -52,7 +53,7 @@ def describe(value, omit=()):
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         return {field.name: describe(getattr(value, field.name), omit) for field in dataclasses.fields(value)
                 if field.name not in omit}
-    if isinstance(value, dict):
+    if isinstance(value, collections.abc.Mapping):  # a dict, a rig's Uncertainty
         return {str(key): describe(item, omit) for key, item in value.items()}
     if isinstance(value, (list, tuple)):
         return [describe(item, omit) for item in value]

@@ -25,10 +25,22 @@
 
     [load]                     # optional
     torque = 0.0               # N m, constant torque applied to the load
-    coulomb = 0.0              # N m, Coulomb friction of the driven machine (only 0: not modelled yet)
+    torque_offset = 0.0        # N m, constant torque added to the motor torque (either sign)
+
+    [friction]                 # optional; every value on the load side, like [plant]
+    coulomb_motor = 0.0        # N m, sliding (Coulomb) friction of the motor side
+    coulomb_load = 0.0         # N m
+    viscous_motor = 0.0        # N m s/rad
+    viscous_load = 0.0         # N m s/rad
+    breakaway_motor = 0.0      # N m, static excess over Coulomb (Stribeck), decaying with speed
+    breakaway_load = 0.0       # N m
+    stribeck_speed = 0.0       # rad/s, required (> 0) with a breakaway friction
 
     [model]
     backlash = "phase-plane"
+
+    [uncertainty]              # optional: where the real drive's values may lie, absolute [low, high]
+    load_inertia = [4.0, 8.0]  # any numeric [plant], [friction] or [load] key; the box holds the value above
 
 Every problem is reported as one line naming the file and the key, raised as
 :class:`RigError` (a ``ValueError``).
@@ -48,27 +60,45 @@ must not twist the shaft by more than a turn (``|T| / k + alpha <= 2 pi`` rad).
 A value outside its range is refused with the key, the value and the range (a
 value of 1e300 is a typing error, not a drive).
 
-=============================  ====================  ==========================================
-key                            range                 why
-=============================  ====================  ==========================================
-motor_inertia, load_inertia    [1e-10, 1e10] kg m^2  miniature motors to wind-turbine rotors
-stiffness                      [1e-6, 1e12] N m/rad  torsion springs to the stiffest drive trains
-damping                        [0, 1e12] N m s/rad   as the stiffness, times 1 s
-half_gap                       [1e-9, pi] rad        the total play 2 alpha is below one turn
-rubber_thickness               [0, 2 half_gap] rad   the rubber band lies inside the gap (28)
-gear_ratio                     [1e-4, 1e5]           motor turns per load turn, gear-ups included
-kp                             (0, 1e10] N m s/rad   the loop gain kp / J of any drive above
-ti                             [1e-6, 1e6] s or inf  integral action from microseconds to days (inf: P)
-speed_filter, torque_lag       [0, 100] s            first-order lags
-delay                          [0, 10] s             dead time of a speed loop
-kv                             (0, 1e6] 1/s          position-loop gain (cascade only)
-torque_limit                   [0, 1e9] N m          torque-command limit (0: none)
-[load] torque                  [-1e9, 1e9] N m       load torque of either sign
-[load] coulomb                 0 N m                 Coulomb friction of the load: not modelled yet
-=============================  ====================  ==========================================
+=================================  ====================  ==========================================
+key                                range                 why
+=================================  ====================  ==========================================
+motor_inertia, load_inertia        [1e-10, 1e10] kg m^2  miniature motors to wind-turbine rotors
+stiffness                          [1e-6, 1e12] N m/rad  torsion springs to the stiffest drive trains
+damping                            [0, 1e12] N m s/rad   as the stiffness, times 1 s
+half_gap                           [1e-9, pi] rad        the total play 2 alpha is below one turn
+rubber_thickness                   [0, 2 half_gap] rad   the rubber band lies inside the gap (28)
+gear_ratio                         [1e-4, 1e5]           motor turns per load turn, gear-ups included
+kp                                 (0, 1e10] N m s/rad   the loop gain kp / J of any drive above
+ti                                 [1e-6, 1e6] s or inf  integral action from microseconds to days (inf: P)
+speed_filter, torque_lag           [0, 100] s            first-order lags
+delay                              [0, 10] s             dead time of a speed loop
+kv                                 (0, 1e6] 1/s          position-loop gain (cascade only)
+torque_limit                       [0, 1e9] N m          torque-command limit (0: none)
+[load] torque                      [-1e9, 1e9] N m       load torque of either sign
+[load] torque_offset               [-1e9, 1e9] N m       a constant torque added to the motor torque
+coulomb_motor, coulomb_load        [0, 1e9] N m          as a torque limit
+viscous_motor, viscous_load        [0, 1e12] N m s/rad   as the damping
+breakaway_motor, breakaway_load    [0, 1e9] N m          as a torque limit
+stribeck_speed                     [0, 1e6] rad/s        speeds of any drive (> 0 with a breakaway friction)
+=================================  ====================  ==========================================
+
+``[friction]`` is the friction la  w of :mod:`backlash_df.friction` on each side,
+``F(w) = viscous w + (coulomb + b  reakaway exp(-(w / stribeck_speed)^2)) sign(w)``, the
+catalogue's effects (:mod:`backla  sh_df.identify.effects`) as a diagnosis names them.  No
+analysis models friction or ``tor  que_offset`` yet: the loop (:func:`~backlash_df.loops.drive_loop`)
+refuses a rig that has them (:met  h:`Rig.require_no_friction`); the rig still loads, so that
+a diagnosed rig (:meth:`~backlash  _df.identify.Diagnosis.rig`) can be written and read.
+
+``[uncertainty]`` gives, for any   numeric ``[plant]``, ``[friction]`` or ``[load]`` key, the
+absolute interval ``[low, high]``   the real drive's value lies in (each end inside the
+key's range, ``low <= high``, the   rig's own value inside); :attr:`Rig.uncertainty`.  No
+command reads it yet.  :func:`wri  te_rig` writes a rig back as a file.
 """
 
+import collections.abc
 import dataclasses
+import json
 import math
 import tomllib
 from pathlib import Path
@@ -77,7 +107,8 @@ import numpy as np
 
 from .models import MODEL_NAMES, make_model
 
-__all__ = ["Plant", "Controller", "Load", "Rig", "RigError", "RANGES", "MAX_SHAFT_MODE", "load_rig", "rig_from_dict"]
+__all__ = ["Plant", "Controller", "Load", "Friction", "Uncertainty", "Rig", "RigError", "RANGES", "MAX_SHAFT_MODE",
+           "load_rig", "rig_from_dict", "rig_to_toml", "write_rig"]
 
 
 class RigError(ValueError):
@@ -217,18 +248,82 @@ class Load:
     """What the driven machine applies to the load (SI units, load side)."""
 
     torque: float = 0.0  #: constant torque applied to the load, N m (gravity, process load)
-    coulomb: float = 0.0  #: Coulomb friction of the driven machine, N m (only 0: no analysis models it yet)
+    torque_offset: float = 0.0  #: constant torque added to the motor torque, N m, either sign (the catalogue's)
+
+
+@dataclasses.dataclass(frozen=True)
+class Friction:
+    """Friction of each side of the drive, on the load side like :class:`Plant` (SI units).
+
+    The law of :mod:`backlash_df.friction` on the motor speed (``*_motor``) and on the
+    load speed (``*_load``): ``F(w) = viscous w + (coulomb + breakaway exp(-(w /
+    stribeck_speed)^2)) sign(w)``, opposing the motion.  All zero: no friction.
+    """
+
+    coulomb_motor: float = 0.0  #: sliding (Coulomb) friction of the motor side, N m
+    coulomb_load: float = 0.0  #: sliding (Coulomb) friction of the load side, N m
+    viscous_motor: float = 0.0  #: viscous friction of the motor side, N m s/rad
+    viscous_load: float = 0.0  #: viscous friction of the load side, N m s/rad
+    breakaway_motor: float = 0.0  #: static excess over Coulomb of the motor side (Stribeck), N m
+    breakaway_load: float = 0.0  #: static excess over Coulomb of the load side (Stribeck), N m
+    stribeck_speed: float = 0.0  #: speed over which the breakaway friction decays, rad/s (> 0 with one)
+
+    @property
+    def any(self):
+        """True if any friction is nonzero (a Stribeck speed alone is no friction)."""
+        return any(getattr(self, f.name) != 0.0 for f in dataclasses.fields(self) if f.name != "stribeck_speed")
+
+
+class Uncertainty(collections.abc.Mapping):
+    """The ``[uncertainty]`` table: rig value name -> ``(low, high)``, absolute, in the key's unit.
+
+    A read-only mapping in the file's order, hashable (a :class:`Rig` stays frozen and
+    hashable); equal to a ``dict`` of the same boxes.
+
+    Examples
+    --------
+    >>> box = Uncertainty({"load_inertia": (4.0, 8.0)})
+    >>> box["load_inertia"], dict(box) == {"load_inertia": (4.0, 8.0)}
+    ((4.0, 8.0), True)
+    """
+
+    def __init__(self, boxes=()):
+        self._boxes = {str(name): (float(low), float(high)) for name, (low, high) in dict(boxes).items()}
+
+    def __getitem__(self, name):
+        return self._boxes[name]
+
+    def __iter__(self):
+        return iter(self._boxes)
+
+    def __len__(self):
+        return len(self._boxes)
+
+    def __hash__(self):
+        return hash(tuple(self._boxes.items()))
+
+    def __repr__(self):
+        return f"Uncertainty({self._boxes!r})"
 
 
 @dataclasses.dataclass(frozen=True)
 class Rig:
-    """A parsed rig file: plant, optional controller, default backlash model."""
+    """A parsed rig file: plant, optional controller, load, default backlash model, friction, uncertainty."""
 
     plant: Plant
     controller: Controller | None = None
     load: Load = Load()
     model: str = "phase-plane"
     source: str = "<dict>"
+    friction: Friction = Friction()  #: the ``[friction]`` table (all zero: none)
+    uncertainty: Uncertainty = Uncertainty()  #: the ``[uncertainty]`` table: name -> (low, high), absolute
+
+    def __repr__(self):
+        """As a dataclass's, without ``friction`` and ``uncertainty`` where the rig has none."""
+        shown = [f for f in dataclasses.fields(self)
+                 if not (f.name == "friction" and self.friction == Friction())
+                 and not (f.name == "uncertainty" and not self.uncertainty)]
+        return f"Rig({', '.join(f'{f.name}={getattr(self, f.name)!r}' for f in shown)})"
 
     def make_model(self, name=None):
         """The rig's shaft as a torque law (default: the ``[model] backlash`` name).
@@ -261,9 +356,10 @@ class Rig:
         Parameters
         ----------
         **changes
-            New values, in the rig file's units, by key of ``[plant]``, ``[controller]``
-            or ``[load]`` (``kp=60.0``, ``stiffness=1000.0``, ``torque=250.0``) or by
-            ``"table.key"`` (``**{"load.torque": 250.0}``); several at once.
+            New values, in the rig file's units, by key of ``[plant]``, ``[controller]``,
+            ``[load]`` or ``[friction]`` (``kp=60.0``, ``stiffness=1000.0``, ``torque=250.0``,
+            ``coulomb_load=20.0``) or by ``"table.key"`` (``**{"load.torque": 250.0}``);
+            several at once.  The ``[uncertainty]`` boxes are kept and must hold the new values.
 
         Returns
         -------
@@ -310,20 +406,43 @@ class Rig:
             raise RigError(f"{self.source}: no [controller] table; this analysis needs the PI speed loop")
         return self.controller
 
+    def require_no_friction(self):
+        """Refuse a rig with friction or a torque offset: no analysis of the loop models them yet.
+
+        Raises
+        ------
+        RigError
+            A nonzero ``[friction]`` value or ``[load] torque_offset``: one line naming the first.
+        """
+        named = [f"[friction] {f.name} = {getattr(self.friction, f.name):g}" for f in dataclasses.fields(Friction)
+                 if f.name != "stribeck_speed" and getattr(self.friction, f.name) != 0.0]
+        if self.load.torque_offset != 0.0:
+            named.append(f"[load] torque_offset = {self.load.torque_offset:g}")
+        if named:
+            raise RigError(f"{self.source}: {named[0]}: no analysis models friction or a torque offset yet (the "
+                           f"prediction, simulation, verdict and tune would leave it out); remove the key or set it "
+                           f"to 0")
+
     def to_dict(self):
         """The rig as the rig file's tables (a dict :func:`rig_from_dict` reads back).
 
         The cascade's keys appear with ``structure = "cascade"`` only; a user's LTI
-        controllers (:meth:`with_controller`) are not rig-file keys and are left out.
+        controllers (:meth:`with_controller`) are not rig-file keys and are left out;
+        ``uncertainty`` holds ``[low, high]`` lists.
         """
         data = {"plant": dataclasses.asdict(self.plant), "load": dataclasses.asdict(self.load),
-                "model": {"backlash": self.model}}
+                "model": {"backlash": self.model}, "friction": dataclasses.asdict(self.friction),
+                "uncertainty": {name: list(box) for name, box in self.uncertainty.items()}}
         if self.controller is not None:
             keys = [f.name for f in dataclasses.fields(self.controller) if f.name not in _PYTHON_ONLY]
             if not self.controller.cascade:
                 keys = [key for key in keys if key not in ("kv", "position_feedback")]
             data["controller"] = {key: getattr(self.controller, key) for key in keys}
         return data
+
+    def to_toml(self, *, comments=None, header=""):
+        """The rig as a rig file's text (:func:`rig_to_toml`)."""
+        return rig_to_toml(self, comments=comments, header=header)
 
     def with_controller(self, speed=None, position=None):
         """A copy whose speed controller and/or position controller is a user's python-control LTI.
@@ -372,7 +491,7 @@ class Rig:
 
 
 _POSITIVE = {"motor_inertia", "load_inertia", "stiffness", "half_gap", "kp", "ti", "gear_ratio", "kv"}
-_SIGNED = {"torque"}  # may be negative: a load torque acts in either direction
+_SIGNED = {"torque", "torque_offset"}  # may be negative: a load torque or an offset acts in either direction
 
 #: Accepted range of each rig value: (low, high, unit); see the module notes.
 RANGES = {
@@ -391,9 +510,19 @@ RANGES = {
     "kv": (0.0, 1e6, "1/s"),
     "torque_limit": (0.0, 1e9, "N m"),
     "torque": (-1e9, 1e9, "N m"),
-    "coulomb": (0.0, 1e9, "N m"),
+    "torque_offset": (-1e9, 1e9, "N m"),
+    "coulomb_motor": (0.0, 1e9, "N m"),
+    "coulomb_load": (0.0, 1e9, "N m"),
+    "viscous_motor": (0.0, 1e12, "N m s/rad"),
+    "viscous_load": (0.0, 1e12, "N m s/rad"),
+    "breakaway_motor": (0.0, 1e9, "N m"),
+    "breakaway_load": (0.0, 1e9, "N m"),
+    "stribeck_speed": (0.0, 1e6, "rad/s"),
 }
-_TABLES = {"plant": Plant, "controller": Controller, "load": Load, "model": None}
+_TABLES = {"plant": Plant, "controller": Controller, "load": Load, "model": None, "friction": Friction,
+           "uncertainty": None}
+#: The tables whose numeric keys an ``[uncertainty]`` box may name.
+_UNCERTAIN_TABLES = ("plant", "friction", "load")
 #: Keys whose value is one of a few words.
 _CHOICES = {"feedback": ("motor", "load"), "position_feedback": ("motor", "load"), "structure": ("speed", "cascade")}
 #: Fields of a table that no rig file sets (a user's LTI controllers, set by Rig.with_controller).
@@ -402,7 +531,7 @@ _PYTHON_ONLY = {"speed_controller", "position_controller"}
 
 def _table_of(rig, parameter):
     """(table name, key) of a numeric rig value: ``"kp"``, ``"controller.kp"``, ``"load.torque"``."""
-    tables = {"plant": rig.plant, "controller": rig.controller, "load": rig.load}
+    tables = {"plant": rig.plant, "controller": rig.controller, "load": rig.load, "friction": rig.friction}
     if "." in parameter:
         table, key = parameter.split(".", 1)
         found = [(table, key)] if table in tables and tables[table] is not None and hasattr(tables[table], key) else []
@@ -530,11 +659,12 @@ def rig_from_dict(data, source="<dict>"):
     if "controller" in data:
         controller = _table(source, data, "controller", Controller)
         _check_structure(source, data["controller"])
+    if isinstance(data.get("load"), dict) and "coulomb" in data["load"]:
+        raise RigError(f"{source}: [load] coulomb is now [friction] coulomb_load (N m, the load side's Coulomb "
+                       f"friction); move the key there")
     load = _table(source, data, "load", Load) if "load" in data else Load()
-    if load.coulomb > 0.0:
-        raise RigError(f"{source}: [load] coulomb = {load.coulomb:g}: no analysis models the load's Coulomb friction "
-                       "yet (the prediction, simulation, verdict and tune would leave it out); remove the key or "
-                       "set it to 0")
+    friction = _table(source, data, "friction", Friction) if "friction" in data else Friction()
+    _check_friction(source, friction)
     model = "phase-plane"
     if "model" in data:
         section = data["model"]
@@ -549,7 +679,140 @@ def rig_from_dict(data, source="<dict>"):
     _check_shaft_mode(source, plant)
     _check_twist(source, plant, load)
     _model(source, plant, model)
-    return Rig(plant=plant, controller=controller, load=load, model=model, source=source)
+    uncertainty = _uncertainty(source, data["uncertainty"], {"plant": plant, "friction": friction, "load": load}) \
+        if "uncertainty" in data else Uncertainty()
+    return Rig(plant=plant, controller=controller, load=load, model=model, source=source, friction=friction,
+               uncertainty=uncertainty)
+
+
+def _check_friction(source, friction):
+    """A breakaway friction needs the Stribeck speed its excess decays over."""
+    for side in ("motor", "load"):
+        size = getattr(friction, f"breakaway_{side}")
+        if size > 0.0 and friction.stribeck_speed == 0.0:
+            raise RigError(f"{source}: [friction] breakaway_{side} = {size:g} N m needs stribeck_speed > 0 (rad/s, "
+                           f"the speed over which the breakaway excess decays)")
+
+
+def _uncertainty(source, raw, tables):
+    """The ``[uncertainty]`` boxes: each a numeric key of ``tables`` (``[plant]``, ``[friction]``, ``[load]``),
+    ``[low, high]`` inside the key's range and holding the rig's value."""
+    if not isinstance(raw, dict):
+        raise RigError(f"{source}: [uncertainty] must be a table")
+    owners = {f.name: (name, table) for name, table in tables.items() for f in dataclasses.fields(table)
+              if f.name in RANGES}
+    boxes = {}
+    for name, box in raw.items():
+        where = f"{source}: [uncertainty] {name}"
+        if name not in owners:
+            raise RigError(f"{where}: not a numeric [plant], [friction] or [load] key; allowed: {', '.join(owners)}")
+        if (not isinstance(box, (list, tuple)) or len(box) != 2
+                or any(isinstance(end, bool) or not isinstance(end, (int, float)) for end in box)):
+            raise RigError(f"{where} must be [low, high], two numbers, got {box!r}")
+        low, high = (float(end) for end in box)
+        lowest, highest, unit = RANGES[name]
+        unit = f" {unit}" if unit else ""
+        if not (math.isfinite(low) and math.isfinite(high)):
+            raise RigError(f"{where} must be finite, got [{low!r}, {high!r}]")
+        if low > high:
+            raise RigError(f"{where} = [{low:g}, {high:g}]: low is above high")
+        if low < lowest or high > highest:
+            raise RigError(f"{where} = [{low:g}, {high:g}]{unit} reaches outside the accepted range "
+                           f"[{lowest:g}, {highest:g}]{unit}")
+        table, values = owners[name]
+        value = getattr(values, name)
+        if not low <= value <= high:
+            raise RigError(f"{where} = [{low:g}, {high:g}]{unit} excludes the rig's value [{table}] {name} = "
+                           f"{value:g}{unit}; the box must hold it")
+        boxes[name] = (low, high)
+    return Uncertainty(boxes)
+
+
+def _toml_value(value):
+    """A number or a word as TOML: ``repr`` of a float (``inf`` too), a JSON string (a TOML basic string)."""
+    return json.dumps(value) if isinstance(value, str) else repr(float(value))
+
+
+def rig_to_toml(rig, *, comments=None, header=""):
+    """The rig file of ``rig``: a text :func:`load_rig` reads back to an equal :class:`Rig` (but its ``source``).
+
+    ``[plant]`` and ``[model]`` in full, ``[controller]`` with the keys
+    :meth:`Rig.to_dict` gives, ``[load]`` and ``[friction]`` where they differ from
+    their defaults, ``[uncertainty]`` where the rig has boxes; every float as Python's
+    ``repr`` (the shortest text that reads back to the same double).
+
+    Parameters
+    ----------
+    rig : Rig
+    comments : dict of str to str, optional
+        A trailing comment for a key's line, by key (``"coulomb_load"``, a key of the
+        value tables) or by ``"table.key"`` (``"uncertainty.load_inertia"``); one line each.
+    header : str
+        Comment lines put first (each line after ``#`` and a space).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> rig = rig_from_dict({"plant": {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0,
+    ...     "half_gap": 0.05}, "friction": {"coulomb_load": 4.0}})
+    >>> text = rig_to_toml(rig, comments={"coulomb_load": "measured"})
+    >>> print(text[text.index("[friction]"):text.index("[model]")].strip())
+    [friction]
+    coulomb_motor = 0.0
+    coulomb_load = 4.0  # measured
+    viscous_motor = 0.0
+    viscous_load = 0.0
+    breakaway_motor = 0.0
+    breakaway_load = 0.0
+    stribeck_speed = 0.0
+    >>> rig_from_dict(tomllib.loads(rig_to_toml(rig))) == rig
+    True
+    """
+    comments = dict(comments or {})
+    data = rig.to_dict()
+    written = {"plant": True, "controller": rig.controller is not None, "load": rig.load != Load(),
+               "friction": rig.friction != Friction(), "model": True, "uncertainty": bool(rig.uncertainty)}
+    lines = [f"# {line}".rstrip() for line in header.splitlines()]
+    for table in ("plant", "controller", "load", "friction", "model", "uncertainty"):
+        if not written[table]:
+            continue
+        if lines:
+            lines.append("")
+        lines.append(f"[{table}]")
+        for key, value in data[table].items():
+            text = ("[" + ", ".join(map(_toml_value, value)) + "]" if table == "uncertainty"
+                    else _toml_value(value))
+            note = comments.get(f"{table}.{key}", comments.get(key) if table != "uncertainty" else None)
+            lines.append(f"{key} = {text}" + (f"  # {' '.join(str(note).split())}" if note else ""))
+    return "\n".join(lines) + "\n"
+
+
+def write_rig(rig, path, *, comments=None, header=""):
+    """Write ``rig`` as a rig file (:func:`rig_to_toml`, UTF-8) to ``path``.
+
+    Parameters
+    ----------
+    rig : Rig
+    path : str or Path
+    comments : dict of str to str, optional
+        Trailing comments by key (:func:`rig_to_toml`).
+    header : str
+        Comment lines put first.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> rig = rig_from_dict({"plant": {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0,
+    ...     "half_gap": 0.05}, "uncertainty": {"load_inertia": [4.0, 8.0]}})
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "rig.toml"
+    >>> write_rig(rig, path)
+    >>> load_rig(path).uncertainty["load_inertia"]
+    (4.0, 8.0)
+    """
+    Path(path).write_text(rig_to_toml(rig, comments=comments, header=header), encoding="utf-8")
 
 
 def load_rig(path):

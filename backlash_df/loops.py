@@ -378,7 +378,9 @@ class _Builder:
 
 
 def drive_loop(rig):
-    """The :class:`DriveLoop` of a rig (needs its ``[controller]`` table)."""
+    """The :class:`DriveLoop` of a rig (needs its ``[controller]`` table; refuses friction and a torque offset,
+    which no analysis models yet: :meth:`~backlash_df.config.Rig.require_no_friction`)."""
+    rig.require_no_friction()
     return DriveLoop(rig.plant, rig.require_controller())
 
 

@@ -58,16 +58,16 @@ def test_missing_file(tmp_path):
 
 
 def test_load_table_and_gear_ratio():
-    rig = rig_from_dict({"plant": dict(PLANT, gear_ratio=120.0), "load": {"torque": -40.0, "coulomb": 0.0}})
+    rig = rig_from_dict({"plant": dict(PLANT, gear_ratio=120.0), "load": {"torque": -40.0, "torque_offset": -2.5}})
     assert rig.plant.gear_ratio == 120.0
-    assert (rig.load.torque, rig.load.coulomb) == (-40.0, 0.0)
+    assert (rig.load.torque, rig.load.torque_offset) == (-40.0, -2.5)
     assert rig_from_dict({"plant": PLANT}).load.torque == 0.0
 
 
 @pytest.mark.parametrize("table, key, value, match", [
     ("plant", "gear_ratio", 0.0, r"\[plant\] gear_ratio must be > 0"),
-    ("load", "coulomb", -1.0, r"\[load\] coulomb must be >= 0"),
-    ("load", "coulomb", 5.0, r"\[load\] coulomb = 5: no analysis models the load's Coulomb friction yet"),
+    ("load", "coulomb", 0.0, r"\[load\] coulomb is now \[friction\] coulomb_load"),
+    ("load", "coulomb", 5.0, r"\[load\] coulomb is now \[friction\] coulomb_load"),
     ("load", "force", 1.0, r"unknown key \[load\] force"),
 ])
 def test_load_and_gear_ratio_errors(table, key, value, match):

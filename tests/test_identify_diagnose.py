@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from backlash_df import load_rig
+from backlash_df import Friction, load_rig
 from backlash_df.cli import main
 from backlash_df.identify import Cause, diagnose, stage_disagreements, synthesize
 
@@ -207,9 +207,9 @@ def _speeds_only_csv(path):
     return path
 
 
-def _diagnose_json(csv_path, out):
+def _diagnose_json(csv_path, out, *options):
     result = CliRunner().invoke(main, ["diagnose", str(csv_path), "--rig", str(KUKA / "kuka_rig.toml"),
-                                       "--json", str(out)])
+                                       "--json", str(out), *options])
     assert result.exit_code == 0, result.output
     return json.loads(out.read_text()), result.output
 
@@ -233,9 +233,18 @@ def test_kuka_record_names_both_frictions(tmp_path):
     the least-squares fit of the same columns and agreeing with the two-mass model (which fits the link
     encoder's skew, 2.65 ms: the measured twist regressed on the link speed gives about 3 ms, its elastic
     part under the viscous friction included).  Every value on a bound is warned about."""
-    data, output = _diagnose_json(KUKA / "kuka_axis1.csv", tmp_path / "kuka.json")
+    data, output = _diagnose_json(KUKA / "kuka_axis1.csv", tmp_path / "kuka.json", "--rig-out",
+                                  str(tmp_path / "kuka.toml"))
     assert data["structure"] == "rigid_body" and not data["shaft"]["resolved"]
     _assert_frictions_as_the_rigid_body_least_squares(data, KUKA / "kuka_axis1.csv")
+    diagnosed, given = load_rig(tmp_path / "kuka.toml"), load_rig(KUKA / "kuka_rig.toml")
+    named = {cause["effect"]: cause["parameters"][cause["effect"]] for cause in data["causes"]}
+    assert diagnosed.friction == Friction(coulomb_load=named["coulomb_friction"]["value"],
+                                          viscous_load=named["viscous_friction"]["value"])
+    assert diagnosed.uncertainty["viscous_load"] == tuple(named["viscous_friction"]["ci95"])
+    inertia = data["rigid_body"]["whole_record"]["parameters"]["inertia"]  # on its bound: the rig's plant kept
+    assert inertia["value"] == pytest.approx(inertia["bounds"][1], rel=1e-9) and diagnosed.plant == given.plant
+    assert "rigid-body model's inertia ended on a bound" in output and "written on the load side" in output
     two_mass = {cause["effect"] for cause in data["two_mass_causes"]}
     assert {"coulomb_friction", "viscous_friction"} <= two_mass and data["disagreements"] == []
     assert all(cause["determined"] and cause["structure"] == "rigid_body" for cause in data["causes"])

@@ -29,6 +29,7 @@ DATA = {
     "phase_plane_validity": ("stiffness", "damping", "half_gap", "amplitude_ratio", "rate"),
     "load_rig": ("path",),
     "rig_from_dict": ("data", "source"),
+    "write_rig": ("rig", "path"),
     "drive_loop": ("rig",),
     "predict_limit_cycles": ("rig", "model"),
     "verify_limit_cycles": ("rig", "prediction"),

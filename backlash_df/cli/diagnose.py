@@ -22,11 +22,15 @@ __all__ = ["diagnose_command"]
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), default=None, help="Write the diagnosis as JSON.")
 @click.option("--report", "report_out", type=click.Path(dir_okay=False), default=None,
               help="Write a self-contained HTML report.")
+@click.option("--rig-out", "rig_out", type=click.Path(dir_okay=False), default=None,
+              help="Write the diagnosed model as a rig file (.toml): the calibrated plant, the named friction, "
+                   "torque offset and rubber, each value with its 95 % interval as a comment and in [uncertainty]; "
+                   "causes it cannot hold are listed as dropped.")
 @click.option("--strict", is_flag=True, help="Refuse a CSV whose header names a column not listed above.")
 @click.option("--allow-unknown-columns", is_flag=True,
               help="Read a column that looks like a misspelt one of the list above (load_sped) as an unknown "
                    "column: not read, with a note.")
-def diagnose_command(data, rig_file, json_out, report_out, strict, allow_unknown_columns):
+def diagnose_command(data, rig_file, json_out, report_out, rig_out, strict, allow_unknown_columns):
     """Name the physical cause of what the rig's model gets wrong in the measurement CSV DATA.
 
     DATA: UTF-8, comma-separated with a decimal point, one header row naming the
@@ -52,7 +56,7 @@ def diagnose_command(data, rig_file, json_out, report_out, strict, allow_unknown
     column the header lacks (load_sped, load_trq, Load_Speed) refuses the file
     unless --allow-unknown-columns is given.
     """
-    outputs = Outputs({"--json": json_out, "--report": report_out})
+    outputs = Outputs({"--json": json_out, "--report": report_out, "--rig-out": rig_out})
     rig = load_rig(rig_file)
     measurements = load_measurements(data, gear_ratio=rig.plant.gear_ratio, strict=strict,
                                      allow_unknown_columns=allow_unknown_columns)
@@ -68,4 +72,11 @@ def diagnose_command(data, rig_file, json_out, report_out, strict, allow_unknown
         texts["--json"] = json.dumps(result.to_dict(), indent=2) + "\n"
     if "--report" in outputs:
         texts["--report"] = result.report_html()
+    if "--rig-out" in outputs:
+        diagnosed = result.rig_out()
+        for note in diagnosed.dropped:
+            click.echo(f"dropped: {note}", err=True)
+        for note in diagnosed.notes:
+            click.echo(f"note: {note}", err=True)
+        texts["--rig-out"] = diagnosed.to_toml()
     outputs.write(texts)

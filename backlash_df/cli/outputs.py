@@ -26,7 +26,7 @@ __all__ = ["Outputs", "check_output_path", "check_suffix", "plot_format", "SUFFI
 SUFFIXES = {"JSON": (".json",), "an HTML report": (".html", ".htm"), "a figure": tuple(FIGURE_FORMATS),
             "CSV": (".csv",), "a rig file": (".toml",)}
 #: The kind each option writes.
-_KINDS = {"--json": "JSON", "--report": "an HTML report", "--plot": "a figure"}
+_KINDS = {"--json": "JSON", "--report": "an HTML report", "--plot": "a figure", "--rig-out": "a rig file"}
 
 
 def _suffix(path):
@@ -45,7 +45,8 @@ def check_suffix(path, option):
     ``--plot`` takes a figure suffix (:data:`~backlash_df.render.html.FIGURE_FORMATS`) or
     none (PNG, as on a stream: ``-``); ``--json`` and ``--report`` take any suffix but
     that of another kind of file (:data:`SUFFIXES`: ``--json m.html``, ``--report
-    r.json``).  Another option is not checked here.
+    r.json``); ``--rig-out`` takes ``.toml`` only (a rig file ``load_rig`` reads), or a
+    stream (``-``).  Another option is not checked here.
 
     Raises
     ------
@@ -53,6 +54,9 @@ def check_suffix(path, option):
         One line naming ``option``, ``path`` and the suffixes to use.
     """
     kind, suffix = _KINDS.get(option), _suffix(path)
+    if kind == "a rig file" and suffix not in SUFFIXES[kind] and _descriptor(path) is None:
+        raise ValueError(f"{option} {path}: {option} writes {kind}, which needs the suffix "
+                         f"{_listed(SUFFIXES[kind])}")
     if kind is None or not suffix or suffix in SUFFIXES[kind]:
         return
     if kind == "a figure":

@@ -18,8 +18,8 @@ models and their predictions, on compiled kernels private to the package),
 """
 
 from .calibrate import Calibration, FitParameter, calibrate, refine
-from .diagnose import (BASELINE_MIN_FIT, MIN_GAIN, MIN_T, VALIDATION_HORIZON, CandidateResult, Cause, Diagnosis,
-                       Stage, check_excitation, check_speed_units, diagnose, stage_disagreements)
+from .diagnose import (BASELINE_MIN_FIT, MIN_GAIN, MIN_T, VALIDATION_HORIZON, CandidateResult, Cause, DiagnosedRig,
+                       Diagnosis, Stage, check_excitation, check_speed_units, diagnose, stage_disagreements)
 from .effects import EFFECT_NAMES, EFFECTS, Effect, get_effect
 from .measurements import Measurements, load_measurements, measurements_from_arrays, write_measurements
 from .predictors import Replay, fit_percent, predict, replay
@@ -31,7 +31,7 @@ __all__ = [
     "Effect", "EFFECTS", "EFFECT_NAMES", "get_effect",
     "Calibration", "FitParameter", "Replay", "calibrate", "refine", "predict", "replay", "fit_percent",
     "ResidualAnalysis", "residual_analysis", "correlation",
-    "CandidateResult", "Cause", "Stage", "Diagnosis", "diagnose", "stage_disagreements", "check_speed_units",
+    "CandidateResult", "Cause", "Stage", "Diagnosis", "DiagnosedRig", "diagnose", "stage_disagreements", "check_speed_units",
     "check_excitation", "MIN_GAIN", "MIN_T",
     "BASELINE_MIN_FIT", "VALIDATION_HORIZON",
     "Experiment", "SyntheticRecord", "synthesize",

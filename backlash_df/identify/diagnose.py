@@ -92,6 +92,7 @@ import numpy as np
 
 from .._json import json_ready
 from ..checkpoint import step_counter
+from ..config import RANGES, rig_from_dict, rig_to_toml
 from ..plotting import ResultPlot, axes_or_new, legend_beside
 from ..render.diagnosis import (cause_sentence, cause_summary, diagnosis_report, diagnosis_sentence,
                                 diagnosis_sentences, disagreement_note, prediction_mode_text, shown_value,
@@ -103,7 +104,7 @@ from .predictors import DEFAULT_HORIZON, PLANT_PARAMETERS, RIGID_PARAMETERS, pre
 from .residuals import residual_analysis
 from .signals import data_states, encoder_speeds, shaft_resolution, speed_noise
 
-__all__ = ["CandidateResult", "Cause", "Stage", "Diagnosis", "diagnose", "check_speed_units", "check_excitation",
+__all__ = ["CandidateResult", "Cause", "Stage", "Diagnosis", "DiagnosedRig", "diagnose", "check_speed_units", "check_excitation",
            "MIN_GAIN",
            "MIN_T", "BASELINE_MIN_FIT", "VALIDATION_HORIZON", "MIN_TORQUE_SHARE", "MIN_RUBBER_SHARE",
            "EXTENDED_MIN_AHEAD_FIT", "MIN_SEGMENTS", "RIGID_BODY_EFFECTS", "MIN_SKEW_SHARE",
@@ -554,6 +555,29 @@ class Diagnosis:
         axes[-1].set_xlabel(f"time (s), validation part, {base.mode}")
         return ResultPlot(figure, axes)
 
+    def rig_out(self):
+        """The diagnosed model as a rig file: the rig, the 95 % intervals, what it leaves out
+        (:class:`DiagnosedRig`; ``backlash-df diagnose --rig-out``).
+
+        The input rig's ``[controller]`` and ``[model]``; the plant values as the whole
+        record calibrates them (:attr:`whole_record`; on the rigid body, whose one
+        inertia is all the record determines, both inertias scaled to it in the rig's
+        ratio and the shaft's values the rig's); each named cause at its rig key
+        (``coulomb_friction@load`` -> ``[friction] coulomb_load``, ``breakaway_friction``
+        with the Stribeck speed the diagnosis chose, ``torque_offset`` -> ``[load]
+        torque_offset``, ``rubber`` -> ``[plant] rubber_thickness`` and the law
+        ``rubber``, the diagnosis' law); and an ``[uncertainty]`` box for every value
+        with a 95 % interval, widened to hold the value and clipped to the key's
+        range.  Every value is on the load side, as the diagnosis fits them.  A cause
+        with no rig key (an ``actuator_delay`` the rig's ``[controller] delay`` does
+        not match) or without a determined value is :attr:`DiagnosedRig.dropped`.
+        """
+        return _diagnosed_rig(self)
+
+    def diagnosed_rig(self):
+        """The diagnosed model as a :class:`~backlash_df.config.Rig` (:meth:`rig_out`'s ``rig``)."""
+        return self.rig_out().rig
+
     def report_html(self, title="", rig_text=""):
         """A self-contained HTML report: verdict, warnings, overlays, residuals, search, parameters.
 
@@ -573,6 +597,115 @@ class Diagnosis:
                                 {label: analysis.plot(title=f"Residuals of the {label} model").figure
                                  for label, analysis in residuals},
                                 rule=RULE, horizon=VALIDATION_HORIZON, title=title, rig_text=rig_text)
+
+
+@dataclasses.dataclass(frozen=True, repr=False)
+class DiagnosedRig:
+    """The diagnosed model as a rig file (:meth:`Diagnosis.rig_out`).
+
+    Attributes
+    ----------
+    rig : Rig
+        The diagnosed rig, its ``[uncertainty]`` the 95 % boxes.
+    intervals : dict of str to tuple
+        Rig key -> the 95 % interval ``(low, high)`` the diagnosis gives its value (before
+        the box is widened to hold the value and clipped to the key's range).
+    dropped : list of str
+        The named causes the rig does not hold, each in a sentence: no rig key, or no
+        determined value.
+    notes : list of str
+        How the rig was made where it is not the plain calibration (the rigid body's
+        inertias, a value kept from the input rig, the law changed to ``rubber``).
+    """
+
+    rig: object
+    intervals: dict
+    dropped: list
+    notes: list
+
+    def to_toml(self):
+        """The rig file's text: each estimated value with ``# 95 %: [low, high]``, the dropped causes and the
+        notes in the comment at its head (:func:`~backlash_df.config.rig_to_toml`)."""
+        header = [f"The rig {self.rig.source}."]
+        header += [f"dropped: {note}" for note in self.dropped] + [f"note: {note}" for note in self.notes]
+        comments = {key: f"95 %: [{low:.6g}, {high:.6g}]" for key, (low, high) in self.intervals.items()}
+        return rig_to_toml(self.rig, comments=comments, header="\n".join(header))
+
+    def __repr__(self):
+        return (f"<DiagnosedRig {self.rig.source}: {len(self.intervals)} values with intervals, "
+                f"{len(self.dropped)} dropped>")
+
+
+#: Where a named cause goes in the rig file: effect -> (table, key; a friction's key takes ``_side``).
+_RIG_KEYS = {"coulomb_friction": ("friction", "coulomb"), "viscous_friction": ("friction", "viscous"),
+             "breakaway_friction": ("friction", "breakaway"), "torque_offset": ("load", "torque_offset"),
+             "rubber": ("plant", "rubber_thickness")}
+
+
+def _diagnosed_rig(diagnosis):
+    """:meth:`Diagnosis.rig_out`."""
+    rig = diagnosis.rig
+    data = rig.to_dict()
+    estimated, dropped, notes = {}, [], []  # rig key -> (table, value, (low, high))
+    if diagnosis.structure == "rigid_body":
+        inertia = diagnosis.rigid_body.whole_record.parameters["inertia"]
+        scale = 1.0 / (rig.plant.motor_inertia + rig.plant.load_inertia)
+        if inertia.on_bound:
+            notes.append(f"the record does not resolve the shaft's mode, and the rigid-body model's inertia ended on "
+                         f"a bound of the range it was allowed ({inertia.value:.6g} kg m^2): every plant value stays "
+                         f"the rig's")
+        else:
+            for name in ("motor_inertia", "load_inertia"):
+                share = getattr(rig.plant, name) * scale
+                estimated[name] = ("plant", share * inertia.value, tuple(share * end for end in inertia.ci95))
+            notes.append(f"the record does not resolve the shaft's mode: the rigid-body model's inertia "
+                         f"{inertia.value:.6g} kg m^2 is split between motor and load in the rig's ratio, and "
+                         f"stiffness, damping and half gap stay the rig's")
+    else:
+        for name in PLANT_PARAMETERS:
+            parameter = diagnosis.whole_record.parameters[name]
+            if parameter.on_bound:
+                notes.append(f"[plant] {name} stays the rig's {getattr(rig.plant, name):g}: its fit ended on a bound "
+                             f"of the range it was allowed ({parameter.value:.6g} {parameter.unit})")
+            else:
+                estimated[name] = ("plant", parameter.value, parameter.ci95)
+    for cause in diagnosis.causes:
+        parameter = cause.parameters[cause.effect]
+        low, high = parameter.ci95
+        shown = f"{parameter.value:.6g} {parameter.unit} (95 %: [{low:.6g}, {high:.6g}])"
+        if not cause.determined:
+            dropped.append(f"{cause.key}: named, but the record does not determine its value")
+        elif cause.effect not in _RIG_KEYS:  # the actuator delay
+            delay = rig.controller.delay if rig.controller is not None else 0.0
+            if low <= delay <= high:
+                notes.append(f"{cause.key} = {shown} agrees with the rig's [controller] delay = {delay:g} s")
+            else:
+                dropped.append(f"{cause.key} = {shown}: no rig key holds a delay of the applied torque; the rig's "
+                               f"[controller] delay (dead time on every measured signal) is {delay:g} s")
+        else:
+            table, key = _RIG_KEYS[cause.effect]
+            key = f"{key}_{cause.side}" if table == "friction" else key
+            estimated[key] = (table, parameter.value, parameter.ci95)
+            if cause.effect == "breakaway_friction":
+                data["friction"]["stribeck_speed"] = cause.stribeck_speed
+            if cause.effect == "rubber" and rig.model != "rubber":
+                data["model"]["backlash"] = "rubber"
+                notes.append(f"[model] backlash is \"rubber\" (the rig's was \"{rig.model}\"): the diagnosis "
+                             f"fitted the rubber law (40)")
+    if diagnosis.structure == "rigid_body" and any(cause.effect.endswith("_friction") for cause in diagnosis.causes):
+        notes.append("the rigid-body model's friction acts on the one body, motor and load side together: it is "
+                     "written on the load side")
+    intervals = {}
+    for key, (table, value, (low, high)) in estimated.items():
+        data[table][key] = value
+        if math.isfinite(low) and math.isfinite(high):
+            intervals[key] = (low, high)
+            lowest, highest, _ = RANGES[key]
+            if key == "rubber_thickness":
+                highest = min(highest, 2.0 * data["plant"]["half_gap"])
+            data["uncertainty"][key] = [max(min(low, value), lowest), min(max(high, value), highest)]
+    source = f"{rig.source} diagnosed from {diagnosis.measurements.source}"
+    return DiagnosedRig(rig_from_dict(data, source=source), intervals, dropped, notes)
 
 
 RULE = (f"an effect is added (forward selection, then backward elimination) if the validation RSS falls by at "
@@ -1249,6 +1382,9 @@ def _diagnose(measurements, rig, candidates, estimation_fraction, transient_frac
     if not 0.0 <= transient_fraction < estimation_fraction < 1.0:
         raise ValueError("need 0 <= transient_fraction < estimation_fraction < 1")
     measurements.check_gear_ratio(rig.plant.gear_ratio, where=rig.source)
+    if rig.friction.any or rig.load.torque_offset != 0.0:
+        raise ValueError(f"{rig.source}: has [friction] or [load] torque_offset; a diagnosis names what a rig without "
+                         f"them lacks: diagnose with them removed (for a diagnosed rig, with the rig it came from)")
     check_excitation(measurements)
     check_speed_units(measurements, rig)
     n = measurements.n_samples
