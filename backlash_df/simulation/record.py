@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from .._json import json_ready
-from ..identify.measurements import Measurements, load_measurements, write_measurements
+from ..identify.measurements import Measurements, load_measurements, measurements_csv, write_measurements
 from ..identify.predictors import fit_percent
 from ..loops import drive_loop
 from ..models import BacklashModel
@@ -273,9 +273,22 @@ class SimulatedRecord:
         return (f"<SimulatedRecord {self.simulation.model.name}: {self.simulated.duration:g} s, {self.steps} steps, "
                 f"{self.simulated.n_samples} samples{fits}>")
 
-    def to_csv(self, path):
-        """Write the responses as a measurement CSV (motor columns on the motor side, through the gear ratio)."""
-        write_measurements(path, self.simulated)
+    def to_csv(self, path=None):
+        """The responses as a measurement CSV (motor columns on the motor side, through the gear ratio).
+
+        Parameters
+        ----------
+        path : str or Path, optional
+            Where to write it.
+
+        Returns
+        -------
+        str or None
+            The file's text when no ``path`` is given.
+        """
+        if path is None:
+            return measurements_csv(self.simulated)
+        return write_measurements(path, self.simulated)
 
     def to_dict(self):
         """JSON-ready (the contract page's ``simulate --json``): the run, its inputs, the columns on the file's side
