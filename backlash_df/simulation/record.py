@@ -318,6 +318,9 @@ class SimulatedRecord:
     def plot(self, ax=None):
         """Torques, speeds and angles against time, on the file's side; with a record, measured beside simulated.
 
+        The measured lines are the broad pale ones; a compared angle is drawn from the
+        record's first sample (the encoder's zero, as :attr:`fit_percent` takes it).
+
         Parameters
         ----------
         ax : sequence of 3 matplotlib Axes, optional
@@ -333,11 +336,15 @@ class SimulatedRecord:
         simulated = self.simulated.file_columns()
         measured = {} if self.record is None else self.record.file_columns()
         for name, panel in panels.items():
-            if name in measured:
-                axes[panel].plot(measured["time"], measured[name], color="0.55", lw=2.2, label=f"{name} (measured)")
+            values = simulated[name]
+            if name in _ANGLES and name in measured:  # to the encoder's zero, as compared
+                values = values + (measured[name][0] - np.interp(measured["time"][0], simulated["time"], values))
             fit = "" if name not in (self.fit_percent or {}) else f", fit {self.fit_percent[name]:.1f} %"
-            axes[panel].plot(simulated["time"], simulated[name], lw=1.0,
-                             label=f"{name} (simulated{fit})" if measured else name)
+            line, = axes[panel].plot(simulated["time"], values, lw=1.0,
+                                     label=f"{name} (simulated{fit})" if name in measured else name)
+            if name in measured:
+                axes[panel].plot(measured["time"], measured[name], color=line.get_color(), lw=3.0, alpha=0.35,
+                                 label=f"{name} (measured)", zorder=line.get_zorder() - 0.1)
         for panel, unit in zip(axes, ("torque (N m)", "speed (rad/s)", "angle (rad)")):
             panel.set_ylabel(unit)
             legend_beside(panel)
