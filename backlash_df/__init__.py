@@ -46,8 +46,8 @@ _lazy_getattr, __dir__, _ = _lazy.attach(
 
 def __getattr__(name):
     """A public name, its module imported on first use and the name kept here (later uses cost a dict
-    lookup); ``simulate`` is :func:`backlash_df.simulation.record.simulate`, :func:`~backlash_df.simulation.simulate_rig`
-    unless given recorded inputs or a record to compare with."""
+    lookup); ``simulate`` is :func:`backlash_df.simulation.record.simulate`:
+    :func:`~backlash_df.simulation.simulate_rig` unless given recorded inputs or a record to compare with."""
     if name == "simulate":
         from .simulation.record import simulate as value
     else:

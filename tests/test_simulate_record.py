@@ -214,8 +214,9 @@ def linear_cascade(c, kv):
 def test_a_cascade_follows_its_position_reference():
     """A cascade's reference is a position (rad): a ramp to 0.3 rad and a hold.  With a gap of 1e-9 rad the loop
     is linear: the load angle, motor speed and torque agree with python-control's forced_response of the cascade
-    written above to 1e-6 of their ranges, and the load angle ends within 1 % of the reference (the speed loop's integrator
-    takes the position error away).  motor_angle - load_angle is theta_d."""
+    written above to 1e-6 of their ranges, and the load angle ends within 1 % of the reference (the speed loop's
+    integrator takes the position error away).  motor_angle - load_angle is theta_d.  (With the rig's gap of
+    0.02 rad this loop hunts: an integrator in a position loop with backlash.)"""
     import control as ct
 
     kv = 5.0

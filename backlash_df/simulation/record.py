@@ -398,13 +398,16 @@ def simulate_record(rig, model=None, *, inputs=None, t_end=None, dt=None, compar
         ``load_torque``, or no ``t_end`` to be had.
     """
     recorded = None if inputs is None else read_inputs(inputs)
-    if recorded is not None and (callable(speed_reference) or speed_reference != 0.0 or load_torque is not None):
+    if recorded is not None and (callable(speed_reference) or np.ndim(speed_reference) or speed_reference != 0.0
+                                 or load_torque is not None):
         raise ValueError("inputs holds the reference and the load torque: pass no speed_reference or load_torque")
     record = _record(compare, rig)
     if t_end is None:
         if recorded is None and record is None:
             raise ValueError("t_end: give the run's length (s), or inputs or a record for it to span")
         t_end = recorded.duration if recorded is not None else float(record.time[-1])
+    if not (t_end > 0.0 and math.isfinite(t_end)):
+        raise ValueError(f"t_end must be finite and > 0 s, got {t_end!r}")
     law = model if isinstance(model, BacklashModel) else rig.make_model(model)
     loop = drive_loop(rig)
     system = loop.linear_part()
