@@ -15,6 +15,8 @@ from click.testing import CliRunner
 from scipy.integrate import solve_ivp
 
 import backlash_df as bd
+import backlash_df.cli.common
+import backlash_df.cli.simulate
 from backlash_df.cli import main
 from backlash_df.simulation.record import TIME_TOLERANCE, read_inputs
 from conftest import EXAMPLES, PLANT_TOML
@@ -328,3 +330,15 @@ def test_inputs_and_speed_reference_together_are_refused():
     with pytest.raises(ValueError, match="pass no speed_reference or load_torque"):
         bd.simulate(bd.rig_from_dict(RIG), inputs={"time": [0.0, 1.0], "reference": [0.0, 1.0]},
                     speed_reference=1.0)
+
+
+def test_progress_only_on_a_terminal(record_files, monkeypatch):
+    """Off a terminal stderr stays empty; on one (the check made to say so) a tqdm bar counts the steps."""
+    rig, inputs, _ = record_files
+    quiet = cli(rig, "--inputs", inputs, "--t-end", "0.2")
+    assert quiet.exit_code == 0 and quiet.stderr == ""
+    monkeypatch.setattr(backlash_df.cli.simulate, "stderr_is_terminal", lambda: True)
+    monkeypatch.setattr(backlash_df.cli.common, "stderr_is_terminal", lambda: True)
+    drawn = cli(rig, "--inputs", inputs, "--t-end", "0.2")
+    assert drawn.exit_code == 0 and "\r" in drawn.stderr and "simulate" in drawn.stderr
+    assert drawn.stdout == quiet.stdout
