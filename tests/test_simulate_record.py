@@ -342,3 +342,23 @@ def test_progress_only_on_a_terminal(record_files, monkeypatch):
     drawn = cli(rig, "--inputs", inputs, "--t-end", "0.2")
     assert drawn.exit_code == 0 and "\r" in drawn.stderr and "simulate" in drawn.stderr
     assert drawn.stdout == quiet.stdout
+
+
+@pytest.mark.parametrize("option, path, words", [
+    ("--csv", "nodir/out.csv", ["--csv nodir/out.csv", "does not exist"]),
+    ("--json", "out.html", ["--json out.html", "not an HTML report"]),
+    ("--plot", "out.jpg", ["--plot out.jpg", "unknown plot format"]),
+])
+def test_outputs_are_checked_before_the_run(record_files, tmp_path, monkeypatch, option, path, words):
+    def never(*args, **kwargs):
+        raise AssertionError("the run started before the outputs were checked")
+
+    monkeypatch.setattr(backlash_df.cli.simulate, "simulate_record", never)
+    monkeypatch.chdir(tmp_path)
+    rig, inputs, _ = record_files
+    other = [] if option == "--csv" else ["--csv", "good.csv"]  # a good output beside the bad one: none written
+    result = cli(rig, "--inputs", inputs, *other, option, path)
+    assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1
+    for word in words:
+        assert word in result.output
+    assert list(tmp_path.iterdir()) == []
