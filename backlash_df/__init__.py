@@ -29,6 +29,7 @@ _EXPORTS = {
     "system": ["LinearPart"],
     "loops": ["DriveLoop", "drive_loop"],
     "simulation": ["MeasuredCycle", "SimulationResult", "measure_limit_cycle", "simulated_limit_cycle"],
+    "simulation.record": ["SimulatedRecord"],
     "limit_cycles": ["LimitCyclePrediction", "limit_cycle_plot", "predict_limit_cycles", "verify_limit_cycles"],
     "orbits": ["OrbitNotFound", "PeriodicOrbit", "exact_orbits", "periodic_orbit"],
     "verdict": ["VERDICTS", "LoopVerdict", "judge_loop"],
@@ -46,9 +47,10 @@ _lazy_getattr, __dir__, _ = _lazy.attach(
 
 def __getattr__(name):
     """A public name, its module imported on first use and the name kept here (later uses cost a dict
-    lookup); ``simulate`` is :func:`backlash_df.simulation.simulate_rig`."""
+    lookup); ``simulate`` is :func:`backlash_df.simulation.record.simulate`:
+    :func:`~backlash_df.simulation.simulate_rig` unless given recorded inputs or a record to compare with."""
     if name == "simulate":
-        from .simulation import simulate_rig as value
+        from .simulation.record import simulate as value
     else:
         value = _lazy_getattr(name)
     globals()[name] = value
@@ -86,6 +88,7 @@ __all__ = [
     "LimitCyclePrediction",
     "simulate",
     "SimulationResult",
+    "SimulatedRecord",
     "simulated_limit_cycle",
     "measure_limit_cycle",
     "MeasuredCycle",

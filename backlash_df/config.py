@@ -19,7 +19,7 @@
     speed_filter = 0.002       # s
     torque_lag = 0.0           # s
     delay = 0.0                # s, on every measured signal
-    kv = 20.0                  # 1/s, cascade only: speed reference = kv (0 - position)
+    kv = 20.0                  # 1/s, cascade only: speed reference = kv (r - position), r the position reference
     position_feedback = "load" # cascade only: "motor" or "load", the angle the position loop measures
     torque_limit = 0.0         # N m, |torque command| limit with a clamped integrator (0: none)
 

@@ -219,6 +219,19 @@ class DriveLoop:
         """
         return _Builder(self.plant, self.controller).linear_part()
 
+    def command_row(self):
+        """The controller's output u (N m, before the torque limit and the torque lag) as a row.
+
+        ``u = row . [z, w, u_d]`` over the states of :meth:`linear_part`, its
+        inputs (reference, load torque) and, with a dead time, its delayed
+        signals; with a torque limit it is :attr:`~backlash_df.system.Command.row`.
+
+        Returns
+        -------
+        ndarray, shape (n + 2 + k,)
+        """
+        return _Builder(self.plant, self.controller).command_row()
+
     def reference_response(self, omega, stiffness, damping=0.0):
         """The closed loop with the gear in contact, from the reference to the load: complex, dead time exact.
 
@@ -314,8 +327,10 @@ class _Builder:
             rates[f"{prefix}_{i + 1}"] = sum((a[i, j] * states[j] for j in range(block.order)), b[i, 0] * signal)
         return sum((c[0, j] * states[j] for j in range(block.order)), d[0, 0] * signal)
 
-    def linear_part(self):
-        ctl, plant, n = self.ctl, self.plant, self.n
+    def _controller(self):
+        """``(u, error, integrator, measured, rates)``: the controller's output and speed error as rows, the
+        clamped integrator's index (-1: none), the measured signals' rows and the controller states' rates."""
+        ctl, n = self.ctl, self.n
         speed = self.state("motor_speed" if ctl.feedback == "motor" else "load_speed")
         position = None
         if ctl.cascade:
@@ -341,6 +356,21 @@ class _Builder:
             rates["integrator"] = error
         else:
             u = ctl.kp * error
+        if ctl.speed_filter > 0.0:
+            rates["filtered_speed"] = (delayed[0] - y_f) / ctl.speed_filter
+        return u, error, integrator, measured, rates
+
+    def _over(self):
+        """The columns a command row spans, ``[z, w, u_d]``: u does not depend on the shaft torque T."""
+        return [*range(self.n), self.R, self.TL, *range(self.n + 3, self.n + 3 + self.k)]
+
+    def command_row(self):
+        """The controller's output u (N m) as a row over ``[z, w, u_d]``."""
+        return self._controller()[0][self._over()]
+
+    def linear_part(self):
+        ctl, plant, n = self.ctl, self.plant, self.n
+        u, error, integrator, measured, rates = self._controller()
         motor_torque = self.state("motor_torque") if ctl.torque_lag > 0.0 else u
         rates.update({
             "theta_d": self.state("motor_speed") - self.state("load_speed"),
@@ -349,8 +379,6 @@ class _Builder:
         })
         if ctl.cascade:
             rates["load_angle"] = self.state("load_speed")
-        if ctl.speed_filter > 0.0:
-            rates["filtered_speed"] = (delayed[0] - y_f) / ctl.speed_filter
         if ctl.torque_lag > 0.0:
             rates["motor_torque"] = (u - motor_torque) / ctl.torque_lag
         table = np.array([rates[name] for name in self.names])
@@ -359,7 +387,7 @@ class _Builder:
         if ctl.torque_limit > 0.0:
             column = self.state("motor_torque")[:n] / ctl.torque_lag if ctl.torque_lag > 0.0 else \
                 self.state("motor_speed")[:n] / plant.motor_inertia
-            over = [*range(n), self.R, self.TL, *delayed_columns]  # [z, w, u_d]: u does not depend on T
+            over = self._over()
             command = Command(column=column, row=u[over], limit=ctl.torque_limit, integrator=integrator,
                               error=error[over])
         return LinearPart(

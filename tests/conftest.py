@@ -119,6 +119,8 @@ def results():
         "TorqueComparison": comparison,
         "TableOne": TableOne((comparison,)),
         "Measurements": data,
+        "SimulatedRecord": bd.simulate(diagnosis_rig, inputs=EXAMPLES / "simulate_inputs.csv",
+                                       compare=EXAMPLES / "simulate_record.csv"),
         "Diagnosis": diagnosis,
         "Cause": diagnosis.causes[0],
         "Stage": diagnosis.rigid_body,
@@ -141,7 +143,7 @@ def results():
 #: Keys of ``results`` whose class draws a picture (``plot(ax=None)``).
 PLOTS = ["LimitCyclePrediction", "LoopVerdict", "LoopAnalysis", "PeriodicOrbit", "Branch", "DesignMap",
          "SimulationResult", "DescribingFunctionResult", "ValidityMap", "TorqueComparison", "TableOne", "Measurements",
-         "Diagnosis", "Replay", "FreeRunReplay", "ResidualAnalysis", "Tuning"]
+         "SimulatedRecord", "Diagnosis", "Replay", "FreeRunReplay", "ResidualAnalysis", "Tuning"]
 
 #: Keys of ``results`` whose class writes a report (``report_html(title="", rig_text="")``).
 REPORTS = ["LimitCyclePrediction", "LoopAnalysis", "Branch", "DesignMap", "Diagnosis", "Tuning"]

@@ -475,7 +475,7 @@ def test_bare_command_prints_its_help(work):
 
 
 def test_unknown_command_and_option(work):
-    assert_refused(CliRunner().invoke(main, ["simulate", "rig.toml"]), ["No such command 'simulate'"], work)
+    assert_refused(CliRunner().invoke(main, ["identify", "rig.toml"]), ["No such command 'identify'"], work)
     assert_refused(CliRunner().invoke(main, ["--verbose"]), ["No such option", "--verbose"], work)
 
 

@@ -52,7 +52,7 @@ def test_every_public_result_class_is_covered(results):
                                          "LinearStability", "LoopAnalysis", "PeriodicOrbit", "Branch", "BranchPoint",
                                          "SpecialPoint", "DesignMap", "SimulationResult", "MeasuredCycle",
                                          "DescribingFunctionResult", "ValidityMap", "TorqueComparison", "TableOne",
-                                         "Measurements", "Diagnosis", "Cause", "Stage", "ShaftResolution",
+                                         "Measurements", "SimulatedRecord", "Diagnosis", "Cause", "Stage", "ShaftResolution",
                                          "CandidateResult", "Calibration", "FitParameter", "Replay", "FreeRunReplay",
                                          "ResidualAnalysis", "LoadLimit", "Tuning", "Certificate", "Candidate",
                                          "Disturbance", "Rest"]))

@@ -24,6 +24,7 @@ COMMANDS = {
     "map": "sweeps:map_command",
     "tune": "tune:tune_command",
     "diagnose": "diagnose:diagnose_command",
+    "simulate": "simulate:simulate_command",
     "reproduce": "reproduce:reproduce_command",
 }
 

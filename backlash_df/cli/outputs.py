@@ -1,11 +1,11 @@
 """The files a command writes: every path checked before anything is computed, all written or none.
 
 :class:`Outputs` holds the paths of one command's options (``--json``, ``--report``,
-``--plot``, ``--out``); :meth:`Outputs.write` stages every file beside its target and
+``--plot``, ``--csv``, ``--out``); :meth:`Outputs.write` stages every file beside its target and
 renames them into place only when all are written, restoring what it replaced if a
 step fails.  A path's suffix names its format (:data:`SUFFIXES`): ``--plot`` writes the
-figure format its suffix names (:func:`plot_format`), and ``--json`` and ``--report``
-refuse a suffix of another kind of file.
+figure format its suffix names (:func:`plot_format`), and ``--json``, ``--report`` and
+``--csv`` refuse a suffix of another kind of file.
 """
 
 import contextlib
@@ -26,7 +26,7 @@ __all__ = ["Outputs", "check_output_path", "check_suffix", "plot_format", "SUFFI
 SUFFIXES = {"JSON": (".json",), "an HTML report": (".html", ".htm"), "a figure": tuple(FIGURE_FORMATS),
             "CSV": (".csv",), "a rig file": (".toml",)}
 #: The kind each option writes.
-_KINDS = {"--json": "JSON", "--report": "an HTML report", "--plot": "a figure", "--rig-out": "a rig file"}
+_KINDS = {"--json": "JSON", "--report": "an HTML report", "--plot": "a figure", "--rig-out": "a rig file", "--csv": "CSV"}
 
 
 def _suffix(path):
@@ -43,10 +43,10 @@ def check_suffix(path, option):
     """Check that ``path``'s suffix fits what ``option`` writes, before anything is computed.
 
     ``--plot`` takes a figure suffix (:data:`~backlash_df.render.html.FIGURE_FORMATS`) or
-    none (PNG, as on a stream: ``-``); ``--json`` and ``--report`` take any suffix but
-    that of another kind of file (:data:`SUFFIXES`: ``--json m.html``, ``--report
-    r.json``); ``--rig-out`` takes ``.toml`` only (a rig file ``load_rig`` reads), or a
-    stream (``-``).  Another option is not checked here.
+    none (PNG, as on a stream: ``-``); ``--json``, ``--report`` and ``--csv`` take any suffix
+    but that of another kind of file (:data:`SUFFIXES`: ``--json m.html``, ``--report
+    r.json``, ``--csv r.json``); ``--rig-out`` takes ``.toml`` only (a rig file ``load_rig``
+    reads), or a stream (``-``).  Another option is not checked here.
 
     Raises
     ------

@@ -59,6 +59,7 @@ __all__ = [
     "read_columns",
     "measurements_from_arrays",
     "write_measurements",
+    "measurements_csv",
     "REQUIRED_COLUMNS",
     "OPTIONAL_COLUMNS",
     "MOTOR_SIDE_COLUMNS",
@@ -662,8 +663,25 @@ def write_measurements(path, measurements, precision=9):
     precision : int
         Significant digits per value.
     """
+    Path(path).write_text(measurements_csv(measurements, precision), encoding="utf-8")
+
+
+def measurements_csv(measurements, precision=9):
+    """A record as the text of a measurement CSV file (:func:`write_measurements` writes it).
+
+    Parameters
+    ----------
+    measurements : Measurements
+    precision : int
+        Significant digits per value.
+
+    Returns
+    -------
+    str
+        The header row and one line a sample, motor columns on the motor side.
+    """
     columns = measurements.file_columns()
     table = np.column_stack(list(columns.values()))
     lines = [",".join(columns)]
     lines += [",".join(f"{value:.{precision}g}" for value in row) for row in table]
-    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return "\n".join(lines) + "\n"

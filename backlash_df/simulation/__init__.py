@@ -16,7 +16,11 @@ The package has one module per floor:
 * :mod:`~backlash_df.simulation.cycles`: :func:`measure_limit_cycle` and
   :class:`MeasuredCycle`, what a run settled to;
 * :mod:`~backlash_df.simulation.rig`: :func:`simulate_rig` (public as
-  :func:`backlash_df.simulate`) and :func:`simulated_limit_cycle`, runs of a rig's loop.
+  :func:`backlash_df.simulate`) and :func:`simulated_limit_cycle`, runs of a rig's loop;
+* :mod:`~backlash_df.simulation.record`: a rig's loop run on recorded inputs, written as
+  a measurement record and compared with one (``backlash-df simulate``).  It reads the
+  record format of :mod:`backlash_df.identify`, which stands on this package, so this
+  ``__init__`` does not import it; :func:`backlash_df.simulate` is its ``simulate``.
 
 Integration runs on a fixed grid with the law's *mode* frozen over each step
 (free, rubber band, steel contact; see :mod:`backlash_df.models`); a change of

@@ -19,7 +19,8 @@ from ..plotting import ResultPlot, axes_or_new
 from ..system import closed_loop_matrix, two_mass_system
 from ._kernels import LEVELS, AugmentedCommand, CommandRows, run_exact, run_rk4
 
-__all__ = ["SimulationResult", "simulate_linear", "simulate_two_mass", "timed_inputs", "default_step", "MAX_STEPS"]
+__all__ = ["SimulationResult", "simulate_linear", "simulate_two_mass", "timed_inputs", "default_step", "signal_trace",
+           "MAX_STEPS"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -228,15 +229,40 @@ def _command_arrays(system):
 def _command_trace(system, time, states, w_grid):
     """``clip(u, -limit, limit)`` at every sample (N m), the delayed signals interpolated from the record."""
     command = system.command
+    return np.clip(signal_trace(system, command.row, time, states, w_grid), -command.limit, command.limit)
+
+
+def signal_trace(system, row, time, states, inputs):
+    """A signal ``row . [z, w, u_d]`` of a run at every sample: linear in the states, inputs and delayed signals.
+
+    The delayed signals ``u_d = d z(t - delay)`` are interpolated linearly between
+    samples (before the run's start, its first sample), as the kernels hold them.
+
+    Parameters
+    ----------
+    system : LinearPart
+    row : ndarray, shape (n + m + k,)
+        Over the states, the inputs and the delayed signals (the controller's
+        output: :meth:`~backlash_df.loops.DriveLoop.command_row`).
+    time : ndarray, shape (N,)
+        The run's samples, s.
+    states : ndarray, shape (N, n)
+    inputs : ndarray, shape (N, m) or (1, m)
+        The inputs at the samples (one row: constants).
+
+    Returns
+    -------
+    ndarray, shape (N,)
+    """
     n, m = system.n_states, system.E.shape[1]
     with np.errstate(over="ignore", invalid="ignore"):
-        u = states @ command.row[:n] + w_grid @ command.row[n:n + m]
+        signal = states @ row[:n] + inputs @ row[n:n + m]
         if system.n_delayed:
             signals = states @ system.d.T
             delayed = np.column_stack([np.interp(time - system.delay, time, signals[:, j])
                                        for j in range(system.n_delayed)])
-            u = u + delayed @ command.row[n + m:]
-    return np.clip(u, -command.limit, command.limit)
+            signal = signal + delayed @ row[n + m:]
+    return signal
 
 
 #: Most steps of one simulation: every sample is stored (about 80 bytes a step), and the

@@ -39,7 +39,8 @@ def simulate_rig(rig, model=None, *, t_end=20.0, dt=None, speed_reference=0.0, l
                  initial=None, kick=0.0, linear=None, theta_b0=0.0):
     """Closed-loop time simulation of a rig's PI speed loop with a backlash torque law.
 
-    Public as :func:`backlash_df.simulate`.  The loop is that of
+    Public as :func:`backlash_df.simulate` (given no recorded inputs nor a record to
+    compare with: :func:`~backlash_df.simulation.record.simulate`).  The loop is that of
     :mod:`backlash_df.loops` (states ``theta_d``, ``motor_speed``,
     ``load_speed``, ``integrator`` and, when present, ``filtered_speed`` and
     ``motor_torque``), integrated by :func:`~backlash_df.simulation.simulate_linear`.
