@@ -11,7 +11,8 @@ and :mod:`backlash_df.system` share them; none is public API).  On a
   and :func:`command_mode_of` says which a state is in;
 * :func:`exp_ladder`: the dyadic ladder ``exp(M dt 2^-j)`` that steps and locates
   events inside one mode;
-* :class:`KernelArrays`: a linear part as the RK4 kernel takes it.
+* :class:`KernelArrays`: a linear part as the RK4 kernel takes it, :class:`StickRows` its
+  sticking friction (:class:`~backlash_df.system.Sticking`).
 
 The augmented state of :func:`mode_matrices` is ``q = [z, theta_b, 1, chains]``: the
 loop's ``n`` states ``z``, then at ``n + THETA_B`` the exact model's theta_b, at
@@ -37,6 +38,7 @@ __all__ = [
     "RATE",
     "CURVATURE",
     "KernelArrays",
+    "StickRows",
     "mode_matrices",
     "COMMAND_MODES",
     "command_index",
@@ -76,6 +78,16 @@ class KernelArrays(NamedTuple):
     friction_speed: float
     breakaway: float
     breakaway_speed: float
+
+
+class StickRows(NamedTuple):
+    """A :class:`~backlash_df.system.Sticking` as the RK4 kernel takes it (the attributes' meanings are its)."""
+
+    index: np.ndarray
+    column: np.ndarray
+    coulomb: np.ndarray
+    breakaway: np.ndarray
+    stribeck_speed: np.ndarray
 
 
 def mode_matrices(system, model, law, varying=(), constant=None):

@@ -83,12 +83,15 @@ breakaway_motor, breakaway_load    [0, 1e9] N m          as a torque limit
 stribeck_speed                     [0, 1e6] rad/s        speeds of any drive (> 0 with a breakaway friction)
 =================================  ====================  ==========================================
 
-``[friction]`` is the friction la  w of :mod:`backlash_df.friction` on each side,
-``F(w) = viscous w + (coulomb + b  reakaway exp(-(w / stribeck_speed)^2)) sign(w)``, the
-catalogue's effects (:mod:`backla  sh_df.identify.effects`) as a diagnosis names them.  No
-analysis models friction or ``tor  que_offset`` yet: the loop (:func:`~backlash_df.loops.drive_loop`)
-refuses a rig that has them (:met  h:`Rig.require_no_friction`); the rig still loads, so that
-a diagnosed rig (:meth:`~backlash  _df.identify.Diagnosis.rig`) can be written and read.
+``[friction]`` is the friction law of :mod:`backlash_df.friction` on each side,
+``F(w) = viscous w + (coulomb + breakaway exp(-(w / stribeck_speed)^2)) sign(w)``, the
+catalogue's effects (:mod:`backlash_df.identify.effects`) as a diagnosis names them, with
+true stiction at rest (:class:`~backlash_df.system.Sticking`).  The time simulation models
+all of it; viscous friction is linear and part of every analysis' ``G``; the
+describing-function analyses do not model dry (Coulomb, breakaway) friction yet and refuse
+it, and no loop models ``torque_offset`` yet (:meth:`Rig.require_modelled`, called by
+:func:`~backlash_df.loops.drive_loop`); the rig still loads, so that a diagnosed rig
+(:meth:`~backlash_df.identify.Diagnosis.rig_out`) can be written and read.
 
 ``[uncertainty]`` gives, for any   numeric ``[plant]``, ``[friction]`` or ``[load]`` key, the
 absolute interval ``[low, high]``   the real drive's value lies in (each end inside the
@@ -406,22 +409,31 @@ class Rig:
             raise RigError(f"{self.source}: no [controller] table; this analysis needs the PI speed loop")
         return self.controller
 
-    def require_no_friction(self):
-        """Refuse a rig with friction or a torque offset: no analysis of the loop models them yet.
+    def require_modelled(self, dry_friction=False):
+        """Refuse what the loop's analyses do not model: a torque offset, and dry friction unless ``dry_friction``.
+
+        Parameters
+        ----------
+        dry_friction : bool
+            True for the time simulation, which models Coulomb and breakaway friction
+            with stiction; False for the describing-function analyses, which do not yet.
 
         Raises
         ------
         RigError
-            A nonzero ``[friction]`` value or ``[load] torque_offset``: one line naming the first.
+            ``[load] torque_offset`` nonzero, or (without ``dry_friction``) a nonzero
+            ``[friction]`` Coulomb or breakaway value: one line naming the first.
         """
-        named = [f"[friction] {f.name} = {getattr(self.friction, f.name):g}" for f in dataclasses.fields(Friction)
-                 if f.name != "stribeck_speed" and getattr(self.friction, f.name) != 0.0]
         if self.load.torque_offset != 0.0:
-            named.append(f"[load] torque_offset = {self.load.torque_offset:g}")
-        if named:
-            raise RigError(f"{self.source}: {named[0]}: no analysis models friction or a torque offset yet (the "
-                           f"prediction, simulation, verdict and tune would leave it out); remove the key or set it "
-                           f"to 0")
+            raise RigError(f"{self.source}: [load] torque_offset = {self.load.torque_offset:g}: no analysis of the "
+                           f"loop models a torque offset yet (it would be left out); remove the key or set it to 0")
+        dry = [name for name in ("coulomb_motor", "coulomb_load", "breakaway_motor", "breakaway_load")
+               if getattr(self.friction, name) != 0.0]
+        if dry and not dry_friction:
+            raise RigError(f"{self.source}: [friction] {dry[0]} = {getattr(self.friction, dry[0]):g}: the "
+                           f"describing-function analyses (predict, verdict, orbits, continue, map, tune) do not "
+                           f"model dry friction yet (it would be left out); `simulate` does, and viscous friction "
+                           f"every analysis does")
 
     def to_dict(self):
         """The rig as the rig file's tables (a dict :func:`rig_from_dict` reads back).

@@ -3,7 +3,7 @@
 The loop of the rig file's ``[controller]`` table (SI units; the contract page
 states it too)::
 
-    J_m dw_m/dt = T_m - T           J_l dw_l/dt = T + T_l        dtheta_d/dt = w_m - w_l
+    J_m dw_m/dt = T_m - T - F_m     J_l dw_l/dt = T + T_l - F_l  dtheta_d/dt = w_m - w_l
     dtheta_l/dt = w_l                                            (cascade: the load angle)
     y = w_m or w_l                  measured speed ("feedback" = "motor" or "load")
     p = theta_m or theta_l          measured position ("position_feedback"; theta_m = theta_d + theta_l)
@@ -18,7 +18,11 @@ states it too)::
     tau_l dT_m/dt = T_cmd - T_m     first-order torque (current) loop (tau_l = torque_lag)
 
 with the reference ``r`` and the load torque ``T_l`` as external inputs (paper eq. 42
-and Figure 3 give the two-mass part).  The filter and lag states exist only when
+and Figure 3 give the two-mass part) and the friction of each side (the rig's
+``[friction]``), ``F(w) = d w + (F_c + F_s exp(-(w / w_s)^2)) sign(w)``, sticking at
+rest while the torque on the side stays within ``F_c + F_s``: its viscous part ``d w``
+is linear and part of ``G``, its dry part a :class:`~backlash_df.system.Sticking`
+of the linear part, outside ``G``.  The filter and lag states exist only when
 their time constants are positive, the integrator only for a finite ``ti``.  The
 backlash closes the loop through the shaft torque ``T = law(theta_d, dtheta_d)``.
 With ``r`` and ``T_l`` constant, a speed loop is invariant to a common speed offset,
@@ -30,7 +34,7 @@ command unsaturated) is ``G(s)``, so that ``T = N(A, w) theta_d`` gives the
 harmonic-balance equation ``1 + G(jw) N(A, w) = 0``.  With the speed controller
 ``C(s) = K(s) e^{-s delay} / (tau_l s + 1)`` (K the PI or a user's), the filter
 ``F(s) = 1 / (tau_f s + 1)``, the position controller ``Kv(s)`` (kv, a user's, or 0
-for a speed loop), ``P_m = 1 / (J_m s)``, ``P_l = 1 / (J_l s)`` and the measured
+for a speed loop), ``P_m = 1 / (J_m s + d_m)``, ``P_l = 1 / (J_l s + d_l)`` and the measured
 combination ``Kv p + F y = alpha w_m + beta w_l``:
 
     G = (P_m (1 + C beta P_l) / (1 + C alpha P_m) + P_l) / s
@@ -46,7 +50,7 @@ import dataclasses
 
 import numpy as np
 
-from .system import Command, LinearPart, closed_loop_matrix, closed_loop_response, frequency_response
+from .system import Command, LinearPart, Sticking, closed_loop_matrix, closed_loop_response, frequency_response
 
 __all__ = ["DriveLoop", "drive_loop"]
 
@@ -62,6 +66,8 @@ class DriveLoop:
     controller : Controller
         Structure (speed loop or cascade), gains or a user's LTI controllers, feedback
         choices, filter, torque lag, dead time and torque limit.
+    friction : Friction, optional
+        The rig's ``[friction]`` (load-side values); None: none.
 
     Examples
     --------
@@ -74,6 +80,7 @@ class DriveLoop:
 
     plant: "object"
     controller: "object"
+    friction: "object" = None
 
     # ------------------------------------------------------------------ blocks (python-control)
 
@@ -137,11 +144,18 @@ class DriveLoop:
         c, kv = self._speed_blocks(s)
         c = c * delay
         f = self._filter(s)
-        p_m = 1 / (self.plant.motor_inertia * s)
-        p_l = 1 / (self.plant.load_inertia * s)
+        d_m, d_l = self._viscous()
+        p_m = 1 / (self.plant.motor_inertia * s + d_m) if d_m else 1 / (self.plant.motor_inertia * s)
+        p_l = 1 / (self.plant.load_inertia * s + d_l) if d_l else 1 / (self.plant.load_inertia * s)
         alpha = (f if ctl.feedback == "motor" else 0 * s) + (kv / s if ctl.position_feedback == "motor" else 0 * s)
         beta = (f if ctl.feedback == "load" else 0 * s) + (kv / s if ctl.position_feedback == "load" else 0 * s)
         return (p_m * (1 + c * beta * p_l) / (1 + c * alpha * p_m) + p_l) / s
+
+    def _viscous(self):
+        """The viscous friction coefficients ``(d_m, d_l)`` of the sides, N m s/rad."""
+        if self.friction is None:
+            return 0.0, 0.0
+        return self.friction.viscous_motor, self.friction.viscous_load
 
     def transfer_function(self, pade_order=None):
         """G(s) from shaft torque T (N m) to -theta_d (rad) as a python-control TF, assembled from blocks.
@@ -217,7 +231,7 @@ class DriveLoop:
         -------
         LinearPart
         """
-        return _Builder(self.plant, self.controller).linear_part()
+        return _Builder(self.plant, self.controller, self.friction).linear_part()
 
     def command_row(self):
         """The controller's output u (N m, before the torque limit and the torque lag) as a row.
@@ -290,8 +304,8 @@ def _lti(block, s):
 class _Builder:
     """The rows of every signal of the loop over ``[z (n), r, T_l, T, delayed (k)]`` (module docs)."""
 
-    def __init__(self, plant, ctl):
-        self.plant, self.ctl = plant, ctl
+    def __init__(self, plant, ctl, friction=None):
+        self.plant, self.ctl, self.friction = plant, ctl, friction
         names = ["theta_d", "motor_speed", "load_speed"]
         if ctl.cascade:
             names.append("load_angle")
@@ -377,6 +391,12 @@ class _Builder:
             "motor_speed": (motor_torque - self.unit(self.T)) / plant.motor_inertia,
             "load_speed": (self.unit(self.T) + self.unit(self.TL)) / plant.load_inertia,
         })
+        friction = self.friction
+        if friction is not None:
+            for side, inertia in (("motor", plant.motor_inertia), ("load", plant.load_inertia)):
+                viscous = getattr(friction, f"viscous_{side}")
+                if viscous:
+                    rates[f"{side}_speed"] = rates[f"{side}_speed"] - viscous / inertia * self.state(f"{side}_speed")
         if ctl.cascade:
             rates["load_angle"] = self.state("load_speed")
         if ctl.torque_lag > 0.0:
@@ -402,14 +422,36 @@ class _Builder:
             d=np.array([row[:n] for row in measured]) if self.k else None,
             e_d=table[:, delayed_columns] if self.k else None,
             command=command,
+            sticking=self._sticking(),
+        )
+
+    def _sticking(self):
+        """The dry friction of the sides that have one (:class:`~backlash_df.system.Sticking`), None without."""
+        friction, plant = self.friction, self.plant
+        sides = [side for side in ("motor", "load") if friction is not None and (
+            getattr(friction, f"coulomb_{side}") > 0.0 or getattr(friction, f"breakaway_{side}") > 0.0)]
+        if not sides:
+            return None
+        inertia = {"motor": plant.motor_inertia, "load": plant.load_inertia}
+        return Sticking(
+            names=tuple(sides),
+            index=tuple(self.names.index(f"{side}_speed") for side in sides),
+            column=[self.state(f"{side}_speed")[:self.n] / inertia[side] for side in sides],
+            coulomb=[getattr(friction, f"coulomb_{side}") for side in sides],
+            breakaway=[getattr(friction, f"breakaway_{side}") for side in sides],
+            stribeck_speed=[friction.stribeck_speed if friction.stribeck_speed > 0.0 else 1.0 for side in sides],
         )
 
 
-def drive_loop(rig):
-    """The :class:`DriveLoop` of a rig (needs its ``[controller]`` table; refuses friction and a torque offset,
-    which no analysis models yet: :meth:`~backlash_df.config.Rig.require_no_friction`)."""
-    rig.require_no_friction()
-    return DriveLoop(rig.plant, rig.require_controller())
+def drive_loop(rig, *, dry_friction=False):
+    """The :class:`DriveLoop` of a rig, its ``[friction]`` included (needs its ``[controller]`` table).
+
+    ``dry_friction`` True for the time simulation, which models Coulomb and breakaway
+    friction; else a rig with them is refused, as a rig with a torque offset always is
+    (:meth:`~backlash_df.config.Rig.require_modelled`).
+    """
+    rig.require_modelled(dry_friction)
+    return DriveLoop(rig.plant, rig.require_controller(), rig.friction)
 
 
 def frequency_response_of(linear, omega):

@@ -42,6 +42,7 @@ from ._switching import KernelArrays
 __all__ = [
     "LinearPart",
     "Command",
+    "Sticking",
     "frequency_response",
     "command_channels",
     "closed_loop_matrix",
@@ -94,6 +95,68 @@ class Command:
 
 
 @dataclasses.dataclass(frozen=True)
+class Sticking:
+    """Dry friction that sticks: per rubbing side, a speed state that rests while the friction can hold it.
+
+    Side ``s`` slides with the friction ``(F_c + F_s exp(-(w / w_s)^2)) sign(w)``
+    (N m; its viscous part is in :attr:`LinearPart.A`) opposing its speed ``w =
+    z[index[s]]``, entering ``dz/dt`` by ``-column[s]``.  At rest (``w = 0``) it
+    **sticks**: the friction takes whatever value holds ``dw/dt = 0``, while that
+    value stays within the static level ``F_c + F_s``; beyond it the side breaks
+    away in the direction of the torque on it.  A sliding side whose speed
+    reaches zero sticks if the friction can hold it there, else it reverses.
+    This is true stiction, Karnopp's and Olsson's model, with no smoothing: the
+    simulation locates the speed's zero crossings and the break-aways as events.
+
+    Attributes
+    ----------
+    names : tuple of str
+        The sides, for results (``"motor"``, ``"load"``).
+    index : tuple of int
+        The speed state of each side.
+    column : ndarray, shape (sides, n)
+        How each side's friction enters ``dz/dt`` (``-column[s] F``); ``column[s]``
+        is zero at the other sides' speed states, so that each side is held alone.
+    coulomb, breakaway, stribeck_speed : ndarray, shape (sides,)
+        ``F_c``, ``F_s`` (N m) and ``w_s`` (rad/s, > 0).
+    """
+
+    names: tuple
+    index: tuple
+    column: np.ndarray
+    coulomb: np.ndarray
+    breakaway: np.ndarray
+    stribeck_speed: np.ndarray
+
+    def __post_init__(self):
+        sides = len(self.names)
+        object.__setattr__(self, "index", tuple(int(i) for i in self.index))
+        object.__setattr__(self, "column", np.ascontiguousarray(np.atleast_2d(self.column), dtype=float))
+        for name in ("coulomb", "breakaway", "stribeck_speed"):
+            object.__setattr__(self, name, np.ascontiguousarray(getattr(self, name), dtype=float).reshape(sides))
+        if len(self.index) != sides or self.column.shape[0] != sides:
+            raise ValueError("Sticking: one index and one column per side")
+        if np.any(self.coulomb < 0.0) or np.any(self.breakaway < 0.0) or not np.all(self.stribeck_speed > 0.0):
+            raise ValueError("Sticking: friction levels must be >= 0 and Stribeck speeds > 0")
+        for s, i in enumerate(self.index):
+            if not self.column[s, i] > 0.0 or any(self.column[s, j] != 0.0 for j in self.index if j != i):
+                raise ValueError("Sticking: each side's column must slow its own speed and leave the others'")
+
+    def padded(self, size):
+        """The same friction over a state extended by zeros to ``size`` states."""
+        column = np.zeros((self.column.shape[0], size))
+        column[:, :self.column.shape[1]] = self.column
+        return dataclasses.replace(self, column=column)
+
+    def kernel_rows(self):
+        """The friction as the RK4 kernel takes it (``simulation._kernels.StickRows``)."""
+        from ._switching import StickRows
+
+        return StickRows(np.array(self.index, dtype=np.int64), self.column, self.coulomb, self.breakaway,
+                         self.stribeck_speed)
+
+
+@dataclasses.dataclass(frozen=True)
 class LinearPart:
     """The loop cut at the backlash: ``dz/dt = A z + b T + E w + ...`` (module docs).
 
@@ -121,6 +184,8 @@ class LinearPart:
         ``F_s exp(-(s / w_s)^2)`` (N m), and its Stribeck speed ``w_s`` (rad/s).
     command : Command or None
         The torque command and its limit; None: no limit (the loop is linear but for the backlash).
+    sticking : Sticking or None
+        Dry friction with true stiction on the rubbing sides; None: none.
     """
 
     A: np.ndarray
@@ -140,6 +205,7 @@ class LinearPart:
     breakaway: float = 0.0
     breakaway_speed: float = 1.0
     command: Command | None = None
+    sticking: Sticking | None = None
 
     def __post_init__(self):
         n = len(self.state_names)
@@ -170,6 +236,8 @@ class LinearPart:
         if self.command is not None and (self.command.column.shape != (n,) or self.command.row.shape != (width,)):
             raise ValueError(f"LinearPart: the command's column must have n = {n} entries and its rows "
                              f"n + m + k = {width}")
+        if self.sticking is not None and self.sticking.column.shape[1] != n:
+            raise ValueError(f"LinearPart: the sticking friction's columns must have n = {n} entries")
 
     @property
     def n_states(self):
@@ -379,7 +447,8 @@ def with_pade(part, order):
                       c_x=pad(part.c_x), c_v=pad(part.c_v), input_names=part.input_names,
                       state_names=part.state_names + tuple(names), friction=part.friction,
                       friction_speed=part.friction_speed, f=pad(part.f), e_f=pad(part.e_f),
-                      breakaway=part.breakaway, breakaway_speed=part.breakaway_speed, command=command)
+                      breakaway=part.breakaway, breakaway_speed=part.breakaway_speed, command=command,
+                      sticking=None if part.sticking is None else part.sticking.padded(size))
 
 
 def lti_linear_part(system):

@@ -1,8 +1,9 @@
 """The rig file's ``[friction]`` table, ``[load] torque_offset``, ``[uncertainty]`` boxes and the rig writer.
 
-The friction is read and written but no analysis models it yet: the loop refuses it in one
-place (:meth:`~backlash_df.config.Rig.require_no_friction`, called by ``drive_loop``), so a
-command that analyses a rig with friction exits with code 2 and writes nothing.
+The simulation models all friction and every analysis the viscous part; what the loop's
+analyses do not model yet is refused in one place (:meth:`~backlash_df.config.Rig.require_modelled`,
+called by ``drive_loop``): dry friction by the describing-function analyses, a torque offset
+by all, so a command given such a rig exits with code 2 and writes nothing.
 """
 
 import dataclasses
@@ -10,6 +11,7 @@ import math
 import pickle
 import tomllib
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -207,17 +209,44 @@ def test_written_floats_read_back_to_the_same_doubles():
     assert back.friction.coulomb_load.hex() == (1.0 / 3.0).hex()
 
 
-# --------------------------------------------------------------------------- no analysis models friction yet
+# --------------------------------------------------------------------------- what the analyses do not model yet
 
-@pytest.mark.parametrize("tables", [{"friction": {key: 2.0, "stribeck_speed": 0.1}} for key in FRICTION
-                                    if key != "stribeck_speed"] + [{"load": {"torque_offset": -2.0}}],
-                         ids=[key for key in FRICTION if key != "stribeck_speed"] + ["torque_offset"])
-def test_the_loop_refuses_friction_and_an_offset_in_one_line(tables):
-    rig = _rig(**tables)
-    (table, values), = tables.items()
-    key = next(key for key in values if key != "stribeck_speed")
-    with pytest.raises(RigError, match=rf"^rig.toml: \[{table}\] {key} = -?2: no analysis models friction"):
+DRY = [key for key in FRICTION if key.startswith(("coulomb", "breakaway"))]
+
+
+@pytest.mark.parametrize("key", DRY)
+def test_the_df_analyses_refuse_dry_friction_the_simulation_takes_it(key):
+    rig = _rig(friction={key: 2.0, "stribeck_speed": 0.1})
+    with pytest.raises(RigError, match=rf"^rig.toml: \[friction\] {key} = 2: the describing-function analyses"):
         bd.drive_loop(rig)
+    side = key.split("_")[1]
+    assert bd.drive_loop(rig, dry_friction=True).linear_part().sticking.names == (side,)
+
+
+def test_every_loop_refuses_a_torque_offset_in_one_line():
+    rig = _rig(load={"torque_offset": -2.0})
+    for dry_friction in (False, True):
+        with pytest.raises(RigError, match=r"^rig.toml: \[load\] torque_offset = -2: no analysis of the loop models"):
+            bd.drive_loop(rig, dry_friction=dry_friction)
+
+
+@pytest.mark.parametrize("side", ["motor", "load"])
+def test_viscous_friction_is_the_two_mass_drive_with_dampers(side):
+    """G with viscous friction against its closed form: the plant blocks ``1 / (J s + d)`` (loops module docs)."""
+    d = 7.0
+    rig = _rig(friction={f"viscous_{side}": d})
+    loop = bd.drive_loop(rig)
+    omega = np.array([0.5, 20.0, 400.0])
+    s = 1j * omega
+    jm, jl = rig.plant.motor_inertia, rig.plant.load_inertia
+    ctl = rig.controller
+    c = ctl.kp * (1 + 1 / (ctl.ti * s)) / (ctl.speed_filter * s + 1) if ctl.speed_filter else \
+        ctl.kp * (1 + 1 / (ctl.ti * s))
+    p_m = 1 / (jm * s + (d if side == "motor" else 0.0))
+    p_l = 1 / (jl * s + (d if side == "load" else 0.0))
+    expected = (p_m / (1 + c * p_m) + p_l) / s if ctl.feedback == "motor" else (p_m * (1 + c * p_l) + p_l) / s
+    np.testing.assert_allclose(loop.frequency_response(omega), expected, rtol=1e-12)
+    np.testing.assert_allclose(loop.frd(omega).eval(omega), expected, rtol=1e-12)
 
 
 def test_a_stribeck_speed_alone_and_the_boxes_change_no_number():
@@ -244,15 +273,16 @@ speed_filter = 0.002
     ["map", "rig.toml", "--x", "kp", "10,20", "--y", "ti", "0.1,0.5", "--json", "out.json"],
     ["continue", "rig.toml", "--parameter", "kp", "--from", "10", "--to", "20", "--json", "out.json"],
 ], ids=lambda args: args[0])
-@pytest.mark.parametrize("table, extra", [("friction", "viscous_motor = 0.5"), ("load", "torque_offset = -3.0")])
-def test_commands_refuse_friction_with_exit_code_2_and_write_nothing(tmp_path, monkeypatch, args, table, extra):
+@pytest.mark.parametrize("table, extra, words", [("friction", "coulomb_motor = 0.5", "do not model dry friction"),
+                                                 ("load", "torque_offset = -3.0", "models a torque offset")])
+def test_commands_refuse_friction_with_exit_code_2_and_write_nothing(tmp_path, monkeypatch, args, table, extra, words):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "rig.toml").write_text(RIG_TOML + f"\n[{table}]\n{extra}\n")
     result = CliRunner().invoke(main, args)
     assert result.exit_code == 2, result.output
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("backlash-df: error: rig.toml"), result.output
-    assert f"[{table}] {extra.split(' =')[0]}" in lines[0] and "no analysis models friction" in lines[0]
+    assert f"[{table}] {extra.split(' =')[0]}" in lines[0] and words in lines[0]
     assert sorted(path.name for path in tmp_path.iterdir()) == ["rig.toml"]
 
 

@@ -49,6 +49,14 @@ Two kernels share these rules:
 * **Classical RK4** otherwise (the rubber band (36), elasto-backlash, friction),
   every stage of an unsplit step on an input sample; the exact model's theta_b
   by the exponential step ``_laws.exact_step``.
+
+Dry friction that sticks (a rig's ``[friction]``, :class:`~backlash_df.system.Sticking`)
+runs on the RK4 kernel with a third kind of mode, each rubbing side's: sliding forward,
+sliding backward, stuck.  A sliding side whose speed crosses zero, and a stuck side whose
+holding torque leaves its static level, end the mode; the change is located by the same
+bisection, the speed set to zero where the side sticks, and while stuck its speed's
+rate is held at zero by the friction that holds it (recorded as
+:attr:`SimulationResult.friction_mode`).
 """
 
 from .cycles import MeasuredCycle, measure_limit_cycle

@@ -30,15 +30,16 @@ from .._jit import inline as _inline
 from .._jit import jit as _jit
 from .._jit import jit_unchecked as _jit_unchecked
 from .._laws import DAMPING, EXACT, HALF_GAP, RUBBER_THICKNESS, STIFFNESS, exact_step, held_mode, mode_torque
-from .._switching import (CHAIN, CHAINS, CURVATURE, RATE, THETA_B, VALUE, command_index, command_mode_of,
-                          initial_command_mode)
+from .._switching import (CHAIN, CHAINS, CURVATURE, RATE, THETA_B, VALUE, StickRows, command_index,
+                          command_mode_of, initial_command_mode)
 from ..friction import friction_kernel
 
-__all__ = ["CommandRows", "AugmentedCommand", "run_rk4", "run_exact", "LEVELS", "BLOW_UP"]
+__all__ = ["CommandRows", "AugmentedCommand", "StickRows", "run_rk4", "run_exact", "LEVELS", "BLOW_UP"]
 
 _MAX_EVENTS_PER_STEP = 32
 _BISECTIONS = 52
 _COMMAND_ROW = 5  # the row of the RK4 kernel's work array that the command's rate uses (rows 0-3: the stages)
+_STICK_ROW = 4  # the row the sticking friction's holding torques are evaluated in
 #: Dyadic sub-steps dt 2^-j, j < LEVELS, of the exact-discretisation kernel.
 LEVELS = 42
 
@@ -187,6 +188,78 @@ def _command_field(z, cmode, column, u_row, limit, integrator, wvals, dvals, out
 
 
 @_inline
+def _stick_field(z, fmodes, stick, held, out, row):
+    """Each side's dry friction into ``out[row]`` (:class:`~backlash_df.system.Sticking`): sliding,
+    ``(F_c + F_s exp(-(w / w_s)^2))`` against the mode's direction; stuck, the torque that holds the speed at
+    rest, also written to ``held``."""
+    index, column, coulomb, breakaway, stribeck = stick
+    n = z.shape[0]
+    for s in range(index.shape[0]):
+        i = index[s]
+        if fmodes[s] == 0:
+            force = out[row, i] / column[s, i]
+            held[s] = force
+        else:
+            force = coulomb[s]
+            if breakaway[s] > 0.0:
+                force += breakaway[s] * math.exp(-(z[i] / stribeck[s]) ** 2)
+            if fmodes[s] < 0:
+                force = -force
+        for j in range(n):
+            out[row, j] -= column[s, j] * force
+        if fmodes[s] == 0:
+            out[row, i] = 0.0
+
+
+@_inline
+def _frictions(z, t, mode, cmode, law, p, sys, cmd, stick, fmodes, held, W, hist, dt, work, wvals, dvals):
+    """The holding torques of the stuck sides at ``(z, t)`` in the given modes, into ``held`` (N m)."""
+    a_mat, b_t, e_mat, c_x, c_v, _, e_d, delay, f_row, e_f, f_level, f_eps, f_break, f_ws = sys
+    _stage(z, t, mode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, (f_level, f_eps, f_break, f_ws), delay,
+           W, hist, dt, wvals, dvals, work, np.int64(_STICK_ROW))
+    if cmd is not None and cmode != 0:
+        column, u_row, _, limit, integrator = cmd
+        _command_field(z, cmode, column, u_row, limit, integrator, wvals, dvals, work, np.int64(_STICK_ROW))
+    _stick_field(z, fmodes, stick, held, work, np.int64(_STICK_ROW))
+
+
+@_jit
+def _stick_leaves(z, t, mode, cmode, law, p, sys, cmd, stick, fmodes, held, W, hist, dt, work, wvals, dvals):
+    """True if a side's friction mode must change at ``(z, t)``: a sliding speed reversed, a stuck side's holding
+    torque beyond its static level ``F_c + F_s``."""
+    index, _, coulomb, breakaway, _ = stick
+    stuck = False
+    for s in range(index.shape[0]):
+        if fmodes[s] * z[index[s]] < 0.0:
+            return True
+        stuck = stuck or fmodes[s] == 0
+    if not stuck:
+        return False
+    _frictions(z, t, mode, cmode, law, p, sys, cmd, stick, fmodes, held, W, hist, dt, work, wvals, dvals)
+    for s in range(index.shape[0]):
+        if fmodes[s] == 0 and abs(held[s]) > coulomb[s] + breakaway[s]:
+            return True
+    return False
+
+
+@_jit
+def _stick_modes(z, t, mode, cmode, law, p, sys, cmd, stick, fmodes, held, W, hist, dt, work, wvals, dvals, out):
+    """The friction modes at ``(z, t)`` reached in ``fmodes``, into ``out``: a side at rest or whose speed
+    reversed (its speed set to 0 in ``z``) sticks if its holding torque is within its static level, else
+    slides in the direction of that torque; a sliding side keeps its mode."""
+    index, _, coulomb, breakaway, _ = stick
+    for s in range(index.shape[0]):
+        out[s] = fmodes[s]
+        if fmodes[s] * z[index[s]] <= 0.0:
+            z[index[s]] = 0.0
+            out[s] = 0
+    _frictions(z, t, mode, cmode, law, p, sys, cmd, stick, out, held, W, hist, dt, work, wvals, dvals)
+    for s in range(index.shape[0]):
+        if out[s] == 0 and abs(held[s]) > coulomb[s] + breakaway[s]:
+            out[s] = 1 if held[s] > 0.0 else -1
+
+
+@_inline
 def _stage(z, t, mode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction, delay, W, hist, dt, wvals,
            dvals, out, row):
     """``dz/dt`` at ``(z, t)`` in backlash mode ``mode``, the command linear, into ``out[row]``.
@@ -206,11 +279,12 @@ def _stage(z, t, mode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, fri
 
 
 @_inline
-def _rk4(z, t, h, mode, cmode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction, delay, cmd, W, hist,
-         dt, k, tmp, wvals, dvals, out):
-    """One classical RK4 step ``h`` from ``(z, t)``, both modes frozen, into ``out``; stages in rows 0-3 of ``k``.
+def _rk4(z, t, h, mode, cmode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction, delay, cmd, stick,
+         fmodes, held, W, hist, dt, k, tmp, wvals, dvals, out):
+    """One classical RK4 step ``h`` from ``(z, t)``, the modes frozen, into ``out``; stages in rows 0-3 of ``k``.
 
-    ``cmd`` the command (module docs), read in command modes other than 0.
+    ``cmd`` the command (module docs), read in command modes other than 0; ``stick`` the sticking friction
+    (:class:`StickRows`) in the sides' modes ``fmodes``, or None.
     """
     n = z.shape[0]
     _copy_vector(z, tmp, n)
@@ -221,6 +295,8 @@ def _rk4(z, t, h, mode, cmode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_
         if cmd is not None and cmode != 0:
             column, u_row, _, limit, integrator = cmd
             _command_field(tmp, cmode, column, u_row, limit, integrator, wvals, dvals, k, stage)
+        if stick is not None:
+            _stick_field(tmp, fmodes, stick, held, k, stage)
         if stage < 3:
             ahead = h if stage == 2 else 0.5 * h
             for i in range(n):
@@ -231,7 +307,8 @@ def _rk4(z, t, h, mode, cmode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_
 
 
 @_jit
-def _command_mode_rk4(mode, cmode, z, t, sys, cmd, law, p, W, hist, dt, work, wvals, dvals, ahead):
+def _command_mode_rk4(mode, cmode, z, t, sys, cmd, stick, fmodes, held, law, p, W, hist, dt, work, wvals, dvals,
+                      ahead):
     """The command mode of state ``z`` at ``t`` reached in ``cmode`` (``du/dt`` by the clamped field
     and by differences of the inputs and delayed signals over half a step; ``ahead`` holds the signals
     half a step on, inputs then delayed ones); ``cmd`` a command, not None."""
@@ -247,6 +324,8 @@ def _command_mode_rk4(mode, cmode, z, t, sys, cmd, law, p, W, hist, dt, work, wv
            W, hist, dt, wvals, dvals, work, np.int64(_COMMAND_ROW))
     _command_field(z, 2 * side if integrator >= 0 else side, column, row, limit, integrator, wvals, dvals, work,
                    np.int64(_COMMAND_ROW))  # not a literal: one compile of _command_field (_jit docs)
+    if stick is not None:
+        _stick_field(z, fmodes, stick, held, work, np.int64(_COMMAND_ROW))
     clamped = 0.0
     for j in range(z.shape[0]):
         clamped += row[j] * work[5, j]
@@ -309,8 +388,10 @@ def _must_leave(law, p, mode, x, v, theta_b):
 
 
 @_borrowing
-def _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp, wvals, dvals, ahead, z_out):
-    """One frozen-mode step; returns (theta_b at the end, True if the backlash or the command mode must change).
+def _advance(z, theta_b, t, h, mode, cmode, sys, cmd, stick, fmodes, held, law, p, W, hist, dt, work, tmp, wvals,
+             dvals, ahead, z_out):
+    """One frozen-mode step; returns (theta_b at the end, True if the backlash, the command or a friction mode
+    must change).
 
     On the limit (sliding) the step is the clamped one with the integrator then
     projected back onto ``u = +-limit``: with the command saturated the rest of the
@@ -318,7 +399,7 @@ def _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
     """
     a_mat, b_t, e_mat, c_x, c_v, _, e_d, delay, f_row, e_f, f_level, f_eps, f_break, f_ws = sys
     _rk4(z, t, h, mode, cmode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, (f_level, f_eps, f_break, f_ws),
-         delay, cmd, W, hist, dt, work, tmp, wvals, dvals, z_out)
+         delay, cmd, stick, fmodes, held, W, hist, dt, work, tmp, wvals, dvals, z_out)
     command_leaves = False
     if cmd is not None:
         _, row, _, limit, integrator = cmd
@@ -326,12 +407,16 @@ def _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
             _signals(t + h, delay, W, hist, dt, wvals, dvals)
             gap = (limit if cmode > 0 else -limit) - _row_value(row, z_out, wvals, dvals)
             z_out[integrator] += gap / row[integrator]
-        command_leaves = _command_mode_rk4(mode, cmode, z_out, t + h, sys, cmd, law, p, W, hist, dt, work, wvals,
-                                           dvals, ahead) != cmode
+        command_leaves = _command_mode_rk4(mode, cmode, z_out, t + h, sys, cmd, stick, fmodes, held, law, p, W, hist,
+                                           dt, work, wvals, dvals, ahead) != cmode
+    friction_leaves = False
+    if stick is not None:
+        friction_leaves = _stick_leaves(z_out, t + h, mode, cmode, law, p, sys, cmd, stick, fmodes, held, W, hist, dt,
+                                        work, wvals, dvals)
     x0, v0 = _xv(z, c_x, c_v)
     x1, v1 = _xv(z_out, c_x, c_v)
     theta_new, backlash_leaves = _backlash_after(law, p, mode, theta_b, x0, v0, x1, v1, h)
-    return theta_new, command_leaves or backlash_leaves
+    return theta_new, command_leaves or backlash_leaves or friction_leaves
 
 
 @_jit
@@ -433,16 +518,19 @@ def _free_steps(i, z, theta_b, mode, cmode, limited, law, p, a_mat, b_t, e_mat, 
 
 
 @_jit
-def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, CMODES, hist, first, mode0, cmode0):
+def run_rk4(sys, cmd, stick, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, CMODES, FMODES, hist, first,
+            mode0, cmode0, fmodes0):
     """RK4 run to sample ``n_steps`` (steps ``dt``), filling ``Z``, ``T``, ``THETA``, the modes and ``hist``.
 
     ``sys`` is :meth:`~backlash_df.system.LinearPart.kernel_arrays`, ``cmd`` the
-    command (module docs), ``W`` the inputs on the output grid or at half steps,
-    ``p`` the law's ``(k, c, alpha, beta)``, ``hist`` the delayed signals at every
-    sample.  From ``z0`` and ``theta_b0`` at sample ``first = 0`` (the modes found
-    there), or, going on with a run, from its state, ``mode0`` and ``cmode0`` at its
-    last sample ``first`` (its samples and history up to there filled in); returns the
-    event count of the steps taken.
+    command (module docs), ``stick`` the sticking friction (:class:`StickRows`, None
+    without), ``W`` the inputs on the output grid or at half steps, ``p`` the law's
+    ``(k, c, alpha, beta)``, ``hist`` the delayed signals at every sample, ``FMODES``
+    the friction modes of the sides at every sample (-1, 1 sliding backward, forward;
+    0 stuck).  From ``z0`` and ``theta_b0`` at sample ``first = 0`` (the modes found
+    there), or, going on with a run, from its state, ``mode0``, ``cmode0`` and
+    ``fmodes0`` at its last sample ``first`` (its samples and history up to there
+    filled in); returns the event count of the steps taken.
     """
     n = z0.shape[0]
     d_rows = sys.d
@@ -456,6 +544,9 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
     theta_b = theta_b0
     mode = mode0
     cmode = cmode0
+    fmodes = fmodes0.copy()
+    new_fmodes = fmodes0.copy()
+    held = np.zeros(fmodes0.shape[0])
     if first == 0:
         x, v = _xv(z, sys.c_x, sys.c_v)
         mode = _mode_of(law, p, np.int64(0), x, v, theta_b)
@@ -465,24 +556,33 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
             _signals(0.0, sys.delay, W, hist, dt, wvals, dvals)
             cmode = initial_command_mode(_row_value(cmd.row, z, wvals, dvals), _row_value(cmd.error, z, wvals, dvals),
                                          cmd.limit, cmd.integrator >= 0)
+        if stick is not None:  # the friction modes of the initial state: sliding where moving, else as held
+            for s in range(fmodes.shape[0]):
+                speed = z[stick.index[s]]
+                fmodes[s] = 1 if speed > 0.0 else (-1 if speed < 0.0 else 0)
+            _stick_modes(z, 0.0, mode, cmode, law, p, sys, cmd, stick, fmodes, held, W, hist, dt, work, wvals, dvals,
+                         new_fmodes)
+            _copy_vector(new_fmodes, fmodes, fmodes.shape[0])
     events = 0
     tmp = np.empty(n)
     # unpacked once: a tuple of arrays passed on, even to an inlined helper, is reference-counted member by member
     a_mat, b_t, e_mat, c_x, c_v, _, e_d, delay, f_row, e_f, f_level, f_eps, f_break, f_ws = sys
     friction = (f_level, f_eps, f_break, f_ws)
-    limited = cmd is not None
+    limited = cmd is not None or stick is not None
     i = first
     while True:
         i, theta_b, ended = _free_steps(i, z, theta_b, mode, cmode, limited, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d,
                                         e_f, f_row, friction, delay, W, hist, dt, n_steps, d_rows, work, tmp, wvals,
                                         dvals, z_new, Z, T, THETA, MODES, CMODES)
+        for s in range(fmodes.shape[0]):
+            FMODES[i, s] = fmodes[s]
         if ended:
             break
         t = i * dt
         remaining = dt
         for _ in range(_MAX_EVENTS_PER_STEP):
-            theta_end, changed = _advance(z, theta_b, t, remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
-                                          tmp, wvals, dvals, ahead, z_new)
+            theta_end, changed = _advance(z, theta_b, t, remaining, mode, cmode, sys, cmd, stick, fmodes, held, law,
+                                          p, W, hist, dt, work, tmp, wvals, dvals, ahead, z_new)
             if not changed:
                 _copy_vector(z_new, z, n)
                 theta_b = theta_end
@@ -493,24 +593,32 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
             hi = 1.0
             for _b in range(_BISECTIONS):
                 mid = 0.5 * (lo + hi)
-                _, ch = _advance(z, theta_b, t, mid * remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work,
-                                 tmp, wvals, dvals, ahead, z_try)
+                _, ch = _advance(z, theta_b, t, mid * remaining, mode, cmode, sys, cmd, stick, fmodes, held, law, p,
+                                 W, hist, dt, work, tmp, wvals, dvals, ahead, z_try)
                 if ch:
                     hi = mid
                 else:
                     lo = mid
             h = hi * remaining
-            theta_try, _ = _advance(z, theta_b, t, h, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp, wvals,
-                                    dvals, ahead, z_try)
+            theta_try, _ = _advance(z, theta_b, t, h, mode, cmode, sys, cmd, stick, fmodes, held, law, p, W, hist, dt,
+                                    work, tmp, wvals, dvals, ahead, z_try)
             x, v = _xv(z_try, c_x, c_v)
             if law == EXACT and mode == 0:
                 theta_try = p[HALF_GAP] if theta_try > 0.0 else -p[HALF_GAP]
             new_mode = _mode_of(law, p, mode, x, v, theta_try)
-            new_cmode = 0 if cmd is None else _command_mode_rk4(new_mode, cmode, z_try, t + h, sys, cmd, law, p, W,
-                                                                hist, dt, work, wvals, dvals, ahead)
-            if new_mode == mode and new_cmode == cmode:  # grazing or round-off at a boundary: no real switch
+            same_friction = True
+            if stick is not None:
+                _stick_modes(z_try, t + h, new_mode, cmode, law, p, sys, cmd, stick, fmodes, held, W, hist, dt, work,
+                             wvals, dvals, new_fmodes)
+                for s in range(fmodes.shape[0]):
+                    same_friction = same_friction and new_fmodes[s] == fmodes[s]
+            new_cmode = 0 if cmd is None else _command_mode_rk4(new_mode, cmode, z_try, t + h, sys, cmd, stick,
+                                                                new_fmodes, held, law, p, W, hist, dt, work, wvals,
+                                                                dvals, ahead)
+            if new_mode == mode and new_cmode == cmode and same_friction:  # grazing or round-off: no real switch
                 break
             _copy_vector(z_try, z, n)
+            _copy_vector(new_fmodes, fmodes, fmodes.shape[0])
             theta_b = theta_try
             mode = new_mode
             cmode = new_cmode
@@ -520,8 +628,8 @@ def run_rk4(sys, cmd, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, MODES, 
             if remaining <= 1e-14 * dt:
                 break
         if remaining > 1e-14 * dt:
-            theta_b, _ = _advance(z, theta_b, t, remaining, mode, cmode, sys, cmd, law, p, W, hist, dt, work, tmp,
-                                  wvals, dvals, ahead, z_new)
+            theta_b, _ = _advance(z, theta_b, t, remaining, mode, cmode, sys, cmd, stick, fmodes, held, law, p, W, hist,
+                                  dt, work, tmp, wvals, dvals, ahead, z_new)
             _copy_vector(z_new, z, n)
         i += 1
     return events

@@ -53,6 +53,12 @@ class SimulationResult:
         With a torque limit: the command's mode at each sample
         (``_switching.COMMAND_MODES``: 0 linear, +-1 saturated,
         +-2 the integrator clamped, +-3 sliding on the limit).
+    friction_mode : ndarray or None
+        With sticking friction (:class:`~backlash_df.system.Sticking`): each side's
+        mode at each sample, shape (len(time), sides), columns in the order of
+        ``friction_sides``: 0 stuck, +-1 sliding forward or backward.
+    friction_sides : tuple of str
+        The rubbing sides (``"motor"``, ``"load"``); empty without sticking friction.
     """
 
     time: np.ndarray
@@ -67,6 +73,8 @@ class SimulationResult:
     state_names: tuple
     command: np.ndarray | None = dataclasses.field(default=None, repr=False)
     command_mode: np.ndarray | None = dataclasses.field(default=None, repr=False)
+    friction_mode: np.ndarray | None = dataclasses.field(default=None, repr=False)
+    friction_sides: tuple = ()
     _end: "_RunEnd | None" = dataclasses.field(default=None, repr=False, compare=False)
 
     def continued(self, t_end):
@@ -88,9 +96,9 @@ class SimulationResult:
         n_steps = _step_count(t_end, end.dt)
         if n_steps <= first:
             raise ValueError(f"t_end = {t_end!r} s must lie beyond the run's end, {self.time[-1]!r} s")
-        outputs = _outputs(n_steps, end.system.A.shape[0], end.hist.shape[1])
+        outputs = _outputs(n_steps, end.system)
         for array, old in zip(outputs, (self.states, self.torque, self.theta_b, self.mode, self.command_mode,
-                                        end.hist)):
+                                        self.friction_mode, end.hist)):
             if old is not None:
                 array[:first + 1] = old
         return _run(end.system, end.model, end.inputs, end.dt, n_steps, outputs, end, first)
@@ -141,6 +149,8 @@ class SimulationResult:
             "mode": self.mode.tolist(),
             "command": None if self.command is None else self.command.tolist(),
             "command_mode": None if self.command_mode is None else self.command_mode.tolist(),
+            **({} if self.friction_mode is None else {"friction_sides": list(self.friction_sides),
+                                                      "friction_mode": self.friction_mode.tolist()}),
         })
 
     def plot(self, ax=None):
@@ -167,7 +177,7 @@ class SimulationResult:
 
 def _piecewise_affine(system, model):
     """True if the loop is linear within every mode: no friction, torque affine in (theta_d, dtheta_d)."""
-    if system.friction > 0.0 or system.breakaway > 0.0:
+    if system.friction > 0.0 or system.breakaway > 0.0 or system.sticking is not None:
         return False
     if model.law == RUBBER:
         return model.rubber_thickness == 0.0
@@ -179,7 +189,7 @@ def _simulate_exactly(system, model, w, dt, n_steps, outputs, start, first):
 
     Returns ``(events, q)``: the events of the steps taken and the kernel's state at the last sample.
     """
-    states, torque, theta_b, modes, cmodes, hist = outputs
+    states, torque, theta_b, modes, cmodes, _, hist = outputs
     law = _stepped_law(model)
     varying = [j for j in range(w.shape[1]) if np.ptp(w[:, j]) > 0.0]
     constant = np.delete(w[0], varying)
@@ -326,8 +336,8 @@ def simulate_linear(system, model, t_end, dt, inputs=None, z0=None, theta_b0=0.0
         raise ValueError(f"z0 must be {n} finite numbers for states {system.state_names}")
     if abs(theta_b0) > model.half_gap:
         raise ValueError(f"theta_b0 must lie in [-half_gap, half_gap], got {theta_b0!r}")
-    start = _RunEnd(system, model, inputs, float(dt), np.append(z0, float(theta_b0)), 0, 0, None, 0)
-    return _run(system, model, inputs, float(dt), n_steps, _outputs(n_steps, n, system.n_delayed), start, 0)
+    start = _RunEnd(system, model, inputs, float(dt), np.append(z0, float(theta_b0)), 0, 0, _no_modes(system), None, 0)
+    return _run(system, model, inputs, float(dt), n_steps, _outputs(n_steps, system), start, 0)
 
 
 def _step_count(t_end, dt):
@@ -343,11 +353,16 @@ def _step_count(t_end, dt):
     return n_steps
 
 
-def _outputs(n_steps, n, n_delayed):
-    """The arrays a kernel fills: states, torque, theta_b, modes, command modes, delayed signals."""
-    return (np.empty((n_steps + 1, n)), np.empty(n_steps + 1), np.empty(n_steps + 1),
+def _no_modes(system):
+    """The friction modes before a run: none known (the kernel finds them at the start)."""
+    return np.zeros(0 if system.sticking is None else len(system.sticking.names), dtype=np.int64)
+
+
+def _outputs(n_steps, system):
+    """The arrays a kernel fills: states, torque, theta_b, modes, command modes, friction modes, delayed signals."""
+    return (np.empty((n_steps + 1, system.n_states)), np.empty(n_steps + 1), np.empty(n_steps + 1),
             np.empty(n_steps + 1, dtype=np.int64), np.zeros(n_steps + 1, dtype=np.int64),
-            np.zeros((n_steps + 1, n_delayed)))
+            np.zeros((n_steps + 1, _no_modes(system).size), dtype=np.int64), np.zeros((n_steps + 1, system.n_delayed)))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -362,6 +377,7 @@ class _RunEnd:
     state: np.ndarray
     mode: int
     cmode: int
+    fmodes: np.ndarray
     hist: np.ndarray | None
     events: int
 
@@ -386,17 +402,19 @@ def _input_rows(system, inputs, n_steps, dt):
 def _run(system, model, inputs, dt, n_steps, outputs, start, first):
     """The kernel's run from ``start`` at sample ``first`` to ``n_steps``, into ``outputs``: a SimulationResult."""
     w = _input_rows(system, inputs, n_steps, dt)
-    states, torque, theta_b, modes, cmodes, hist = outputs
+    states, torque, theta_b, modes, cmodes, fmodes, hist = outputs
     exactly = _piecewise_affine(system, model)
     if exactly:
         events, state = _simulate_exactly(system, model, w, dt, n_steps, outputs, start, first)
     else:
         n = system.A.shape[0]
-        events = run_rk4(system.kernel_arrays(), _command_arrays(system), model.law, _law_params(model), w,
+        stick = None if system.sticking is None else system.sticking.kernel_rows()
+        events = run_rk4(system.kernel_arrays(), _command_arrays(system), stick, model.law, _law_params(model), w,
                          start.state[:n], float(start.state[n]), dt, n_steps, states, torque, theta_b, modes, cmodes,
-                         hist, first, start.mode, start.cmode)
+                         fmodes, hist, first, start.mode, start.cmode, start.fmodes)
         state = np.append(states[-1], theta_b[-1])
-    end = _RunEnd(system, model, inputs, dt, state, int(modes[-1]), int(cmodes[-1]), hist, start.events + int(events))
+    end = _RunEnd(system, model, inputs, dt, state, int(modes[-1]), int(cmodes[-1]), fmodes[-1].copy(), hist,
+                  start.events + int(events))
     if model.is_static:
         theta_b[:] = np.nan
     elif exactly and _stepped_law(model) != model.law:  # dead-zone modes 0, +-2 back to the exact model's
@@ -422,6 +440,8 @@ def _run(system, model, inputs, dt, n_steps, outputs, start, first):
         state_names=system.state_names,
         command=command,
         command_mode=None if system.command is None else cmodes,
+        friction_mode=None if system.sticking is None else fmodes,
+        friction_sides=() if system.sticking is None else system.sticking.names,
         _end=None if isinstance(inputs, np.ndarray) else end,
     )
 

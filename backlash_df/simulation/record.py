@@ -409,7 +409,7 @@ def simulate_record(rig, model=None, *, inputs=None, t_end=None, dt=None, compar
     if not (t_end > 0.0 and math.isfinite(t_end)):
         raise ValueError(f"t_end must be finite and > 0 s, got {t_end!r}")
     law = model if isinstance(model, BacklashModel) else rig.make_model(model)
-    loop = drive_loop(rig)
+    loop = drive_loop(rig, dry_friction=True)
     system = loop.linear_part()
     if dt is None:
         dt = default_step(system, law)

@@ -84,7 +84,7 @@ def simulate_rig(rig, model=None, *, t_end=20.0, dt=None, speed_reference=0.0, l
     """
     if not isinstance(model, BacklashModel):
         model = rig.make_model(model)
-    system = drive_loop(rig).linear_part() if linear is None else lti_linear_part(linear)
+    system = drive_loop(rig, dry_friction=True).linear_part() if linear is None else lti_linear_part(linear)
     dt = default_step(system, model) if dt is None else dt
     z0 = initial_state(system, initial, kick)
     load_torque = rig.load.torque if load_torque is None else load_torque

@@ -1,0 +1,180 @@
+"""Friction in the closed loop: stick and slip in the simulation, against references written here.
+
+The reference is independent of the package: the cascade (P position loop around a PI
+or P speed loop) of a two-mass drive with a dead-zone shaft and load friction, written
+out as its equations and integrated as a hybrid automaton by scipy's DOP853 at tight
+tolerances, with its own stick logic (a sliding load that reaches zero speed sticks if
+the shaft torque is within the static level ``F_c + F_s``, else reverses; a stuck load
+breaks away where the shaft torque leaves the static level), each event located by
+``solve_ivp``.  Olsson and Astrom's analysis of friction-generated limit cycles says
+what to expect: with integral action, Coulomb friction alone lets the loop creep to rest,
+a breakaway excess over it makes the loop hunt by stick-slip; a P loop rests anywhere
+inside its dead band.
+"""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import backlash_df as bd
+from backlash_df.config import rig_from_dict
+
+PLANT = {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0, "damping": 0.0, "half_gap": 0.002}
+CASCADE = {"structure": "cascade", "kp": 30.0, "ti": 0.2, "feedback": "motor", "kv": 20.0, "position_feedback": "load"}
+STICK_SLIP = {"coulomb_load": 20.0, "breakaway_load": 20.0, "stribeck_speed": 0.01}
+
+
+def _rig(friction, **controller):
+    return rig_from_dict({"plant": PLANT, "controller": dict(CASCADE, **controller), "friction": friction,
+                          "model": {"backlash": "dead-zone"}})
+
+
+def reference_run(rig, x0, t_end, rtol=1e-11):
+    """The cascade of ``rig`` integrated by DOP853 with its own stick logic (module docs).
+
+    State ``[theta_m, w_m, theta_l, w_l, I]`` (rad, rad/s, rad, rad/s, rad); returns the
+    dense solution ``t -> state`` and the break-away times.
+    """
+    plant, ctl, friction = rig.plant, rig.controller, rig.friction
+    jm, jl, k, alpha = plant.motor_inertia, plant.load_inertia, plant.stiffness, plant.half_gap
+    fc, fs, ws, dl = friction.coulomb_load, friction.breakaway_load, friction.stribeck_speed, friction.viscous_load
+    ki = ctl.kp / ctl.ti if math.isfinite(ctl.ti) else 0.0
+    static = fc + fs
+
+    def shaft(x):
+        theta = x[0] - x[2]
+        return k * (theta - alpha) if theta > alpha else (k * (theta + alpha) if theta < -alpha else 0.0)
+
+    def field(direction):
+        def rates(t, x):
+            error = ctl.kv * (0.0 - x[2]) - x[1]
+            torque = shaft(x)
+            sliding = fc + (fs * math.exp(-(x[3] / ws) ** 2) if fs else 0.0)
+            load = 0.0 if direction == 0 else (torque - dl * x[3] - direction * sliding) / jl
+            return [x[1], (ctl.kp * error + ki * x[4] - torque) / jm, x[3], load, error]
+        return rates
+
+    def reversal(t, x):
+        return x[3]
+
+    def breakaway(t, x):
+        return abs(shaft(x)) - static
+
+    reversal.terminal = breakaway.terminal = True
+    breakaway.direction = 1.0
+
+    def held_or_sliding(x):
+        torque = shaft(x)
+        return 0 if abs(torque) <= static else (1 if torque > 0.0 else -1)
+
+    t, x = 0.0, np.array(x0, dtype=float)
+    direction = int(np.sign(x[3])) if x[3] != 0.0 else held_or_sliding(x)
+    pieces, breakaways = [], []
+    while t < t_end:
+        reversal.direction = -float(direction)
+        event = breakaway if direction == 0 else reversal
+        sol = solve_ivp(field(direction), (t, t_end), x, method="DOP853", rtol=rtol, atol=rtol * 1e-3,
+                        events=[event], dense_output=True)
+        pieces.append((t, sol.t[-1], sol.sol))
+        t, x = sol.t[-1], sol.y[:, -1].copy()
+        if sol.status == 1:
+            if direction == 0:
+                breakaways.append(t)
+                direction = 1 if shaft(x) > 0.0 else -1
+            else:
+                x[3] = 0.0
+                direction = held_or_sliding(x)
+
+    def at(times):
+        return np.array([next(s(tt) for a, b, s in pieces if a <= tt <= b) for tt in times])
+    return at, np.array(breakaways)
+
+
+def _ours(rig, x0, t_end, dt):
+    """The package's run from the reference's state ``x0``, its states in the reference's order."""
+    theta_m, w_m, theta_l, w_l, integral = x0
+    result = bd.simulate(rig, t_end=t_end, dt=dt, initial={"theta_d": theta_m - theta_l, "motor_speed": w_m,
+                                                          "load_speed": w_l, "load_angle": theta_l,
+                                                          "integrator": integral})
+    s = result.states
+    theta_l = s[:, 3]
+    return result, np.column_stack([s[:, 0] + theta_l, s[:, 1], theta_l, s[:, 2], s[:, 4]])
+
+
+def _breakaways(result):
+    stuck = result.friction_mode[:, 0] == 0
+    return result.time[1:][stuck[:-1] & ~stuck[1:]]
+
+
+def test_stick_slip_hunting_against_the_reference_converges_at_fourth_order():
+    rig = _rig(STICK_SLIP)
+    x0 = [0.0, 0.0, 0.01, 0.0, 0.0]
+    at, reference_breakaways = reference_run(rig, x0, 4.0)
+    times = np.array([1.0, 2.5, 4.0])
+    errors = []
+    for dt in (4e-4, 2e-4, 1e-4):
+        result, states = _ours(rig, x0, 4.0, dt)
+        errors.append(np.abs(states[np.round(times / dt).astype(int)] - at(times)).max())
+        ours = _breakaways(result)
+        assert ours.size == reference_breakaways.size >= 4
+        assert np.abs(ours - reference_breakaways).max() <= dt  # each break-away found within its step
+    assert errors[-1] < 5e-9
+    assert errors[0] / errors[1] > 10.0 and errors[1] / errors[2] > 10.0  # RK4: 16 a halving
+
+
+def test_the_load_rests_at_zero_speed_while_stuck_and_holds_within_the_static_level():
+    result = bd.simulate(_rig(STICK_SLIP), t_end=4.0, initial={"load_angle": 0.01})
+    stuck = result.friction_mode[:, 0] == 0
+    assert stuck.any() and (~stuck).any()
+    assert np.all(result.state("load_speed")[stuck] == 0.0)
+    assert np.abs(result.torque[stuck]).max() <= STICK_SLIP["coulomb_load"] + STICK_SLIP["breakaway_load"] + 1e-9
+
+
+def test_breakaway_friction_hunts_and_coulomb_friction_alone_creeps_to_rest():
+    """Olsson and Astrom: the PI cascade hunts by stick-slip only with a breakaway excess over Coulomb friction."""
+    hunting = bd.simulate(_rig(STICK_SLIP), t_end=20.0, initial={"load_angle": 0.01})
+    periods = np.diff(_breakaways(hunting))
+    assert periods.size > 10
+    np.testing.assert_allclose(periods[-4:], periods[-1], rtol=1e-3)  # a steady cycle, one break-away a half period
+    assert np.ptp(hunting.state("load_angle")[-10000:]) > 0.04  # the load hunts over +-0.03 rad
+    creeping = bd.simulate(_rig({"coulomb_load": 20.0}), t_end=20.0, initial={"load_angle": 0.01})
+    stuck = creeping.friction_mode[:, 0] == 0
+    ends = np.flatnonzero(stuck[1:] & ~stuck[:-1]) + 1  # where each slide ends
+    rests = np.abs(creeping.state("load_angle")[ends])
+    assert rests.size >= 2 and np.all(np.diff(rests) < 0.0)  # each slide ends nearer the target
+    assert np.all(stuck[-20000:]) and rests[-1] < 0.05 * 0.01  # and the loop creeps, no cycle
+
+
+@pytest.mark.parametrize("start", [0.01, -0.03, 0.2, -0.5])
+def test_a_p_cascade_rests_anywhere_inside_its_dead_band(start):
+    """With a P speed controller the rest is ``|kp kv theta_l| <= F_c + F_s``: a band, not a point."""
+    rig = _rig(STICK_SLIP, ti=math.inf)
+    band = (STICK_SLIP["coulomb_load"] + STICK_SLIP["breakaway_load"]) / (rig.controller.kp * rig.controller.kv)
+    result = bd.simulate(rig, t_end=4.0, initial={"load_angle": start})
+    rest = result.state("load_angle")[-1]
+    assert np.all(result.friction_mode[-5000:, 0] == 0)
+    assert abs(rest) <= band
+    if abs(start) < 0.75 * band:  # inside the band the shaft's wind-up never reaches the static level
+        assert rest == start
+    else:
+        assert abs(rest) > 0.2 * band  # it stops where the slide ends, not at the target
+
+
+def test_viscous_friction_changes_the_backlash_cycle_as_the_reference_does():
+    """A backlash cycle with viscous friction on the load: the run against the reference, and the cycle shrunk."""
+    wide = dict(PLANT, half_gap=0.02)
+
+    def rig(viscous):
+        return rig_from_dict({"plant": wide, "controller": dict(CASCADE, kv=40.0, ti=0.1),
+                              "friction": {"viscous_load": viscous}, "model": {"backlash": "dead-zone"}})
+
+    x0 = [0.0, 0.0, 0.05, 0.0, 0.0]
+    at, _ = reference_run(rig(30.0), x0, 3.0)
+    _, states = _ours(rig(30.0), x0, 3.0, 1e-4)
+    times = np.array([1.0, 3.0])
+    np.testing.assert_allclose(states[np.round(times / 1e-4).astype(int)], at(times), atol=1e-8)
+    spans = [np.ptp(bd.simulate(rig(viscous), t_end=20.0, initial={"load_angle": 0.05}).state("load_angle")[-20000:])
+             for viscous in (0.0, 30.0)]
+    assert spans[0] > 0.01 and spans[1] < 0.8 * spans[0]
