@@ -87,9 +87,10 @@ stribeck_speed                     [0, 1e6] rad/s        speeds of any drive (> 
 ``F(w) = viscous w + (coulomb + breakaway exp(-(w / stribeck_speed)^2)) sign(w)``, the
 catalogue's effects (:mod:`backlash_df.identify.effects`) as a diagnosis names them, with
 true stiction at rest (:class:`~backlash_df.system.Sticking`).  The time simulation models
-all of it; viscous friction is linear and part of every analysis' ``G``; the
-describing-function analyses do not model dry (Coulomb, breakaway) friction yet and refuse
-it, and no loop models ``torque_offset`` yet (:meth:`Rig.require_modelled`, called by
+all of it, the describing-function prediction takes dry friction on one side as a slaved
+damper; viscous friction is linear and part of every analysis' ``G``; the verdict, the
+exact orbits, the sweeps and the tuning do not model dry (Coulomb, breakaway) friction yet
+and refuse it, and no loop models ``torque_offset`` yet (:meth:`Rig.require_modelled`, called by
 :func:`~backlash_df.loops.drive_loop`); the rig still loads, so that a diagnosed rig
 (:meth:`~backlash_df.identify.Diagnosis.rig_out`) can be written and read.
 
@@ -416,7 +417,9 @@ class Rig:
         ----------
         dry_friction : bool
             True for the time simulation, which models Coulomb and breakaway friction
-            with stiction; False for the describing-function analyses, which do not yet.
+            with stiction, and the describing-function prediction, which takes it as a
+            slaved damper (:class:`~backlash_df.limit_cycles.FrictionSlaving`); False for
+            the analyses that do not model it yet (the verdict, orbits, sweeps, tuning).
 
         Raises
         ------
@@ -430,10 +433,10 @@ class Rig:
         dry = [name for name in ("coulomb_motor", "coulomb_load", "breakaway_motor", "breakaway_load")
                if getattr(self.friction, name) != 0.0]
         if dry and not dry_friction:
-            raise RigError(f"{self.source}: [friction] {dry[0]} = {getattr(self.friction, dry[0]):g}: the "
-                           f"describing-function analyses (predict, verdict, orbits, continue, map, tune) do not "
-                           f"model dry friction yet (it would be left out); `simulate` does, and viscous friction "
-                           f"every analysis does")
+            raise RigError(f"{self.source}: [friction] {dry[0]} = {getattr(self.friction, dry[0]):g}: the verdict "
+                           f"(predict), exact orbits, continue, map and tune do not model dry friction yet (it would "
+                           f"be left out); `simulate` and predict_limit_cycles do, and viscous friction every "
+                           f"analysis does")
 
     def to_dict(self):
         """The rig as the rig file's tables (a dict :func:`rig_from_dict` reads back).

@@ -624,6 +624,7 @@ def continue_limit_cycles(rig, parameter, values_or_range, model=None, *, seed=N
     OrbitNotFound
         No orbit to start from anywhere in the range.
     """
+    rig.require_modelled()  # the orbits of a branch do not model dry friction yet
     values = np.atleast_1d(np.asarray(values_or_range, dtype=float))
     if values.size < 2 or values[0] == values[-1] or not np.all(np.isfinite(values)):
         raise ValueError(f"continue: give a range of {parameter} (two different finite values), got {values_or_range!r}")

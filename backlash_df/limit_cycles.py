@@ -43,7 +43,8 @@ import math
 import numpy as np
 
 from ._json import json_ready
-from .describing import BiasedDescribing, describing_function, saturation_describing_function
+from .describing import (BiasedDescribing, describing_function, friction_describing_function,
+                         saturation_describing_function)
 from .loops import DriveLoop, drive_loop, frequency_response_of
 from .models import BacklashModel
 from .plotting import ResultPlot, adaptive_curve, axes_or_new, legend_below, legend_under, scaled_ticks
@@ -56,6 +57,7 @@ __all__ = [
     "NearMiss",
     "LimitCyclePrediction",
     "CommandSlaving",
+    "FrictionSlaving",
     "solve_harmonic_balance",
     "default_ranges",
     "predict_limit_cycles",
@@ -96,6 +98,12 @@ class LimitCycle:
         command u (N m) on the cycle; NaN without a limit.
     saturated : bool
         True where ``U`` exceeds the torque limit: the cycle's command saturates.
+    friction_amplitude : float
+        With dry friction: A_w, the first-harmonic amplitude of the rubbing side's
+        speed on the cycle (rad/s); NaN without.
+    sticks : bool
+        True where the friction's describing function has no fixed point on the
+        cycle (:class:`FrictionSlaving`): the side sticks, the DF does not hold.
     """
 
     amplitude: float
@@ -107,6 +115,8 @@ class LimitCycle:
     bias: float = 0.0
     command_amplitude: float = math.nan
     saturated: bool = False
+    friction_amplitude: float = math.nan
+    sticks: bool = False
 
     @property
     def amplitude_error(self):
@@ -132,6 +142,8 @@ class LimitCycle:
             "simulated": None if self.simulated is None else self.simulated.cycle_dict(),
             "command_amplitude": None if math.isnan(self.command_amplitude) else float(self.command_amplitude),
             "saturated": bool(self.saturated),
+            **({} if math.isnan(self.friction_amplitude) else {
+                "friction_amplitude": float(self.friction_amplitude), "sticks": bool(self.sticks)}),
         }
 
     def __repr__(self):
@@ -139,6 +151,8 @@ class LimitCycle:
         text = f"LimitCycle(A={self.amplitude:.6g} rad, omega={self.omega:.6g} rad/s, {kind}"
         if not math.isnan(self.command_amplitude):
             text += f", command U={self.command_amplitude:.4g} N m{' saturated' if self.saturated else ''}"
+        if not math.isnan(self.friction_amplitude):
+            text += f", rubbing speed {self.friction_amplitude:.4g} rad/s{' (sticks: DF void)' if self.sticks else ''}"
         if self.simulated is not None:
             text += f", simulated={self.simulated!r}"
         return text + ")"
@@ -705,7 +719,7 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
         model = rig.make_model(model)
     rig = rig.with_law(model)
     user_linear = None if linear is None or isinstance(linear, DriveLoop) else linear
-    linear = drive_loop(rig) if linear is None else linear
+    linear = drive_loop(rig, dry_friction=True) if linear is None else linear
     default_a, default_w = default_ranges(rig)
     label, law = model.name, model
     if describing is not None:
@@ -722,6 +736,11 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
     omega_range = default_w if omega_range is None else tuple(omega_range)
     part = linear.linear_part() if isinstance(linear, DriveLoop) else None
     limited = part is not None and part.command is not None
+    rubbing = part is not None and part.sticking is not None
+    if rubbing and (limited or balanced or len(part.sticking.names) > 1):
+        raise ValueError(f"{rig.source}: the describing function of dry friction is solved on one side of a loop "
+                         f"without a torque limit or a load torque; this loop has "
+                         f"{_friction_companions(part, balanced)}: simulate it instead")
     if limited and balanced:
         return LimitCyclePrediction(
             model=label, cycles=(), near_misses=(), amplitude_range=amplitude_range, omega_range=omega_range,
@@ -731,22 +750,27 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
         )
     if limited:
         g_of_w = CommandSlaving(part)
+    elif rubbing:
+        g_of_w = FrictionSlaving(part)
     elif part is not None:
         g_of_w = functools.partial(frequency_response, part)  # the loop built once, not at every residual
     else:
         g_of_w = functools.partial(frequency_response_of, linear)
     cycles, near = solve_harmonic_balance(
         g_of_w, n_of, half_gap, amplitude_range, omega_range, grid=grid, near_miss_cutoff=near_miss_cutoff,
-        amplitude_dependent=limited,
+        amplitude_dependent=limited or rubbing,
     )
     if balanced:
         cycles = [dataclasses.replace(c, bias=float(n_of.bias(c.amplitude, c.omega))) for c in cycles]
     if limited:
         cycles = [dataclasses.replace(c, command_amplitude=u, saturated=bool(u > part.command.limit))
                   for c, u in ((c, float(g_of_w.command_amplitude(c.amplitude, c.omega))) for c in cycles)]
+    if rubbing:
+        cycles = [dataclasses.replace(c, friction_amplitude=float(g_of_w.speed_amplitude(c.amplitude, c.omega)),
+                                      sticks=bool(g_of_w.sticks(c.amplitude, c.omega))) for c in cycles]
     return LimitCyclePrediction(
         model=label, cycles=tuple(cycles), near_misses=tuple(near), amplitude_range=amplitude_range,
-        omega_range=omega_range, linear=g_of_w if limited else linear, describing=n_of, half_gap=half_gap,
+        omega_range=omega_range, linear=g_of_w if limited or rubbing else linear, describing=n_of, half_gap=half_gap,
         **carried,
     )
 
@@ -808,6 +832,97 @@ class CommandSlaving:
         """G(jw) with the saturation's gain at A (the command unsaturated without ``amplitude``)."""
         gain = 1.0 if amplitude is None else self.gain(amplitude, omega)
         return self._closed(omega, gain)[0]
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class FrictionSlaving:
+    """A loop with dry friction on one side, the friction by its describing function, slaved to A.
+
+    The friction's describing function is a viscous coefficient ``N_f(A_w)``
+    (:func:`~backlash_df.describing.friction_describing_function`) of the side's speed
+    amplitude ``A_w``, and for ``theta_d = A sin(w t)`` that amplitude is
+    ``A |z_i / theta_d|`` of the loop with the damper ``N_f`` on the side (Gelb and
+    Vander Velde's multiple-nonlinearity method, as :class:`CommandSlaving` does for a
+    torque limit).  :meth:`gain` solves ``d = N_f(A_w(d))`` by bisection: ``d -
+    N_f(A_w(d))`` is negative at ``d = 0`` and positive beyond the root, found by
+    doubling.  Where no root lies below ``2^50`` times the first guess the friction
+    holds the side through the cycle (the driving torque's amplitude is below the
+    friction's): the side **sticks**, the damper is that bound (the side locked), and
+    :meth:`sticks` says so: the describing function of a sliding side does not hold.
+
+    Attributes
+    ----------
+    part : LinearPart
+        The loop, with a :class:`~backlash_df.system.Sticking` of one side.
+    """
+
+    part: object
+
+    _BISECTIONS = 60
+    _DOUBLINGS = 50
+
+    def _responses(self, omega, damping):
+        """(G, z_i / theta_d) of the loop with the side's dry friction as the viscous ``damping``, broadcast."""
+        part, sticking = self.part, self.part.sticking
+        i = sticking.index[0]
+        w, d = np.broadcast_arrays(np.asarray(omega, dtype=float), np.asarray(damping, dtype=float))
+        jw = 1j * w.reshape(-1)[:, None, None]
+        n = part.n_states
+        mats = jw * np.eye(n) - part.A + d.reshape(-1)[:, None, None] * np.outer(sticking.column[0], np.eye(n)[i])
+        if part.e_d.shape[1]:
+            mats = mats - np.exp(-jw * part.delay) * (part.e_d @ part.d)
+        z = np.linalg.solve(mats, np.broadcast_to(part.b.astype(complex)[:, None], (jw.shape[0], n, 1)))[:, :, 0]
+        theta = z @ part.c_x
+        return (-theta).reshape(w.shape), (z[:, i] / theta).reshape(w.shape)
+
+    def _excess(self, amplitude, omega, damping):
+        """``N_f(A_w(d)) - d``, N m s/rad: positive below the fixed point."""
+        sticking = self.part.sticking
+        speed = amplitude * np.abs(self._responses(omega, damping)[1])
+        gain = friction_describing_function(np.maximum(speed, 1e-300), sticking.coulomb[0], sticking.breakaway[0],
+                                            sticking.stribeck_speed[0])
+        return gain - damping
+
+    def _solve(self, amplitude, omega):
+        """(d, sticks): the fixed point, and where there is none below the bound, the bound and True."""
+        a, w = np.broadcast_arrays(np.asarray(amplitude, dtype=float), np.asarray(omega, dtype=float))
+        hi = 2.0 * self._excess(a, w, np.zeros(a.shape))
+        for _ in range(self._DOUBLINGS):
+            above = self._excess(a, w, hi) > 0.0
+            if not above.any():
+                break
+            hi = np.where(above, 2.0 * hi, hi)
+        sticks = self._excess(a, w, hi) > 0.0
+        lo = np.zeros(a.shape)
+        for _ in range(self._BISECTIONS):
+            mid = 0.5 * (lo + hi)
+            below = self._excess(a, w, mid) > 0.0
+            lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+        return np.where(sticks, hi, 0.5 * (lo + hi)), sticks
+
+    def gain(self, amplitude, omega):
+        """The friction's equivalent damping N_f at (A, w), N m s/rad, broadcast."""
+        return self._solve(amplitude, omega)[0]
+
+    def sticks(self, amplitude, omega):
+        """Whether the side sticks through the cycle at (A, w): the friction's DF has no fixed point."""
+        return self._solve(amplitude, omega)[1]
+
+    def speed_amplitude(self, amplitude, omega):
+        """A_w, rad/s: the first-harmonic amplitude of the rubbing side's speed at (A, w)."""
+        return np.asarray(amplitude) * np.abs(self._responses(omega, self.gain(amplitude, omega))[1])
+
+    def __call__(self, omega, amplitude=None):
+        """G(jw) with the friction's damper at A (without ``amplitude``: the loop without its dry friction)."""
+        damping = 0.0 if amplitude is None else self.gain(amplitude, omega)
+        return self._responses(omega, damping)[0]
+
+
+def _friction_companions(part, balanced):
+    """What a loop with dry friction holds beside it that its describing function does not take, in words."""
+    words = [f"dry friction on {len(part.sticking.names)} sides"] if len(part.sticking.names) > 1 else []
+    words += ["a torque limit"] * (part.command is not None) + ["a load torque"] * balanced
+    return " and ".join(words)
 
 
 # --------------------------------------------------------------------------- verification

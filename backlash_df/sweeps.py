@@ -349,6 +349,7 @@ def design_map(rig, x_values, y_values, *, x="kp", y="ti", models=None, simulate
         exists without ``resume`` or that belongs to another map (one line naming
         the inputs that differ).
     """
+    rig.require_modelled()  # a map's verdicts do not model dry friction yet
     x_values = np.atleast_1d(np.asarray(x_values, dtype=float))
     y_values = np.atleast_1d(np.asarray(y_values, dtype=float))
     models = tuple(models) if models is not None else (rig.model,)

@@ -20,6 +20,9 @@ from scipy.integrate import solve_ivp
 
 import backlash_df as bd
 from backlash_df.config import rig_from_dict
+from conftest import EXAMPLES
+
+EXAMPLE = EXAMPLES / "motor_lag_feedback.toml"
 
 PLANT = {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0, "damping": 0.0, "half_gap": 0.002}
 CASCADE = {"structure": "cascade", "kp": 30.0, "ti": 0.2, "feedback": "motor", "kv": 20.0, "position_feedback": "load"}
@@ -178,3 +181,69 @@ def test_viscous_friction_changes_the_backlash_cycle_as_the_reference_does():
     spans = [np.ptp(bd.simulate(rig(viscous), t_end=20.0, initial={"load_angle": 0.05}).state("load_angle")[-20000:])
              for viscous in (0.0, 30.0)]
     assert spans[0] > 0.01 and spans[1] < 0.8 * spans[0]
+
+
+# --------------------------------------------------------------------------- the friction's describing function
+
+@pytest.mark.parametrize("amplitude", [1e-3, 0.05, 0.3, 7.0])
+def test_the_friction_describing_function_against_its_closed_form_and_quadrature(amplitude):
+    from scipy.integrate import quad
+
+    from backlash_df.describing import friction_describing_function
+
+    coulomb, breakaway, stribeck = 2.0, 5.0, 0.1
+    assert friction_describing_function(amplitude, coulomb) == pytest.approx(4.0 * coulomb / (math.pi * amplitude),
+                                                                               rel=1e-15)
+
+    def first_harmonic(phi):  # b1 of the friction along w = A sin(phi), over the half period where w > 0
+        w = amplitude * math.sin(phi)
+        return (coulomb + breakaway * math.exp(-(w / stribeck) ** 2)) * math.sin(phi)
+
+    b1 = 2.0 / math.pi * quad(first_harmonic, 0.0, math.pi, epsabs=0.0, epsrel=1e-13, limit=200)[0]
+    assert friction_describing_function(amplitude, coulomb, breakaway, stribeck) == pytest.approx(b1 / amplitude,
+                                                                                                  rel=1e-10)
+
+
+def _lag_rig(**friction):
+    return bd.load_rig(EXAMPLE).with_values(**friction)
+
+
+def test_the_slaved_friction_damper_is_its_own_describing_function():
+    """Substituted back: the damper d at (A, w) is N_f of the side's speed amplitude in the loop with d."""
+    from backlash_df.describing import friction_describing_function
+    from backlash_df.limit_cycles import FrictionSlaving
+
+    part = bd.drive_loop(_lag_rig(coulomb_load=50.0), dry_friction=True).linear_part()
+    slaving = FrictionSlaving(part)
+    amplitude, omega = np.array([0.06, 0.15, 0.4]), np.array([200.0, 256.0, 300.0])
+    damping = slaving.gain(amplitude, omega)
+    speed = slaving.speed_amplitude(amplitude, omega)
+    np.testing.assert_allclose(damping, friction_describing_function(speed, 50.0), rtol=1e-12)
+    # the side's speed amplitude from the loop written out: z = (jw I - A')^-1 b, A' with the damper on w_l
+    i = part.state_names.index("load_speed")
+    for a, w, d, s in zip(amplitude, omega, damping, speed):
+        a_mat = part.A.copy()
+        a_mat[i, i] -= d / bd.load_rig(EXAMPLE).plant.load_inertia
+        z = np.linalg.solve(1j * w * np.eye(part.n_states) - a_mat, part.b)
+        assert s == pytest.approx(a * abs(z[i] / (part.c_x @ z)), rel=1e-12)
+
+
+def test_coulomb_friction_shrinks_the_backlash_cycle_as_the_simulation_does():
+    """The DF with the friction's damper moves the stable cycle as the simulation started on it does."""
+    plain, rubbing = (bd.predict_limit_cycles(_lag_rig(**friction)) for friction in ({}, {"coulomb_load": 50.0}))
+    verified = [bd.verify_limit_cycles(rig, prediction) for rig, prediction in
+                ((_lag_rig(), plain), (_lag_rig(coulomb_load=50.0), rubbing))]
+    (stable_plain,), (stable_rubbing,) = plain.stable_cycles, rubbing.stable_cycles
+    assert stable_rubbing.amplitude < stable_plain.amplitude  # the friction damps the cycle
+    assert verified[1].simulation.amplitude < verified[0].simulation.amplitude  # so does the simulation
+    assert abs(stable_rubbing.amplitude / verified[1].simulation.amplitude - 1.0) < 0.08  # as the DF's usual error
+    assert not stable_rubbing.sticks and stable_rubbing.friction_amplitude > 0.1
+    assert "friction_amplitude" in stable_rubbing.to_dict() and "friction_amplitude" not in stable_plain.to_dict()
+
+
+def test_a_side_the_friction_holds_through_the_cycle_is_flagged_the_df_void():
+    prediction = bd.predict_limit_cycles(_lag_rig(coulomb_load=5.0, breakaway_load=5.0, stribeck_speed=0.05))
+    small = prediction.cycles[0]
+    assert small.sticks and "sticks: DF void" in repr(small)
+    with pytest.raises(ValueError, match="torque limit"):
+        bd.predict_limit_cycles(_lag_rig(coulomb_load=5.0).with_values(torque_limit=300.0))

@@ -2,7 +2,7 @@
 
 The simulation models all friction and every analysis the viscous part; what the loop's
 analyses do not model yet is refused in one place (:meth:`~backlash_df.config.Rig.require_modelled`,
-called by ``drive_loop``): dry friction by the describing-function analyses, a torque offset
+called by ``drive_loop``): dry friction by the analyses that do not model it yet, a torque offset
 by all, so a command given such a rig exits with code 2 and writes nothing.
 """
 
@@ -217,7 +217,7 @@ DRY = [key for key in FRICTION if key.startswith(("coulomb", "breakaway"))]
 @pytest.mark.parametrize("key", DRY)
 def test_the_df_analyses_refuse_dry_friction_the_simulation_takes_it(key):
     rig = _rig(friction={key: 2.0, "stribeck_speed": 0.1})
-    with pytest.raises(RigError, match=rf"^rig.toml: \[friction\] {key} = 2: the describing-function analyses"):
+    with pytest.raises(RigError, match=rf"^rig.toml: \[friction\] {key} = 2: the verdict \(predict\), exact orbits"):
         bd.drive_loop(rig)
     side = key.split("_")[1]
     assert bd.drive_loop(rig, dry_friction=True).linear_part().sticking.names == (side,)

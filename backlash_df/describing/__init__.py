@@ -70,6 +70,7 @@ __all__ = [
     "describing_function",
     "dual_input_describing_function",
     "saturation_describing_function",
+    "friction_describing_function",
     "dc_bias",
     "BiasedDescribing",
     "describing_function_grid",
@@ -188,6 +189,49 @@ def saturation_describing_function(amplitude, limit):
     with np.errstate(divide="ignore", invalid="ignore"):
         r = np.clip(limit / amplitude, 0.0, 1.0)
         return np.where(amplitude <= limit, 1.0, 2.0 / np.pi * (np.arcsin(r) + r * np.sqrt(1.0 - r * r)))
+
+
+def friction_describing_function(amplitude, coulomb, breakaway=0.0, stribeck_speed=1.0):
+    """Describing function of dry friction on a speed ``w = A_w sin(w t)``: a real gain, N m s/rad.
+
+    The friction ``(F_c + F_s exp(-(w / w_s)^2)) sign(w)`` of a side that slides
+    through the whole period (a side that sticks has no such first harmonic) acts on
+    the first harmonic as the viscous coefficient
+
+        ``N_f = 4 F_c / (pi A_w) + 4 F_s D(a) / (pi a A_w)``,  ``a = A_w / w_s``,
+
+    with Dawson's integral ``D`` (:func:`scipy.special.dawsn`): the Coulomb part is
+    the relay's ``4 F_c / (pi A_w)``; the breakaway part follows from
+    ``int_0^pi exp(-a^2 sin^2 phi) sin phi dphi = 2 D(a) / a``, and tends to the
+    relay's as ``a -> 0``.
+
+    Parameters
+    ----------
+    amplitude : array_like
+        A_w, the speed's first-harmonic amplitude, rad/s (> 0).
+    coulomb, breakaway : float
+        F_c and F_s, N m (>= 0).
+    stribeck_speed : float
+        w_s, rad/s (> 0).
+
+    Returns
+    -------
+    ndarray
+        N_f, N m s/rad, the shape of ``amplitude``.
+
+    Examples
+    --------
+    >>> bool(np.isclose(friction_describing_function(2.0, 3.0), 4 * 3.0 / (np.pi * 2.0)))
+    True
+    """
+    from scipy.special import dawsn
+
+    amplitude = np.asarray(amplitude, dtype=float)
+    gain = 4.0 * coulomb / (np.pi * amplitude)
+    if breakaway > 0.0:
+        a = amplitude / stribeck_speed
+        gain = gain + 4.0 * breakaway * dawsn(a) / (np.pi * a * amplitude)
+    return gain
 
 
 _BIAS_TOL = 1e-11  # relative to the bracket width (alpha + A + |T_l| / k) and to k times it
