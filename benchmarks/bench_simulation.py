@@ -54,7 +54,10 @@ the laws of the RK4 kernel (rubber, beta 0.01 and 0.05, and ElastoBacklash on
 ``load_feedback.toml``, no reference: their time per step only): the same floor row and a
 **4-stage floor**, a numba loop doing RK4's work per step (four stages ``A z + b T``, each with
 the law's torque, the kernel's record of state, torque, theta_b and both modes, the mode
-guard), against ``simulate``'s time per step.  Last, the summary at errors 1e-6 and 1e-10: the cheapest run of each method
+guard), against ``simulate``'s time per step; and the RK4 kernel **with friction**, stick modes active (the
+stick-slip PI cascade of ``tests/test_friction_loop.py``, 8 s: the load sticks and slips 18 times), against both
+floors run on its linear part without friction (target: within 3x of the 4-stage floor), with its error against
+the run at half the step.  Last, the summary at errors 1e-6 and 1e-10: the cheapest run of each method
 and the kernel's time against the best competitor's; ``build/work_precision.png``.
 """
 
