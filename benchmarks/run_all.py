@@ -48,6 +48,7 @@ OPTIONS = {
     "bench_verdicts": ["40"],
     "bench_diagnose": ["--seeds", "2", "--repeat", "1"],
     "bench_measurements": ["--rows", "500000"],
+    "bench_friction": [],
 }
 RATIO = re.compile(r"(\d[\d,]*(?:\.\d+)?(?:e[+-]?\d+)?)x\b")
 NUMBER = re.compile(r"[-+]?\d[\d,]*(?:\.\d+)?(?:e[+-]?\d+)?")

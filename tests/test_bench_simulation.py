@@ -112,3 +112,14 @@ def test_rk4_floor_is_a_fourth_order_rk4_step():
         errors.append(abs(outputs[0][-1, 0] - exact))
     assert errors[1] < 1e-7 * abs(Z0).max()
     assert 12.0 < errors[0] / errors[1] < 20.0
+
+
+def test_friction_case_sticks_and_slips_and_its_accuracy_converges():
+    """The friction row's premise and its accuracy column: the stick-slip cascade sticks and slips through the
+    run, and its error against the half-step run falls about 16-fold a halving (RK4) to below 1e-8 of the range."""
+    loop = bench_simulation.friction_loop()
+    coarse, transitions, stuck = bench_simulation.friction_accuracy(loop, 2e-4)
+    fine, transitions_fine, _ = bench_simulation.friction_accuracy(loop, 1e-4)
+    assert transitions == transitions_fine >= 10 and 0.2 < stuck < 0.9
+    assert fine < 1e-8
+    assert 8.0 < coarse / fine < 32.0
