@@ -188,11 +188,10 @@ def _command_field(z, cmode, column, u_row, limit, integrator, wvals, dvals, out
 
 
 @_inline
-def _stick_field(z, fmodes, stick, held, out, row):
-    """Each side's dry friction into ``out[row]`` (:class:`~backlash_df.system.Sticking`): sliding,
-    ``(F_c + F_s exp(-(w / w_s)^2))`` against the mode's direction; stuck, the torque that holds the speed at
-    rest, also written to ``held``."""
-    index, column, coulomb, breakaway, stribeck = stick
+def _stick_field(z, fmodes, index, column, coulomb, breakaway, stribeck, held, out, row):
+    """Each side's dry friction into ``out[row]`` (:class:`~backlash_df.system.Sticking`, a :class:`StickRows`
+    one array by one): sliding, ``(F_c + F_s exp(-(w / w_s)^2))`` against the mode's direction; stuck, the
+    torque that holds the speed at rest, also written to ``held``."""
     n = z.shape[0]
     for s in range(index.shape[0]):
         i = index[s]
@@ -220,7 +219,8 @@ def _frictions(z, t, mode, cmode, law, p, sys, cmd, stick, fmodes, held, W, hist
     if cmd is not None and cmode != 0:
         column, u_row, _, limit, integrator = cmd
         _command_field(z, cmode, column, u_row, limit, integrator, wvals, dvals, work, np.int64(_STICK_ROW))
-    _stick_field(z, fmodes, stick, held, work, np.int64(_STICK_ROW))
+    index, column, coulomb, breakaway, stribeck = stick
+    _stick_field(z, fmodes, index, column, coulomb, breakaway, stribeck, held, work, np.int64(_STICK_ROW))
 
 
 @_jit
@@ -296,7 +296,8 @@ def _rk4(z, t, h, mode, cmode, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_
             column, u_row, _, limit, integrator = cmd
             _command_field(tmp, cmode, column, u_row, limit, integrator, wvals, dvals, k, stage)
         if stick is not None:
-            _stick_field(tmp, fmodes, stick, held, k, stage)
+            index, column, coulomb, breakaway, stribeck = stick
+            _stick_field(tmp, fmodes, index, column, coulomb, breakaway, stribeck, held, k, stage)
         if stage < 3:
             ahead = h if stage == 2 else 0.5 * h
             for i in range(n):
@@ -325,7 +326,8 @@ def _command_mode_rk4(mode, cmode, z, t, sys, cmd, stick, fmodes, held, law, p, 
     _command_field(z, 2 * side if integrator >= 0 else side, column, row, limit, integrator, wvals, dvals, work,
                    np.int64(_COMMAND_ROW))  # not a literal: one compile of _command_field (_jit docs)
     if stick is not None:
-        _stick_field(z, fmodes, stick, held, work, np.int64(_COMMAND_ROW))
+        index, column, coulomb, breakaway, stribeck = stick
+        _stick_field(z, fmodes, index, column, coulomb, breakaway, stribeck, held, work, np.int64(_COMMAND_ROW))
     clamped = 0.0
     for j in range(z.shape[0]):
         clamped += row[j] * work[5, j]
@@ -473,21 +475,28 @@ def _diverged(i, z, n, Z, T, THETA, MODES, CMODES):
 
 @_borrowing
 def _free_steps(i, z, theta_b, mode, cmode, limited, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d, e_f, f_row, friction,
-                delay, W, hist, dt, n_steps, d_rows, k, tmp, wvals, dvals, z_new, Z, T, THETA, MODES, CMODES):
+                delay, W, hist, dt, n_steps, d_rows, k, tmp, wvals, dvals, z_new, Z, T, THETA, MODES, CMODES, stick,
+                fmodes, held, FMODES):
     """Sample ``i`` recorded, then, without a torque limit, the steps that stay in their modes, each sample recorded.
 
     Returns ``(j, theta_b, ended)``: ``j`` the last sample recorded, ``z`` and
     ``theta_b`` its state; ``ended`` if the run ends there (the last sample, or
     diverged), else step ``j`` is left to the event path of :func:`run_rk4` (it
     leaves its modes, or a limit is set).  The step is :func:`_rk4` in command mode 0
-    with :func:`_stage` written out: one call per run of such steps.
+    with :func:`_stage` written out: one call per run of such steps.  With sticking
+    friction (``stick``) the sides' modes ``fmodes`` are frozen too, and a step after
+    which one must change (:func:`_stick_leaves`, written out) is left to the event path.
     """
     n = z.shape[0]
     f_level, f_eps, f_break, f_ws = friction
+    if stick is not None:  # unpacked once: a tuple of arrays is reference-counted member by member at each use
+        index, column, coulomb, breakaway, stribeck = stick
     while True:
         x, v = _xv(z, c_x, c_v)
         torque = _torque(law, mode, x, v, p)
         _record(i, z, n, theta_b, mode, cmode, torque, d_rows, Z, T, THETA, MODES, CMODES, hist)
+        for s in range(fmodes.shape[0]):
+            FMODES[i, s] = fmodes[s]
         if i == n_steps or _diverged(i, z, n, Z, T, THETA, MODES, CMODES):
             return i, theta_b, True
         if limited:
@@ -501,6 +510,8 @@ def _free_steps(i, z, theta_b, mode, cmode, limited, law, p, a_mat, b_t, e_mat, 
             _signals(stage_t, delay, W, hist, dt, wvals, dvals)
             _field(tmp, torque, _friction(tmp, f_row, f_level, f_eps, f_break, f_ws), wvals, dvals, a_mat, b_t, e_mat,
                    e_d, e_f, k, stage)
+            if stick is not None:
+                _stick_field(tmp, fmodes, index, column, coulomb, breakaway, stribeck, held, k, stage)
             if stage < 3:
                 ahead = dt if stage == 2 else 0.5 * dt
                 for j in range(n):
@@ -512,6 +523,20 @@ def _free_steps(i, z, theta_b, mode, cmode, limited, law, p, a_mat, b_t, e_mat, 
         theta_end, changed = _backlash_after(law, p, mode, theta_b, x, v, x1, v1, dt)
         if changed:
             return i, theta_b, False
+        if stick is not None:
+            stuck = False
+            for s in range(index.shape[0]):
+                changed = changed or fmodes[s] * z_new[index[s]] < 0.0
+                stuck = stuck or fmodes[s] == 0
+            if stuck and not changed:  # the stuck sides' holding torques at the step's end
+                _signals(t + dt, delay, W, hist, dt, wvals, dvals)
+                _field(z_new, _torque(law, mode, x1, v1, p), _friction(z_new, f_row, f_level, f_eps, f_break, f_ws),
+                       wvals, dvals, a_mat, b_t, e_mat, e_d, e_f, k, np.int64(_STICK_ROW))
+                _stick_field(z_new, fmodes, index, column, coulomb, breakaway, stribeck, held, k, np.int64(_STICK_ROW))
+                for s in range(index.shape[0]):
+                    changed = changed or (fmodes[s] == 0 and abs(held[s]) > coulomb[s] + breakaway[s])
+            if changed:
+                return i, theta_b, False
         _copy_vector(z_new, z, n)
         theta_b = theta_end
         i += 1
@@ -568,14 +593,12 @@ def run_rk4(sys, cmd, stick, law, p, W, z0, theta_b0, dt, n_steps, Z, T, THETA, 
     # unpacked once: a tuple of arrays passed on, even to an inlined helper, is reference-counted member by member
     a_mat, b_t, e_mat, c_x, c_v, _, e_d, delay, f_row, e_f, f_level, f_eps, f_break, f_ws = sys
     friction = (f_level, f_eps, f_break, f_ws)
-    limited = cmd is not None or stick is not None
+    limited = cmd is not None
     i = first
     while True:
         i, theta_b, ended = _free_steps(i, z, theta_b, mode, cmode, limited, law, p, a_mat, b_t, e_mat, c_x, c_v, e_d,
                                         e_f, f_row, friction, delay, W, hist, dt, n_steps, d_rows, work, tmp, wvals,
-                                        dvals, z_new, Z, T, THETA, MODES, CMODES)
-        for s in range(fmodes.shape[0]):
-            FMODES[i, s] = fmodes[s]
+                                        dvals, z_new, Z, T, THETA, MODES, CMODES, stick, fmodes, held, FMODES)
         if ended:
             break
         t = i * dt
