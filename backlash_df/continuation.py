@@ -306,10 +306,20 @@ class _Extended:
         unknowns, value = self.split(y)
         residual, jacobian = orbit_residual(_rig_of(self.rig, self.parameter, value), self.model, unknowns)
         step = 1e-6 * max(abs(value), self.scale[-1] * 1e-3)
-        plus = orbit_residual(self.rig.with_values(**{self.parameter: value + step}), self.model, unknowns)[0]
-        minus = orbit_residual(self.rig.with_values(**{self.parameter: value - step}), self.model, unknowns)[0]
-        d_value = (plus - minus) / (2.0 * step)
+        sides = [self._shifted(value + sign * step, unknowns) for sign in (1.0, -1.0)]
+        if sides[0] is None or sides[1] is None:  # at the end of the value's range (a friction of 0): one-sided
+            sides = [residual if side is None else side for side in sides]
+            step *= 0.5
+        d_value = (sides[0] - sides[1]) / (2.0 * step)
         return residual, np.column_stack([jacobian, d_value]) * self.scale
+
+    def _shifted(self, value, unknowns):
+        """The residual with the parameter at ``value``, None where the rig refuses the value (out of its range)."""
+        try:
+            rig = self.rig.with_values(**{self.parameter: value})
+        except ValueError:
+            return None
+        return orbit_residual(rig, self.model, unknowns)[0]
 
 
 def _tangent(jacobian, previous):

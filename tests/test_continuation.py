@@ -179,3 +179,23 @@ def test_continue_prints_the_df_values_it_computed_and_round_off_bias_as_zero(tm
     assert any(point["bias"] != 0.0 for point in data["points"])
     assert all(abs(point["bias"]) < 1e-12 * point["amplitude"] for point in data["points"])
     assert printed == ["0"] * len(data["points"])
+
+
+def test_a_branch_in_a_friction_from_zero_its_range_end():
+    """Viscous friction of the load from 0 (the end of its range: a one-sided parameter derivative there), each
+    point an orbit of its own rig, the cycle damped as the friction grows, and the simulation agreeing."""
+    lag = bd.load_rig(EXAMPLES / "motor_lag_feedback.toml")
+    branch = continue_limit_cycles(lag, "viscous_load", (0.0, 200.0), "phase-plane", df_values=2)
+    assert branch.values[0] == 0.0 and branch.values[-1] == 200.0
+    for point in branch.points:
+        unknowns = np.append(point.orbit.state, point.orbit.period)
+        residual, _ = orbit_residual(lag.with_values(viscous_load=point.parameter), "phase-plane", unknowns)
+        assert np.abs(residual[:-1]).max() < 1e-9 * max(np.abs(unknowns[:-1]).max(), 1.0)
+    assert np.all(np.diff(branch.amplitude) < 0)
+    orbit = branch.orbit_at(200.0)
+    rig = lag.with_values(viscous_load=200.0)  # the simulation started on the orbit's state stays on it
+    names = drive_loop(rig).linear_part().state_names
+    measured = bd.measure_limit_cycle(bd.simulate(rig, "phase-plane", t_end=1.0, dt=2e-6,
+                                                  initial=dict(zip(names, orbit.state[:len(names)]))))
+    assert orbit.amplitude == pytest.approx(measured.amplitude, rel=1e-4)
+    assert orbit.omega == pytest.approx(measured.omega, rel=1e-5)
