@@ -356,7 +356,7 @@ def loop_rests(rig, model, linear=None, pade_order=PADE_ORDER):
     """
     if linear is not None:
         return rest_points(lti_linear_part(linear), model, pade_order=pade_order)
-    return rest_points(drive_loop(rig).linear_part(), model, [0.0, rig.load.torque], pade_order)
+    return rest_points(drive_loop(rig, dry_friction=True).linear_part(), model, [0.0, rig.load.torque], pade_order)
 
 
 def _rest_angles(model, law, t0, t1):

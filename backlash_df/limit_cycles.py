@@ -101,9 +101,6 @@ class LimitCycle:
     friction_amplitude : float
         With dry friction: A_w, the first-harmonic amplitude of the rubbing side's
         speed on the cycle (rad/s); NaN without.
-    sticks : bool
-        True where the friction's describing function has no fixed point on the
-        cycle (:class:`FrictionSlaving`): the side sticks, the DF does not hold.
     """
 
     amplitude: float
@@ -116,7 +113,6 @@ class LimitCycle:
     command_amplitude: float = math.nan
     saturated: bool = False
     friction_amplitude: float = math.nan
-    sticks: bool = False
 
     @property
     def amplitude_error(self):
@@ -142,8 +138,7 @@ class LimitCycle:
             "simulated": None if self.simulated is None else self.simulated.cycle_dict(),
             "command_amplitude": None if math.isnan(self.command_amplitude) else float(self.command_amplitude),
             "saturated": bool(self.saturated),
-            **({} if math.isnan(self.friction_amplitude) else {
-                "friction_amplitude": float(self.friction_amplitude), "sticks": bool(self.sticks)}),
+            **({} if math.isnan(self.friction_amplitude) else {"friction_amplitude": float(self.friction_amplitude)}),
         }
 
     def __repr__(self):
@@ -152,7 +147,7 @@ class LimitCycle:
         if not math.isnan(self.command_amplitude):
             text += f", command U={self.command_amplitude:.4g} N m{' saturated' if self.saturated else ''}"
         if not math.isnan(self.friction_amplitude):
-            text += f", rubbing speed {self.friction_amplitude:.4g} rad/s{' (sticks: DF void)' if self.sticks else ''}"
+            text += f", rubbing speed {self.friction_amplitude:.4g} rad/s"
         if self.simulated is not None:
             text += f", simulated={self.simulated!r}"
         return text + ")"
@@ -219,6 +214,11 @@ class LimitCyclePrediction:
         (:meth:`~backlash_df.config.Rig.with_law`).
     user_linear : control.LTI, callable or None
         The user's linear part, None for the rig's own loop.
+    void_cycles : tuple of LimitCycle
+        With dry friction: solutions of the harmonic balance where the friction holds
+        the side through the cycle (:class:`FrictionSlaving` has no fixed point): the
+        describing function of a sliding side does not hold there, so they are not
+        ``cycles`` and no later stage takes them as evidence.
     """
 
     model: str
@@ -234,6 +234,7 @@ class LimitCyclePrediction:
     law: object = dataclasses.field(repr=False, default=None)
     rig: object = dataclasses.field(repr=False, default=None)
     user_linear: object = dataclasses.field(repr=False, default=None)
+    void_cycles: tuple = ()
 
     def loop(self, rig=None, linear=None):
         """``(rig, law, user_linear)``: what a later stage simulates, the prediction's own.
@@ -274,6 +275,8 @@ class LimitCyclePrediction:
     def __repr__(self):
         cycles = ", ".join(f"{'stable' if c.stable else 'unstable'} A={c.amplitude:.4g} rad w={c.omega:.4g} rad/s"
                            for c in self.cycles) or (f"no DF: {self.note}" if self.note else "no cycle")
+        if self.void_cycles:
+            cycles += f"; {len(self.void_cycles)} void (the friction holds the side through the cycle)"
         miss = f"; closest miss {100 * self.near_misses[0].distance:.2f} %" if self.near_misses else ""
         sim = "" if self.simulation is None else f"; simulated: {self.simulation.verdict}"
         return f"<LimitCyclePrediction {self.model}: {cycles}{miss}{sim}>"
@@ -292,6 +295,7 @@ class LimitCyclePrediction:
             "amplitude_range": list(self.amplitude_range),
             "omega_range": list(self.omega_range),
             "note": self.note or None,
+            **({"void_cycles": [cycle.to_dict() for cycle in self.void_cycles]} if self.void_cycles else {}),
         })
 
     def plot(self, ax=None, **kwargs):
@@ -738,9 +742,12 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
     limited = part is not None and part.command is not None
     rubbing = part is not None and part.sticking is not None
     if rubbing and (limited or balanced or len(part.sticking.names) > 1):
-        raise ValueError(f"{rig.source}: the describing function of dry friction is solved on one side of a loop "
-                         f"without a torque limit or a load torque; this loop has "
-                         f"{_friction_companions(part, balanced)}: simulate it instead")
+        return LimitCyclePrediction(
+            model=label, cycles=(), near_misses=(), amplitude_range=amplitude_range, omega_range=omega_range,
+            linear=linear, describing=n_of, half_gap=half_gap, **carried,
+            note=f"the describing function of dry friction is solved on one side of a loop without a torque limit or "
+                 f"a load torque, and this loop has {_friction_companions(part, balanced)}; the simulations decide",
+        )
     if limited and balanced:
         return LimitCyclePrediction(
             model=label, cycles=(), near_misses=(), amplitude_range=amplitude_range, omega_range=omega_range,
@@ -765,13 +772,16 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
     if limited:
         cycles = [dataclasses.replace(c, command_amplitude=u, saturated=bool(u > part.command.limit))
                   for c, u in ((c, float(g_of_w.command_amplitude(c.amplitude, c.omega))) for c in cycles)]
+    void = ()
     if rubbing:
-        cycles = [dataclasses.replace(c, friction_amplitude=float(g_of_w.speed_amplitude(c.amplitude, c.omega)),
-                                      sticks=bool(g_of_w.sticks(c.amplitude, c.omega))) for c in cycles]
+        cycles = [dataclasses.replace(c, friction_amplitude=float(g_of_w.speed_amplitude(c.amplitude, c.omega)))
+                  for c in cycles]
+        void = tuple(c for c in cycles if g_of_w.sticks(c.amplitude, c.omega))
+        cycles = [c for c in cycles if c not in void]
     return LimitCyclePrediction(
         model=label, cycles=tuple(cycles), near_misses=tuple(near), amplitude_range=amplitude_range,
         omega_range=omega_range, linear=g_of_w if limited or rubbing else linear, describing=n_of, half_gap=half_gap,
-        **carried,
+        void_cycles=void, **carried,
     )
 
 

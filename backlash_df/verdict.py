@@ -703,7 +703,7 @@ def judge_loop(rig, prediction, *, linear=None, t_end=10.0, max_t_end=320.0, dis
     LoopVerdict
     """
     rig, model, user_linear = prediction.loop(rig, linear)
-    part = drive_loop(rig).linear_part() if user_linear is None else lti_linear_part(user_linear)
+    part = drive_loop(rig, dry_friction=True).linear_part() if user_linear is None else lti_linear_part(user_linear)
     contact = linear_stability(part, *contact_shaft(model), "contact")
     opened = linear_stability(part, 0.0, 0.0, "open")
     rests, rest_note = loop_rests(rig, model, user_linear)

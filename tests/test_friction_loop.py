@@ -237,13 +237,40 @@ def test_coulomb_friction_shrinks_the_backlash_cycle_as_the_simulation_does():
     assert stable_rubbing.amplitude < stable_plain.amplitude  # the friction damps the cycle
     assert verified[1].simulation.amplitude < verified[0].simulation.amplitude  # so does the simulation
     assert abs(stable_rubbing.amplitude / verified[1].simulation.amplitude - 1.0) < 0.08  # as the DF's usual error
-    assert not stable_rubbing.sticks and stable_rubbing.friction_amplitude > 0.1
+    assert stable_rubbing.friction_amplitude > 0.1
     assert "friction_amplitude" in stable_rubbing.to_dict() and "friction_amplitude" not in stable_plain.to_dict()
 
 
-def test_a_side_the_friction_holds_through_the_cycle_is_flagged_the_df_void():
+def test_a_solution_where_the_friction_holds_the_side_is_void_not_a_cycle():
+    """The small unstable backlash cycle (238 rad/s) barely moves the load: with a breakaway friction the damper has
+    no fixed point there, so the solution is void (no later stage takes it as the separating cycle)."""
+    plain = bd.predict_limit_cycles(_lag_rig())
     prediction = bd.predict_limit_cycles(_lag_rig(coulomb_load=5.0, breakaway_load=5.0, stribeck_speed=0.05))
-    small = prediction.cycles[0]
-    assert small.sticks and "sticks: DF void" in repr(small)
-    with pytest.raises(ValueError, match="torque limit"):
-        bd.predict_limit_cycles(_lag_rig(coulomb_load=5.0).with_values(torque_limit=300.0))
+    (void,) = prediction.void_cycles
+    assert void.amplitude == pytest.approx(plain.cycles[0].amplitude, rel=1e-3) and not plain.cycles[0].stable
+    assert [c.stable for c in prediction.cycles] == [True]
+    assert "void_cycles" in prediction.to_dict() and "1 void" in repr(prediction)
+
+
+def test_what_the_friction_df_does_not_solve_is_left_to_the_simulations():
+    prediction = bd.predict_limit_cycles(_lag_rig(coulomb_load=5.0).with_values(torque_limit=300.0))
+    assert prediction.cycles == () and "a torque limit; the simulations decide" in prediction.note
+
+
+# --------------------------------------------------------------------------- the verdict with friction
+
+@pytest.mark.parametrize("friction, ti, outcome", [
+    (STICK_SLIP, 0.2, "bistable"),  # small disturbances leave the load stuck at its rest; beyond, stick-slip
+    ({"coulomb_load": 20.0}, 0.2, "no oscillation"),  # creeps to rest
+    (STICK_SLIP, math.inf, "no oscillation"),  # rests in its dead band
+], ids=["stick-slip", "creep", "dead band"])
+def test_the_verdict_with_dry_friction(friction, ti, outcome):
+    rig = _rig(friction, ti=ti)
+    prediction = bd.predict_limit_cycles(rig)
+    verdict = bd.judge_loop(rig, prediction)
+    assert verdict.verdict == outcome
+    if outcome == "bistable":
+        hunting = bd.simulate(rig, t_end=20.0, initial={"load_angle": 0.01})
+        period = 2.0 * np.diff(_breakaways(hunting))[-1]  # two break-aways a period
+        assert verdict.cycle.omega == pytest.approx(2.0 * math.pi / period, rel=1e-2)
+        assert verdict.df_agrees is False  # the DF sees no stick-slip cycle, and the verdict says so

@@ -57,7 +57,7 @@ def warm_kernels(rig, rig_file, models):
 
     try:
         with on_first_compile(start_second):
-            system = drive_loop(rig).linear_part()
+            system = drive_loop(rig, dry_friction=True).linear_part()
             for name in models:
                 model = rig.make_model(name)
                 dt = default_step(system, model)
