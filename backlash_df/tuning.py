@@ -668,7 +668,8 @@ def _least_hunting(settings, screen, search, executor, kept, progress):
     Every screened tuning the DF says hunts on a stable cycle is simulated from its
     cycles (:func:`_simulated_amplitude`), every certificate tried brings its
     simulations' amplitude (inf where a probe diverged or did not settle); the DF
-    levels only choose what to simulate.  The smallest is certified (for its
+    levels only choose what to simulate.  (Its certificates are not reported: the
+    stage's total is the simulations'.)  The smallest is certified (for its
     verdict), its amplitude the larger of the two, and the smallest taken again,
     until the smallest is a certified one: the answer is the least hunting of all.
     """
@@ -691,9 +692,9 @@ def _least_hunting(settings, screen, search, executor, kept, progress):
         merged = {**simulated, **measured}
         least = min(merged, key=lambda values: (merged[values], values))
         if least in measured:
-            best = search.certify(least, "least hunting")
+            best = search.certify(least, None)
             return dataclasses.replace(best, amplitude=float(merged[least])), merged
-        certified(search.certify(least, "least hunting"))
+        certified(search.certify(least, None))
 
 
 def _achieved(search, best, met):
@@ -853,10 +854,12 @@ class _Certifier:
         self.tried, self.hunting, self._done = [], [], {}
 
     def certify(self, values, stage):
-        """The certificate of ``values`` (a new one is reported to ``stage`` and kept in :attr:`tried`)."""
+        """The certificate of ``values`` (a new one is reported to ``stage``, unless None, and kept in
+        :attr:`tried`)."""
         values = tuple(float(v) for v in values)
         if values not in self._done:
-            self.report(stage, len(self.tried), None)
+            if stage is not None:
+                self.report(stage, len(self.tried), None)
             certificate = _certify_cell(self.settings, values, self.kept)
             self._done[values] = certificate
             self.tried.append(certificate)
