@@ -357,3 +357,41 @@ def test_the_answer_holds_its_gain_margin_in_the_test_s_own_simulations(tunings)
     for factor in (1.25, 1 / 1.25):
         assert settles(rig.with_values(kp=kp * factor))
     assert tuning.to_dict()["best"]["gain_margin"]["requested"] == 1.25
+
+
+class _CountedCertify:
+    """A stand-in for ``tuning.certify`` that records its tunings' values and raises Ctrl-C at call ``at``."""
+
+    def __init__(self, original, at=None):
+        self.original, self.at, self.calls = original, at, []
+
+    def __call__(self, rig, *args, **kwargs):
+        self.calls.append(rig.controller.kp)
+        if len(self.calls) == self.at:
+            raise KeyboardInterrupt
+        return self.original(rig, *args, **kwargs)
+
+
+def test_a_tune_interrupted_in_its_gain_margin_stage_resumes_to_the_same_answer(tmp_path, monkeypatch):
+    """kp 1..100 on motor_feedback, the default margin: the answer (kp = 100) and its scaled tunings are
+    certificates 1 to 3, the margin's probes follow; stopped at the 5th, resumed: none of the 4 done again,
+    the same JSON as an uninterrupted tune."""
+    import backlash_df.tuning as tuning_module
+    from backlash_df.checkpoint import Checkpoint
+
+    rig, vary = example_rig("motor_feedback"), {"kp": (1.0, 100.0)}
+    stages = []
+    uninterrupted = bd.tune(rig, vary, progress=lambda stage, done, total: stages.append(stage))
+    assert "gain margin" in stages and uninterrupted.best.values == (100.0,)
+    path = tmp_path / "tune.checkpoint"
+    interrupt = _CountedCertify(tuning_module.certify, at=5)
+    monkeypatch.setattr(tuning_module, "certify", interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        bd.tune(rig, vary, checkpoint=path)
+    counting = _CountedCertify(interrupt.original)
+    monkeypatch.setattr(tuning_module, "certify", counting)
+    resumed = bd.tune(rig, vary, checkpoint=Checkpoint(path, resume=True))
+    assert not set(interrupt.calls[:4]) & set(counting.calls) and counting.calls
+    first, second = uninterrupted.to_dict(), resumed.to_dict()
+    first.pop("seconds"), second.pop("seconds")
+    assert second == first
