@@ -34,6 +34,7 @@ no tuning in range is certified the answer says so and gives the tuning of the
 smallest hunting amplitude.
 """
 
+import collections
 import dataclasses
 import functools
 import itertools
@@ -371,7 +372,7 @@ class Tuning:
     certificates : tuple of Certificate
         Every certificate tried, in order.
     seconds : dict
-        Wall time of ``screening``, ``refinement``, ``certification`` and ``plateau``, s.
+        Wall time of ``screening``, ``refinement``, ``certification`` and (the gain margin held) ``plateau``, s.
     on_bound : tuple of str
         The varied values at a bound of their range in the answer (its true best may lie beyond).
     plateau : dict
@@ -665,9 +666,10 @@ def _front(settings, screen, best, feasible, executor, kept, progress=None, simu
 def _least_hunting(settings, screen, search, executor, kept, progress):
     """The tuning of the smallest simulated hunting amplitude, none being certified: ``(certificate, simulated)``.
 
-    Every screened tuning the DF says hunts on a stable cycle is simulated from its
-    cycles (:func:`_simulated_amplitude`), every certificate tried brings its
-    simulations' amplitude (inf where a probe diverged or did not settle); the DF
+    A tuning's hunting is the largest cycle its simulations end on.  Every screened
+    tuning the DF says hunts on a stable cycle is simulated from its cycles
+    (:func:`_simulated_amplitude`), every certificate tried brings its probes' largest
+    cycle (inf where a probe diverged or did not settle); the DF
     levels only choose what to simulate.  (Its certificates are not reported: the
     stage's total is the simulations'.)  The smallest is certified (for its
     verdict), its amplitude the larger of the two, and the smallest taken again,
@@ -683,7 +685,8 @@ def _least_hunting(settings, screen, search, executor, kept, progress):
     def certified(certificate):
         diverged = any(p.outcome in ("diverged", "unsettled") for p in certificate.verdict.probes)
         runaway = certificate.verdict.verdict == "unstable" and certificate.amplitude == 0.0
-        own = math.inf if diverged or runaway else certificate.amplitude
+        reached = [p.amplitude for p in certificate.verdict.probes if p.measured.found] + [certificate.amplitude]
+        own = math.inf if diverged or runaway else max(reached)  # the largest cycle a disturbance falls into
         measured[certificate.values] = max(own, simulated.get(certificate.values, 0.0))
 
     for certificate in search.tried:
@@ -720,7 +723,7 @@ def _achieved(search, best, met):
                 else:
                     upper = factor
         achieved[name] = lower
-    search.report("gain margin", len(search.tried), len(search.tried))
+    search.finish("gain margin")
     return achieved
 
 
@@ -822,20 +825,20 @@ def _search(settings, ranges, executor, progress, kept):
         best = _tighten(search, best, rejected)
     else:  # none holds the gain margin: the fastest certified one, if any, its margin short of the request
         best = max((c for c in rejected if c.certified), key=lambda c: c.bandwidth, default=None)
-    report("certification", len(search.tried), len(search.tried))  # the stage ends: its total is now known
+    search.finish("certification")  # the stage ends: its total is now known
     seconds["certification"] = time.perf_counter() - start
 
     feasible, plateau = best is not None, {}
     if met:
         start = time.perf_counter()
         best, plateau = _plateaus(search, ranges, best)
-        report("plateau", len(search.tried), len(search.tried))
+        search.finish("plateau")
         seconds["plateau"] = time.perf_counter() - start
     simulated = {}
     if not feasible:  # the least hunting tuning among those simulated (module docs)
         best, simulated = _least_hunting(settings, screen, search, executor, kept, progress)
-    front = _front(settings, screen, best, feasible, executor, kept, progress, simulated)
     achieved = _achieved(search, best, met) if feasible else {}
+    front = _front(settings, screen, best, feasible, executor, kept, progress, simulated)
     on_bound = tuple(n for n, v, (low, high) in zip(names, best.values, ranges)
                      if math.isclose(v, low, rel_tol=1e-9) or math.isclose(v, high, rel_tol=1e-9))
     return Tuning(names, ranges, settings.tolerance, name, feasible, best,
@@ -851,7 +854,7 @@ class _Certifier:
 
     def __init__(self, settings, kept, report):
         self.settings, self.kept, self.report = settings, kept, report
-        self.tried, self.hunting, self._done = [], [], {}
+        self.tried, self.hunting, self._done, self.counts = [], [], {}, collections.Counter()
 
     def certify(self, values, stage):
         """The certificate of ``values`` (a new one is reported to ``stage``, unless None, and kept in
@@ -859,13 +862,18 @@ class _Certifier:
         values = tuple(float(v) for v in values)
         if values not in self._done:
             if stage is not None:
-                self.report(stage, len(self.tried), None)
+                self.report(stage, self.counts[stage], None)
+                self.counts[stage] += 1
             certificate = _certify_cell(self.settings, values, self.kept)
             self._done[values] = certificate
             self.tried.append(certificate)
             if not certificate.certified:
                 self.hunting.append((values, "certificate"))
         return self._done[values]
+
+    def finish(self, stage):
+        """Report ``stage`` done: its certificates counted, its total now known."""
+        self.report(stage, self.counts[stage], self.counts[stage])
 
     def holds(self, values, stage, margin=None):
         """``(certificate, holds)``: ``values`` certified, and every tuning of its values scaled by a factor
