@@ -34,8 +34,10 @@ no tuning in range is certified the answer says so and gives the tuning of the
 smallest hunting amplitude.
 """
 
+import collections
 import dataclasses
 import functools
+import itertools
 import math
 import time
 
@@ -62,6 +64,10 @@ _DF_GRID = (24, 32)  # the DF scan of a screened cell (the design map's coarse g
 _SCREEN = {1: 17, 2: 9}  # screened values per varied parameter
 _BISECTIONS = 5  # DF bisections of a boundary segment: 1/32 of a screened cell
 _CERTIFIED_BISECTIONS = 4  # bisections with certificates where the DF cleared a hunting tuning
+_PLATEAU = 0.01  # a bandwidth gaining less than this (relative) over the last factor of 2 of a value has plateaued
+_KNEE_BISECTIONS = 7  # log bisections of the knee: to a factor 2**(1/128), 0.5 %
+#: The direction of gentler control of each value: a smaller gain, a slower integral action or speed filter.
+_GENTLER = {"kp": -1.0, "kv": -1.0, "ti": 1.0, "speed_filter": 1.0}
 
 
 # --------------------------------------------------------------------------- the objective
@@ -192,6 +198,7 @@ class _Settings:
     names: tuple
     model: str
     tolerance: float
+    gain_margin: float = 1.0
 
 
 def _screen_cell(settings, values):
@@ -365,7 +372,24 @@ class Tuning:
     certificates : tuple of Certificate
         Every certificate tried, in order.
     seconds : dict
-        Wall time of ``screening``, ``refinement`` and ``certification``, s.
+        Wall time of ``screening``, ``refinement``, ``certification`` and (the gain margin held) ``plateau``, s.
+    on_bound : tuple of str
+        The varied values at a bound of their range in the answer (its true best may lie beyond).
+    plateau : dict
+        Per value whose bandwidth plateaued at the fastest certified tuning
+        (less than 1 % gained over its last factor of 2): ``{"bandwidth", "reached_at"}``,
+        the plateau's bandwidth (rad/s) and the gentlest value within 1 % of it, which
+        the answer takes (module docs); empty where none did.
+    gain_margin : dict
+        ``{"requested": g, "achieved": {name: factor}}``: every varied value can be
+        scaled by ``g`` and ``1/g`` (and their combinations) with the tuning still
+        certified; ``achieved``: per value alone, the largest factor checked both ways
+        (``g`` and up to three probes beyond it; ``g`` where ``g`` is 1); empty where
+        none is certified.
+    simulated : tuple of (tuple, float)
+        Where none is certified: every tuning whose hunting was simulated, with its
+        amplitude A of theta_d (rad; inf where a simulation diverged), smallest first;
+        the answer is the first.  Empty where a tuning is certified.
     source : str
         The rig's file.
     """
@@ -383,6 +407,10 @@ class Tuning:
     boundary: tuple
     certificates: tuple
     seconds: dict
+    on_bound: tuple = ()
+    plateau: dict = dataclasses.field(default_factory=dict)
+    gain_margin: dict = dataclasses.field(default_factory=dict)
+    simulated: tuple = ()
     source: str = ""
 
     def values(self, point=None):
@@ -405,7 +433,9 @@ class Tuning:
         """The ``tune`` JSON (contract page)."""
         return json_ready({
             "best": {"values": self.values(), "bandwidth": self.best.bandwidth, "verdict": self.best.verdict.verdict,
-                     "certificate": self.best.to_dict(), "margin": self.margin or None},
+                     "certificate": self.best.to_dict(), "margin": self.margin or None,
+                     "on_bound": list(self.on_bound), "plateau": self.plateau or None,
+                     "gain_margin": self.gain_margin or None},
             "front": [{"tolerance": p.tolerance, "values": self.values(p), "bandwidth": p.bandwidth,
                        "amplitude": p.amplitude} for p in self.front],
             "feasible": self.feasible,
@@ -416,7 +446,9 @@ class Tuning:
             "searched": {"screened": len(self.screen), "boundary": len(self.boundary),
                          "certified": [{"values": self.values(c), "bandwidth": c.bandwidth,
                                         "verdict": c.verdict.verdict, "certified": c.certified}
-                                       for c in self.certificates]},
+                                       for c in self.certificates],
+                         "simulated": [{"values": dict(zip(self.names, values)), "amplitude": amplitude}
+                                       for values, amplitude in self.simulated]},
             "seconds": self.seconds,
         })
 
@@ -599,8 +631,9 @@ def _margin(names, best, hunting_points):
             "source": source}
 
 
-def _front(settings, screen, best, feasible, executor, kept, progress=None):
-    """Best bandwidth per tolerance: 0 (the certified tuning), then the DF amplitudes of hunting cells."""
+def _front(settings, screen, best, feasible, executor, kept, progress=None, simulated=None):
+    """Best bandwidth per tolerance: 0 (the certified tuning), then the DF amplitudes of hunting cells
+    (``simulated``: amplitudes already simulated, by values)."""
     stable = [c for c in screen if math.isfinite(c.bandwidth) and c.amplitude > 0.0]
     levels = sorted({c.amplitude for c in stable})
     if len(levels) > 6:
@@ -612,9 +645,12 @@ def _front(settings, screen, best, feasible, executor, kept, progress=None):
         if (feasible and top.bandwidth <= best.bandwidth) or (chosen and top.bandwidth <= chosen[-1][1].bandwidth):
             continue
         chosen.append((level, top))
-    simulated = run_cells(functools.partial(_simulated_amplitude, settings), [c.values for _, c in chosen],
-                          executor=executor, checkpoint=kept, keys=[("front", *c.values) for _, c in chosen],
-                          progress=progress, stage="front")
+    known = simulated or {}
+    todo = [c.values for _, c in chosen if c.values not in known]
+    found = dict(zip(todo, run_cells(functools.partial(_simulated_amplitude, settings), todo, executor=executor,
+                                     checkpoint=kept, keys=[("front", *values) for values in todo],
+                                     progress=progress, stage="front")))
+    simulated = [known[c.values] if c.values in known else found[c.values] for _, c in chosen]
     front = [FrontPoint(0.0, best.values, best.bandwidth, 0.0)] if feasible else []
     for (level, candidate), amplitude in zip(chosen, simulated):
         front.append(FrontPoint(float(max(level, amplitude)), candidate.values, candidate.bandwidth, float(amplitude)))
@@ -627,6 +663,70 @@ def _front(settings, screen, best, feasible, executor, kept, progress=None):
     return tuple(monotone)
 
 
+def _least_hunting(settings, screen, search, executor, kept, progress):
+    """The tuning of the smallest simulated hunting amplitude, none being certified: ``(certificate, simulated)``.
+
+    A tuning's hunting is the largest cycle its simulations end on.  Every screened
+    tuning the DF says hunts on a stable cycle is simulated from its cycles
+    (:func:`_simulated_amplitude`), every certificate tried brings its probes' largest
+    cycle (inf where a probe diverged or did not settle); the DF
+    levels only choose what to simulate.  (Its certificates are not reported: the
+    stage's total is the simulations'.)  The smallest is certified (for its
+    verdict), its amplitude the larger of the two, and the smallest taken again,
+    until the smallest is a certified one: the answer is the least hunting of all.
+    """
+    cells = [c.values for c in screen if c.hunts and c.amplitude > 0.0]
+    amplitudes = run_cells(functools.partial(_simulated_amplitude, settings), cells, executor=executor,
+                           checkpoint=kept, keys=[("front", *values) for values in cells], progress=progress,
+                           stage="least hunting")
+    simulated = dict(zip(cells, amplitudes))
+    measured = {}  # values -> the amplitude with its certificate's
+
+    def certified(certificate):
+        diverged = any(p.outcome in ("diverged", "unsettled") for p in certificate.verdict.probes)
+        runaway = certificate.verdict.verdict == "unstable" and certificate.amplitude == 0.0
+        reached = [p.amplitude for p in certificate.verdict.probes if p.measured.found] + [certificate.amplitude]
+        own = math.inf if diverged or runaway else max(reached)  # the largest cycle a disturbance falls into
+        measured[certificate.values] = max(own, simulated.get(certificate.values, 0.0))
+
+    for certificate in search.tried:
+        certified(certificate)
+    while True:
+        merged = {**simulated, **measured}
+        least = min(merged, key=lambda values: (merged[values], values))
+        if least in measured:
+            best = search.certify(least, None)
+            return dataclasses.replace(best, amplitude=float(merged[least])), merged
+        certified(search.certify(least, None))
+
+
+def _achieved(search, best, met):
+    """Per varied value alone: the largest factor ``h`` checked with the value scaled by ``h`` and ``1/h``
+    certified, from the requested margin, bisected toward the nearest hunting tuning known on that axis
+    (or stepping by 1.5) in three probes; the requested margin where it is 1; 1 where it is not ``met``."""
+    g = search.settings.gain_margin if met else 1.0
+    achieved = {}
+    for index, name in enumerate(search.settings.names):
+        lower, upper = g, None
+        if g > 1.0:  # (a margin not met is 1: its corners fail)
+            on_axis = [abs(math.log(values[index] / best.values[index])) for values, _ in search.hunting
+                       if all(math.isclose(v, b, rel_tol=1e-12) for i, (v, b) in enumerate(zip(values, best.values))
+                              if i != index) and values[index] != best.values[index]]
+            beyond = [math.exp(d) for d in on_axis if math.exp(d) > g]
+            upper = min(beyond) if beyond else None
+            for _ in range(3):
+                factor = 1.5 * lower if upper is None else math.sqrt(lower * upper)
+                scaled = [tuple(v * (f if i == index else 1.0) for i, v in enumerate(best.values))
+                          for f in (factor, 1.0 / factor)]
+                if all(search.certify(values, "gain margin").certified for values in scaled):
+                    lower = factor
+                else:
+                    upper = factor
+        achieved[name] = lower
+    search.finish("gain margin")
+    return achieved
+
+
 def _simulated_amplitude(settings, values):
     """The hunting amplitude a simulation from the DF's largest stable cycle settles to (the DF's if it finds none)."""
     tuned = _tuned(settings.rig, settings.names, values)
@@ -635,7 +735,7 @@ def _simulated_amplitude(settings, values):
     return max(found) if found else max(c.amplitude for c in prediction.stable_cycles)
 
 
-def tune(rig, vary, *, tolerance=0.0, model=None, executor=None, progress=None, checkpoint=None):
+def tune(rig, vary, *, tolerance=0.0, gain_margin=1.25, model=None, executor=None, progress=None, checkpoint=None):
     """The tuning of largest contact-loop bandwidth whose verdict is certified ``no oscillation`` (module docs).
 
     Parameters
@@ -647,13 +747,19 @@ def tune(rig, vary, *, tolerance=0.0, model=None, executor=None, progress=None, 
         log scale (``{"kp": (1.0, 1000.0), "ti": (0.01, 2.0)}``).
     tolerance : float
         Largest accepted hunting amplitude A of theta_d, rad (0: none).
+    gain_margin : float
+        ``g >= 1``: the answer stays certified with every varied value scaled by
+        ``g`` or ``1/g`` (each alone and all combinations: ``3**n - 1`` scaled
+        tunings, certified as the answer is, out of the range too).  Default 1.25
+        (a gain 25 % off); 1 checks no scaled tuning.
     model : str, optional
         Torque law (default the rig's).
     executor : concurrent.futures.Executor, optional
-        Runs the screened cells, the boundary bisections and the certificates.
+        Runs the screened cells, the boundary bisections and the front's simulations.
     progress : callable, optional
         ``progress(stage, done, total)`` (the package's one protocol) as the stages
-        ``screening``, ``refinement``, ``certification`` and ``front`` advance.
+        ``screening``, ``refinement``, ``certification``, ``plateau``, ``least hunting``
+        (none certified), ``gain margin`` and ``front`` advance.
     checkpoint : str, Path or Checkpoint, optional
         Keep every screened cell, boundary bisection, certificate and front point
         as it finishes (:class:`~backlash_df.checkpoint.Checkpoint`; a path: a new
@@ -668,18 +774,20 @@ def tune(rig, vary, *, tolerance=0.0, model=None, executor=None, progress=None, 
     ------
     ValueError
         An unknown or non-varying value, a range with low >= high or not positive,
-        a tolerance < 0: one line; a checkpoint that exists (without ``resume``) or
+        a tolerance < 0, a gain margin < 1 or not finite: one line; a checkpoint that exists (without ``resume``) or
         belongs to another run.
     """
     names, ranges = _validated(rig, vary, tolerance)
+    if not (isinstance(gain_margin, (int, float)) and math.isfinite(gain_margin) and gain_margin >= 1.0):
+        raise ValueError(f"tune: the gain margin is a factor >= 1 (1: none); got {gain_margin!r}")
     name = rig.make_model(model).name
-    settings = _Settings(rig, names, name, float(tolerance))
+    settings = _Settings(rig, names, name, float(tolerance), float(gain_margin))
     with opened(checkpoint, "tune", {"settings": describe(settings, omit={"source"}), "ranges": ranges}) as kept:
         return _search(settings, ranges, executor, progress, kept)
 
 
 def _search(settings, ranges, executor, progress, kept):
-    """:func:`tune`'s stages: screen, refine the boundary, certify, the front."""
+    """:func:`tune`'s stages: screen, refine the boundary, certify, the plateau, the gain margin, the front."""
     names, name = settings.names, settings.model
     report = progress or (lambda stage, done, total: None)
     seconds = {}
@@ -699,49 +807,156 @@ def _search(settings, ranges, executor, progress, kept):
     seconds["refinement"] = time.perf_counter() - start
 
     start = time.perf_counter()
-    hunting = [(h.values, "DF boundary") for _, h in refined] + [(c.values, "DF screen") for c in screen if c.hunts]
+    search = _Certifier(settings, kept, report)
+    search.hunting += [(h.values, "DF boundary") for _, h in refined] + [(c.values, "DF screen")
+                                                                          for c in screen if c.hunts]
     candidates = sorted([c for c in list(screen) + list(boundary) if not c.hunts and math.isfinite(c.bandwidth)],
                         key=lambda c: -c.bandwidth)
-    certificates, best = [], None
     report("certification", 0, None)  # it stops at the first certified: no total ahead
+    best, rejected = None, []
     for candidate in candidates:
-        certificate = _certify_cell(settings, candidate.values, kept)
-        certificates.append(certificate)
-        if certificate.certified:
+        certificate, holds = search.holds(candidate.values, "certification")
+        if holds:
             best = certificate
             break
-        hunting.append((certificate.values, "certificate"))
-    if best is not None:
-        best = _tighten(settings, best, certificates, hunting, report, kept)
+        rejected.append(certificate)
+    met = best is not None
+    if met:
+        best = _tighten(search, best, rejected)
+    else:  # none holds the gain margin: the fastest certified one, if any, its margin short of the request
+        best = max((c for c in rejected if c.certified), key=lambda c: c.bandwidth, default=None)
+    search.finish("certification")  # the stage ends: its total is now known
     seconds["certification"] = time.perf_counter() - start
 
-    feasible = best is not None
-    if not feasible:  # the least hunting tuning in range, its verdict stated
-        stable = [c for c in screen if math.isfinite(c.bandwidth)] or list(screen)
-        least = min(stable, key=lambda c: (c.amplitude, -np.nan_to_num(c.bandwidth)))
-        best = _certify_cell(settings, least.values, kept)
-        certificates.append(best)
-    report("certification", len(certificates), len(certificates))  # the stage ends: its total is now known
-    front = _front(settings, screen, best, feasible, executor, kept, progress)
+    feasible, plateau = best is not None, {}
+    if met:
+        start = time.perf_counter()
+        best, plateau = _plateaus(search, ranges, best)
+        search.finish("plateau")
+        seconds["plateau"] = time.perf_counter() - start
+    simulated = {}
+    if not feasible:  # the least hunting tuning among those simulated (module docs)
+        best, simulated = _least_hunting(settings, screen, search, executor, kept, progress)
+    achieved = _achieved(search, best, met) if feasible else {}
+    front = _front(settings, screen, best, feasible, executor, kept, progress, simulated)
+    on_bound = tuple(n for n, v, (low, high) in zip(names, best.values, ranges)
+                     if math.isclose(v, low, rel_tol=1e-9) or math.isclose(v, high, rel_tol=1e-9))
     return Tuning(names, ranges, settings.tolerance, name, feasible, best,
-                  _margin(names, best, hunting) if feasible else {}, front, tuple(screen), shape, boundary,
-                  tuple(certificates), seconds, settings.rig.source)
+                  _margin(names, best, search.hunting) if feasible else {}, front, tuple(screen), shape, boundary,
+                  tuple(search.tried), seconds, on_bound, plateau,
+                  {"requested": settings.gain_margin, "achieved": achieved} if feasible else {},
+                  tuple(sorted(simulated.items(), key=lambda item: item[1])), settings.rig.source)
 
 
-def _tighten(settings, best, certificates, hunting, report, kept):
-    """Bisect, with certificates, toward every faster tuning that failed its certificate."""
-    failed = [c for c in certificates if not c.certified and c.bandwidth > best.bandwidth]
-    for fast in failed:
+class _Certifier:
+    """The certificates of one search: each tuning certified once (the checkpoint's, else this run's), every one
+    tried kept in order, the hunting tunings found, and the scaled tunings of the gain margin."""
+
+    def __init__(self, settings, kept, report):
+        self.settings, self.kept, self.report = settings, kept, report
+        self.tried, self.hunting, self._done, self.counts = [], [], {}, collections.Counter()
+
+    def certify(self, values, stage):
+        """The certificate of ``values`` (a new one is reported to ``stage``, unless None, and kept in
+        :attr:`tried`)."""
+        values = tuple(float(v) for v in values)
+        if values not in self._done:
+            if stage is not None:
+                self.report(stage, self.counts[stage], None)
+                self.counts[stage] += 1
+            certificate = _certify_cell(self.settings, values, self.kept)
+            self._done[values] = certificate
+            self.tried.append(certificate)
+            if not certificate.certified:
+                self.hunting.append((values, "certificate"))
+        return self._done[values]
+
+    def finish(self, stage):
+        """Report ``stage`` done: its certificates counted, its total now known."""
+        self.report(stage, self.counts[stage], self.counts[stage])
+
+    def holds(self, values, stage, margin=None):
+        """``(certificate, holds)``: ``values`` certified, and every tuning of its values scaled by a factor
+        in ``{1/g, 1, g}`` each (``g`` the gain margin, or ``margin``), checked until one fails."""
+        certificate = self.certify(values, stage)
+        if not certificate.certified:
+            return certificate, False
+        g = self.settings.gain_margin if margin is None else margin
+        for factors in _scalings(len(values), g):
+            if not self.certify(tuple(v * f for v, f in zip(values, factors)), stage).certified:
+                return certificate, False
+        return certificate, True
+
+
+def _scalings(count, margin):
+    """The factors ``(f_1, ...)``, each in ``{1/g, 1, g}``, not all 1; none where ``g`` is 1."""
+    if margin == 1.0:
+        return []
+    return [factors for factors in itertools.product((1.0 / margin, 1.0, margin), repeat=count)
+            if any(f != 1.0 for f in factors)]
+
+
+def _tighten(search, best, rejected):
+    """Bisect, with certificates (and the gain margin), toward every faster candidate that failed them."""
+    for fast in [c for c in rejected if c.bandwidth > best.bandwidth]:
         lo, hi = best, fast
-        for step in range(_CERTIFIED_BISECTIONS):
-            report("certification", len(certificates), None)
-            middle = _certify_cell(settings, tuple(math.sqrt(a * b) for a, b in zip(lo.values, hi.values)), kept)
-            certificates.append(middle)
-            if middle.certified:
-                lo = middle
-            else:
-                hi = middle
-                hunting.append((middle.values, "certificate"))
+        for _ in range(_CERTIFIED_BISECTIONS):
+            middle, holds = search.holds(tuple(math.sqrt(a * b) for a, b in zip(lo.values, hi.values)),
+                                         "certification")
+            lo, hi = (middle, hi) if holds else (lo, middle)
         if lo.bandwidth > best.bandwidth:
             best = lo
     return best
+
+
+def _plateaus(search, ranges, best):
+    """The answer moved to the knee of every value whose bandwidth has plateaued (module docs).
+
+    Along each varied value in turn (the others held), toward gentler control
+    (:data:`_GENTLER`): where the bandwidth a factor 2 gentler is within 1 % of the
+    answer's, the gentlest value still within 1 % of it (log bisection) is the knee; the
+    knee's tuning must hold its certificates (and the gain margin), else the segment
+    back to the answer is bisected with certificates.  Returns ``(best, plateau)``.
+    """
+    plateau = {}
+    for index, name in enumerate(search.settings.names):
+        low, high = ranges[index]
+        top = best.bandwidth
+
+        def moved(value):
+            return tuple(value if i == index else v for i, v in enumerate(best.values))
+
+        def bandwidth(value):
+            return contact_bandwidth(_tuned(search.settings.rig, search.settings.names, moved(value)),
+                                     search.settings.model)
+
+        def within(value):
+            return bandwidth(value) >= (1.0 - _PLATEAU) * top
+
+        step = 2.0 ** _GENTLER[name]
+        half = best.values[index] * step
+        if not (low <= half <= high and bandwidth(half) * (1.0 + _PLATEAU) > top):
+            continue
+        inside, outside = half, None
+        while outside is None:
+            further = min(max(inside * step, low), high)
+            if further == inside:  # the range's bound is within 1 %: the knee is there
+                break
+            inside, outside = (further, None) if within(further) else (inside, further)
+        for _ in range(_KNEE_BISECTIONS if outside is not None else 0):
+            middle = math.sqrt(inside * outside)
+            inside, outside = (middle, outside) if within(middle) else (inside, middle)
+        held, failed = best, None  # the knee's tuning, or the gentlest holding one on the way back to the answer
+        knee, holds = search.holds(moved(inside), "plateau")
+        if holds:
+            held = knee
+        else:
+            failed = knee
+            for _ in range(_CERTIFIED_BISECTIONS):
+                middle, holds = search.holds(tuple(math.sqrt(a * b) for a, b in zip(held.values, failed.values)),
+                                             "plateau")
+                held, failed = (middle, failed) if holds else (held, middle)
+        if held is not best:
+            plateau[name] = {"bandwidth": top, "reached_at": held.values[index]}
+            best = held
+    return best, plateau

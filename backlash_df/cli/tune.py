@@ -34,14 +34,17 @@ def _ranges(ctx, param, values):
               help=f"A rig value and its range, searched on a log scale (one or two of: {', '.join(TUNABLE)}).")
 @click.option("--tolerance", type=click.FloatRange(min=0.0), default=0.0, show_default=True,
               help="Accepted hunting: largest first-harmonic amplitude of theta_d, rad.")
+@click.option("--gain-margin", "gain_margin", type=float, default=1.25, show_default=True,
+              help="Every varied value may be off by this factor (up or down) with the loop still certified; "
+                   "1: none.")
 @click.option("--model", "model_name", default=None, type=MODEL,
               help="Torque law certified (default: the rig's [model] backlash).")
 @executor_options
 @checkpoint_options
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), help="Write the tuning as JSON.")
 @click.option("--report", "report_out", type=click.Path(dir_okay=False), help="Write a self-contained HTML report.")
-def tune_command(rig_file, vary, tolerance, model_name, workers, dask, scheduler, checkpoint_path, resume, json_out,
-                 report_out):
+def tune_command(rig_file, vary, tolerance, gain_margin, model_name, workers, dask, scheduler, checkpoint_path, resume,
+                 json_out, report_out):
     """The tuning of RIG_FILE with the largest bandwidth whose loop is certified not to hunt.
 
     The bandwidth is that of the loop with the gear in contact (speed reference to
@@ -59,8 +62,8 @@ def tune_command(rig_file, vary, tolerance, model_name, workers, dask, scheduler
     with contextlib.ExitStack() as stack:
         progress = stage_bars(stack, unit="tuning")
         with stopped_note(checkpoint, "cells"), executor_for(workers, dask, scheduler) as executor:
-            tuning = tune(rig, vary, tolerance=tolerance, model=model_name, executor=executor, progress=progress,
-                          checkpoint=checkpoint)
+            tuning = tune(rig, vary, tolerance=tolerance, gain_margin=gain_margin, model=model_name,
+                          executor=executor, progress=progress, checkpoint=checkpoint)
     for line in tuning.sentences():
         click.echo(line)
     click.echo("")

@@ -12,8 +12,8 @@ import math
 
 from .html import figure_html, html_page, rig_sections, table_html
 
-__all__ = ["values_text", "margin_text", "tuning_sentences", "front_table", "tuning_tables", "range_caption",
-           "tuning_report"]
+__all__ = ["values_text", "margin_text", "gain_margin_text", "plateau_text", "bound_text", "tuning_sentences",
+           "front_table", "tuning_tables", "range_caption", "tuning_report"]
 
 
 def values_text(tuning):
@@ -43,12 +43,40 @@ def tuning_sentences(tuning):
     if tuning.feasible:
         lines = [f"certified: {values_text(tuning)}: bandwidth {best.bandwidth:.4g} rad/s"]
     else:
-        lines = [f"no tuning in the range is certified; the least hunting: {values_text(tuning)}: bandwidth "
-                 f"{best.bandwidth:.4g} rad/s, hunting at A = {best.amplitude:.4g} rad"]
+        lines = [f"no tuning certified; least hunting: {values_text(tuning)}: bandwidth {best.bandwidth:.4g} "
+                 f"rad/s, hunting at A = {best.amplitude:.4g} rad (simulated; the smallest of "
+                 f"{len(tuning.simulated)} tunings simulated)"]
     lines.append(f"{tuning.model}: {best.verdict.verdict}: {best.verdict.reason}")
     if tuning.margin:
         lines.append(f"margin: {margin_text(tuning.margin)}")
+    lines += [line for line in (gain_margin_text(tuning), plateau_text(tuning), bound_text(tuning)) if line]
     return lines
+
+
+def gain_margin_text(tuning):
+    """The gain margin requested and achieved per value, or "" where none is certified."""
+    margin = tuning.gain_margin
+    if not margin:
+        return ""
+    achieved = ", ".join(f"{name} up or down by {factor:.3g}" for name, factor in margin["achieved"].items())
+    met = all(factor >= margin["requested"] for factor in margin["achieved"].values())
+    word = "" if met else " NOT met (no tuning in range holds it; the fastest certified one)"
+    return f"gain margin: requested {margin['requested']:.3g}{word}; certified with {achieved}"
+
+
+def plateau_text(tuning):
+    """Where the bandwidth plateaued: the value taken at the knee, or ""."""
+    parts = [f"{name} = {entry['reached_at']:.4g} {tuning.units[name]} (bandwidth within 1 % of its plateau "
+             f"{entry['bandwidth']:.4g} rad/s)" for name, entry in tuning.plateau.items()]
+    return f"plateau: the gentlest tuning on it: {'; '.join(parts)}" if parts else ""
+
+
+def bound_text(tuning):
+    """The values at a bound of their range, or ""."""
+    if not tuning.on_bound:
+        return ""
+    return (f"on a bound: {', '.join(tuning.on_bound)} at the end of its range; the best may lie beyond it "
+            f"(widen the range)")
 
 
 def front_table(tuning):
@@ -87,18 +115,21 @@ def range_caption(tuning):
         if tuning.boundary:
             left += "; dots: the DF boundary (the last tunings it clears)"
     star = ("star: the best certified tuning" if tuning.feasible
-            else "star: the least hunting tuning (none in the range is certified)")
+            else "star: no tuning certified; the least hunting (the smallest simulated hunting amplitude)")
     return f"{left}; {star}. Right: the best bandwidth against the accepted hunting amplitude."
 
 
 def _answer_html(tuning):
     """The report's summary: the answer, its verdict and why, the margin."""
     verdict = tuning.best.verdict
-    answer = (f"<b>{'Certified' if tuning.feasible else 'No tuning in the range is certified'}: "
+    answer = (f"<b>{'Certified' if tuning.feasible else 'No tuning certified; least hunting'}: "
               f"{html.escape(values_text(tuning))}</b>, bandwidth {tuning.best.bandwidth:.4g} rad/s; verdict "
               f"<b>{verdict.verdict}</b>: {html.escape(verdict.reason)}")
     if tuning.margin:
         answer += f"<br>Margin: {html.escape(margin_text(tuning.margin))}."
+    for line in (gain_margin_text(tuning), plateau_text(tuning), bound_text(tuning)):
+        if line:
+            answer += f"<br>{html.escape(line[0].upper() + line[1:])}."
     return f'<div class="summary"><p>{answer}</p></div>'
 
 
