@@ -14,10 +14,7 @@ import math
 
 from .html import figure_html, html_page, rig_sections, table_html
 
-__all__ = ["GAIN_DEFINITION", "FIT_DEFINITION", "FAR_BELOW_INTERVAL", "FIT_RESOLUTION", "parameter_resolution",
-           "shown_value", "effects_name", "parameter_text", "value_text", "cause_summary", "cause_sentence",
-           "skew_sentence", "resolution_sentence", "disagreement_note", "prediction_mode_text", "diagnosis_sentence",
-           "diagnosis_sentences", "diagnosis_report"]
+__all__ = ["FAR_BELOW_INTERVAL", "FIT_RESOLUTION", "parameter_resolution", "diagnosis_sentences", "diagnosis_report"]
 
 #: What a cause's gain is, in the words the terminal and the report print.
 GAIN_DEFINITION = ("the share of the validation residual sum of squares (k-step or 0.4 s ahead, whichever passes "
