@@ -355,9 +355,9 @@ class Stage:
         Its nominal structure and selected set, refined.
     candidates : list of CandidateResult
         Every model of this structure tried.
-    warning_records : list of Caveat
+    warning_records : list
         What concerns this structure's values (weak baseline, values on bounds, absorbed effects), as records
-        (:class:`~.reasons.Caveat`); :attr:`warnings` in words.
+        (:mod:`~.reasons`: one type per :class:`~.reasons.Concern`); :attr:`warnings` in words.
     absorbed : list of tuple
         ``(kept, dropped, warning)`` of the absorptions its backward elimination found (:func:`_absorption`), the
         warning an :class:`~.reasons.Absorbed` record.
@@ -438,8 +438,9 @@ class Diagnosis:
         The two-mass model's nominal structure and selected set, refined (``polish``).
     candidates : list of CandidateResult
         Every two-mass model tried, in the order of the search.
-    warning_records : list of Caveat
-        What a person must know before trusting the numbers, as records (:class:`~.reasons.Caveat`): the
+    warning_records : list
+        What a person must know before trusting the numbers, as records (:mod:`~.reasons`, one type per
+        :class:`~.reasons.Concern`): the
         two-mass stage's, then, where the rigid body names the causes, its stage's and the
         :attr:`disagreements`; :attr:`warnings` in words.
     residuals_baseline, residuals_extended : ResidualAnalysis
@@ -1229,7 +1230,7 @@ def _unexplained(extended):
 
 
 def _warnings(measurements, baseline, extended, whole, keys, structure="two_mass"):
-    """The :class:`~.reasons.Caveat` records of a stage: loading notes (decimation), a weak baseline or extended
+    """The warning records (:mod:`.reasons`) of a stage: loading notes (decimation), a weak baseline or extended
     model, a short record, values of the whole-record calibration ``whole`` on a bound, unphysical intervals,
     initial states; for the rigid-body stage only what concerns its own values."""
     two_mass = structure == "two_mass"

@@ -5,8 +5,12 @@ A candidate of the search (:class:`~.diagnose.CandidateResult`) carries a
 :class:`Finding` records, one per rule of the significance rule it was judged by
 (:class:`Check`: the gain and the t statistic always, the size rule's checks where
 they fail), each with the number judged and the limit it had to reach.  A diagnosis'
-warnings (:attr:`~.diagnose.Diagnosis.warning_records`) are :class:`Caveat` records,
-one type per concern (:class:`Concern`), each with the numbers its sentence states.
+warnings (:attr:`~.diagnose.Diagnosis.warning_records`) are records, one type per
+concern (:class:`Concern`: :class:`RecordNote`, :class:`WeakBaseline`, ...), each
+with its ``rule`` (the concern), its ``structure`` (the stage whose values it
+concerns, ``"two_mass"`` or ``"rigid_body"``; None for a :class:`Disagreement`
+between the two) and the numbers its sentence states; ``to_dict()`` gives
+``{"rule", "structure", ...}``.
 
 The sentences a person reads (``CandidateResult.reason``, ``Diagnosis.warnings``)
 are rendered from these records in :mod:`backlash_df.render.diagnosis`
@@ -23,7 +27,7 @@ import typing
 
 from .._json import json_ready
 
-__all__ = ["Check", "Step", "Finding", "Reason", "Concern", "Caveat", "RecordNote", "WeakBaseline", "Unexplained",
+__all__ = ["Check", "Step", "Finding", "Reason", "Concern", "RecordNote", "WeakBaseline", "Unexplained",
            "FewSegments", "UnphysicalInterval", "BoundValue", "OnBound", "InitialSpeed", "Absorbed",
            "SideUndetermined", "Disagreement"]
 
@@ -103,7 +107,7 @@ class Finding:
         return json_ready(entry | {"rule": str(self.rule)})
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, repr=False)
 class Reason:
     """Why a candidate was accepted or not: the step that judged it and the rules it was judged by.
 
@@ -131,9 +135,13 @@ class Reason:
         """``{"step", "findings": [Finding.to_dict()]}``."""
         return {"step": str(self.step), "findings": [finding.to_dict() for finding in self.findings]}
 
+    def __repr__(self):
+        failed = ", ".join(str(finding.rule) for finding in self.findings if not finding.passed)
+        return f"<Reason {self.step}: {'failed ' + failed if failed else 'accepted' if self.accepted else 'judged'}>"
+
 
 class Concern(enum.StrEnum):
-    """What a diagnosis' warning is about (:class:`Caveat`)."""
+    """What a diagnosis' warning is about: each has its record type (:class:`RecordNote`, ...)."""
 
     RECORD = "record"  # a note of the record's loading or conditioning
     WEAK_BASELINE = "weak baseline"  # the baseline's k-step fit below BASELINE_MIN_FIT
@@ -231,7 +239,7 @@ class BoundValue:
     upper: float
 
 
-@dataclasses.dataclass(frozen=True, kw_only=True)
+@dataclasses.dataclass(frozen=True, kw_only=True, repr=False)
 class OnBound(Caveat):
     """Values of the whole record's fit that end on a bound of the range the fit allows (``values``, tuple of
     :class:`BoundValue`): the data do not determine them.  ``plant``: some are plant values (a shaft the record
@@ -240,6 +248,9 @@ class OnBound(Caveat):
     rule: typing.ClassVar[Concern] = Concern.ON_BOUND
     values: tuple
     plant: bool
+
+    def __repr__(self):
+        return f"<OnBound ({self.structure}): {', '.join(value.name for value in self.values)}>"
 
 
 @dataclasses.dataclass(frozen=True, kw_only=True)

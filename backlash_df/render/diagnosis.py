@@ -349,8 +349,8 @@ def warning_sentence(caveat, *, stage_named=False):
 
     Parameters
     ----------
-    caveat : Caveat
-        The concern and its numbers (:class:`~backlash_df.identify.reasons.Caveat`).
+    caveat : RecordNote, WeakBaseline, ...
+        The concern and its numbers (a record of :mod:`backlash_df.identify.reasons`).
     stage_named : bool
         Whether to say ``rigid-body model:`` first where the warning concerns the rigid-body stage's values
         (a diagnosis' warnings name it; the stage's own do not).
