@@ -137,7 +137,31 @@ def results():
         "Candidate": tuning.screen[0],
         "Disturbance": standard_disturbances(rig)[0],
         "Rest": verdict.rests[0],
+        "Reason": diagnosis.candidates[1].reason_record,
+        "Finding": diagnosis.candidates[1].reason_record.findings[0],
+        **_caveats(),
     }
+
+
+def _caveats():
+    """One warning record of each concern (:mod:`backlash_df.identify.reasons`), by its class name."""
+    from backlash_df.identify import reasons as r
+
+    records = [r.RecordNote(text="a note"), r.WeakBaseline(speed="motor_speed", fit=12.5, minimum=30.0),
+               r.Unexplained(speed="load_speed", fit=50.2, horizon=0.4, minimum=75.0),
+               r.FewSegments(segments=6, samples=100, minimum=20),
+               r.UnphysicalInterval(name="damping", value=1.5, ci95=(-0.5, 3.5), unit="N m s/rad"),
+               r.OnBound(structure="rigid_body", values=(r.BoundValue("inertia", 1989.0, "kg m^2", 1071.0, 1989.0),),
+                         plant=False),
+               r.InitialSpeed(name="motor_speed0", fitted=2.5, measured=1.25),
+               r.Absorbed(kept="coulomb_friction@load", dropped="viscous_friction@load", kept_value=465.0,
+                          kept_ci95=(440.0, 490.0), kept_unit="N m", dropped_value=12.5, dropped_ci95=(10.0, 15.0),
+                          dropped_unit="N m s/rad", kept_alone=869.0),
+               r.SideUndetermined(effect="coulomb_friction", side="motor", other_side="load", gain=0.96,
+                                  other_gain=0.961),
+               r.Disagreement(effect="coulomb_friction", two_mass={"value": 2.0, "ci95": [1.5, 2.5], "unit": "N m"},
+                              rigid_body={"value": 4.5, "ci95": [4.25, 4.75], "unit": "N m"})]
+    return {type(record).__name__: record for record in records}
 
 
 #: Keys of ``results`` whose class draws a picture (``plot(ax=None)``).

@@ -55,7 +55,9 @@ def test_every_public_result_class_is_covered(results):
                                          "Measurements", "SimulatedRecord", "Diagnosis", "Cause", "Stage", "ShaftResolution",
                                          "CandidateResult", "Calibration", "FitParameter", "Replay", "FreeRunReplay",
                                          "ResidualAnalysis", "LoadLimit", "Tuning", "Certificate", "Candidate",
-                                         "Disturbance", "Rest"]))
+                                         "Disturbance", "Rest", "Reason", "Finding", "RecordNote", "WeakBaseline",
+                                         "Unexplained", "FewSegments", "UnphysicalInterval", "OnBound", "InitialSpeed",
+                                         "Absorbed", "SideUndetermined", "Disagreement"]))
 def test_to_dict_is_json_and_the_repr_one_line(results, name):
     result = results[name]
     data = result.to_dict()

@@ -14,7 +14,8 @@ One module a stage, every import pointing down: :mod:`.measurements` (the record
 :mod:`.signals` (its conditioning), :mod:`.predictors` (the two-mass and rigid-body
 models and their predictions, on compiled kernels private to the package),
 :mod:`.calibrate` (the fit), :mod:`.effects` (the catalogue), :mod:`.residuals`,
-:mod:`.diagnose` and :mod:`.synthetic`.
+:mod:`.reasons` (why the diagnosis decided as it did, as records), :mod:`.diagnose` and
+:mod:`.synthetic`.
 """
 
 from .calibrate import Calibration, FitParameter, calibrate, refine

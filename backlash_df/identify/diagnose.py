@@ -95,12 +95,13 @@ from ..checkpoint import step_counter
 from ..config import RANGES, rig_from_dict, rig_to_toml
 from ..plotting import ResultPlot, axes_or_new, legend_beside
 from ..render.diagnosis import (cause_sentence, cause_summary, diagnosis_report, diagnosis_sentence,
-                                diagnosis_sentences, disagreement_note, prediction_mode_text, shown_value,
-                                skew_sentence, value_text)
-from ..render.html import below_text, percent_text
+                                diagnosis_sentences, prediction_mode_text, reason_sentence, shown_value, skew_sentence,
+                                value_text, warning_sentence)
 from .calibrate import calibrate, refine, single_threaded_blas
 from .effects import COULOMB_GRID, EFFECT_NAMES, STRIBECK_GRID, get_effect, peak_speed, smoothing_speeds
 from .predictors import DEFAULT_HORIZON, PLANT_PARAMETERS, RIGID_PARAMETERS, predict, segment_bounds
+from .reasons import (Absorbed, BoundValue, Check, Disagreement, FewSegments, Finding, InitialSpeed, OnBound, Reason,
+                      RecordNote, SideUndetermined, Step, Unexplained, UnphysicalInterval, WeakBaseline)
 from .residuals import residual_analysis
 from .signals import data_states, encoder_speeds, shaft_resolution, speed_noise
 
@@ -146,7 +147,6 @@ MIN_SKEW_SHARE = 0.1
 MAX_REFITS = 3
 #: Optimiser iterations of a candidate fitted on top of the current set.
 NESTED_NFEV = 40
-_NULL = {"actuator_delay": "delay shorter than one sample"}
 #: Catalogue keys the rigid-body stage selects from: friction of the one body (keyed on the load side, where
 #: the rigid-body model puts friction of either side), the torque offset and the actuator delay.
 RIGID_BODY_EFFECTS = ("coulomb_friction@load", "viscous_friction@load", "breakaway_friction@load", "torque_offset",
@@ -183,7 +183,9 @@ class CandidateResult:
     t_statistic : float
         t statistic of the per-block RSS decrease.
     accepted : bool
-    reason : str
+    reason_record : Reason or None
+        Why it was accepted or not: the step that judged it and the rules it was judged by
+        (:class:`~.reasons.Reason`); None for a model no step judged (``baseline``, ``extended``).
     """
 
     effects: tuple
@@ -198,7 +200,13 @@ class CandidateResult:
     gain: float = 0.0
     t_statistic: float = 0.0
     accepted: bool = False
-    reason: str = ""
+    reason_record: Reason | None = None
+
+    @property
+    def reason(self):
+        """Why it was accepted or not, in words (:func:`~backlash_df.render.diagnosis.reason_sentence`); ""
+        without a :attr:`reason_record`."""
+        return "" if self.reason_record is None else reason_sentence(self.reason_record)
 
     @property
     def mean_fit_percent(self):
@@ -225,6 +233,7 @@ class CandidateResult:
             "gain": self.gain, "t_statistic": self.t_statistic,
             "parameter": _parameter_dict(parameter) if parameter else None,
             "accepted": self.accepted, "reason": self.reason,
+            "reason_record": None if self.reason_record is None else self.reason_record.to_dict(),
         }
 
     def __repr__(self):
@@ -346,10 +355,12 @@ class Stage:
         Its nominal structure and selected set, refined.
     candidates : list of CandidateResult
         Every model of this structure tried.
-    warnings : list of str
-        What concerns this structure's values (weak baseline, values on bounds, absorbed effects).
+    warning_records : list
+        What concerns this structure's values (weak baseline, values on bounds, absorbed effects), as records
+        (:mod:`~.reasons`: one type per :class:`~.reasons.Concern`); :attr:`warnings` in words.
     absorbed : list of tuple
-        ``(kept, dropped, warning)`` of the absorptions its backward elimination found (:func:`_absorption`).
+        ``(kept, dropped, warning)`` of the absorptions its backward elimination found (:func:`_absorption`), the
+        warning an :class:`~.reasons.Absorbed` record.
     whole_record : Calibration
         The selected set calibrated anew on the whole record after the transient (:meth:`_Search.whole_record`):
         the causes' values.
@@ -363,10 +374,15 @@ class Stage:
     baseline: CandidateResult
     extended: CandidateResult
     candidates: list
-    warnings: list
+    warning_records: list
     absorbed: list
     whole_record: object
     encoder_skew: object = None
+
+    @property
+    def warnings(self):
+        """:attr:`warning_records` in words (:func:`~backlash_df.render.diagnosis.warning_sentence`)."""
+        return [warning_sentence(caveat) for caveat in self.warning_records]
 
     @property
     def keys(self):
@@ -393,11 +409,13 @@ class Stage:
         return {name: self.whole_record.values[name] for name in names}
 
     def to_dict(self):
-        """JSON-ready ``{"structure", "causes", "baseline", "extended", "whole_record", "candidates", "warnings"}``."""
+        """JSON-ready ``{"structure", "causes", "baseline", "extended", "whole_record", "candidates", "warnings",
+        "warning_records"}``."""
         return json_ready({"structure": self.structure, "causes": [cause.to_dict() for cause in self.causes],
                            "baseline": _model_dict(self.baseline), "extended": _model_dict(self.extended),
                            "whole_record": _whole_dict(self.whole_record),
-                           "candidates": [c.to_dict() for c in self.candidates], "warnings": self.warnings})
+                           "candidates": [c.to_dict() for c in self.candidates], "warnings": self.warnings,
+                           "warning_records": [caveat.to_dict() for caveat in self.warning_records]})
 
     def __repr__(self):
         return (f"<Stage {self.structure}: causes {', '.join(self.keys) or 'none'}; validation k-step fit "
@@ -420,8 +438,11 @@ class Diagnosis:
         The two-mass model's nominal structure and selected set, refined (``polish``).
     candidates : list of CandidateResult
         Every two-mass model tried, in the order of the search.
-    warnings : list of str
-        What a person must know before trusting the numbers.
+    warning_records : list
+        What a person must know before trusting the numbers, as records (:mod:`~.reasons`, one type per
+        :class:`~.reasons.Concern`): the
+        two-mass stage's, then, where the rigid body names the causes, its stage's and the
+        :attr:`disagreements`; :attr:`warnings` in words.
     residuals_baseline, residuals_extended : ResidualAnalysis
         Residual analysis of the two k-step predictions on the validation part.
     measurements, rig
@@ -454,7 +475,7 @@ class Diagnosis:
     baseline: CandidateResult
     extended: CandidateResult
     candidates: list
-    warnings: list
+    warning_records: list
     residuals_baseline: object
     residuals_extended: object
     measurements: object
@@ -475,6 +496,12 @@ class Diagnosis:
         return self.causes[0].effect if self.causes else "none"
 
     @property
+    def warnings(self):
+        """:attr:`warning_records` in words, a rigid-body stage's named so
+        (:func:`~backlash_df.render.diagnosis.warning_sentence`)."""
+        return [warning_sentence(caveat, stage_named=True) for caveat in self.warning_records]
+
+    @property
     def prediction_mode(self):
         """How the fit numbers were computed (:func:`~backlash_df.render.diagnosis.prediction_mode_text`)."""
         return prediction_mode_text(self.baseline.prediction.mode)
@@ -493,6 +520,7 @@ class Diagnosis:
             "causes": [cause.to_dict() for cause in self.causes],
             "sentence": self.sentence,
             "warnings": self.warnings,
+            "warning_records": [caveat.to_dict() for caveat in self.warning_records],
             "prediction": self.prediction_mode,
             "rule": RULE,
             "estimation": {"start": float(time[self.estimation.start]), "stop": float(time[self.estimation.stop - 1])},
@@ -853,28 +881,34 @@ class _Search:
         noise = float(np.mean(speed_noise(self.measurements)))
         return 3.0 * noise * math.sqrt(2.0 * self.measurements.n_samples) * self.measurements.dt
 
-    def size_failures(self, key, parameter):
-        """Why the fitted ``parameter`` of effect ``key`` fails rule 3, the size rule (empty: it passes)."""
+    def size_findings(self, key, parameter):
+        """Rule 3, the size rule, applied to the fitted ``parameter`` of effect ``key``: a :class:`~.reasons.Finding`
+        for each of its checks that applies to the effect (the interval always; the delay, the torque or the
+        rubber's two where the effect is one)."""
         effect = get_effect(key)
-        value = parameter.value
-        failures = ["95 % CI includes 0"] if _includes_null(parameter, key) else []
-        if effect.name == "actuator_delay" and value < self.measurements.dt:
-            failures.append(_NULL["actuator_delay"])
+        value, unit = parameter.value, parameter.unit
+        findings = [Finding(Check.INTERVAL, not _includes_null(parameter, key), value, effect.null, unit,
+                            ci95=tuple(parameter.ci95))]
+        if effect.name == "actuator_delay":
+            findings.append(Finding(Check.DELAY, not value < self.measurements.dt, value, self.measurements.dt, "s"))
         torque = self.effect_torque(effect, value)
-        if torque is not None and not torque >= MIN_TORQUE_SHARE * self.torque_rms:
+        if torque is not None:
+            limit = MIN_TORQUE_SHARE * self.torque_rms
             shown = self.effect_torque(effect, shown_value(parameter))  # a value the data cannot tell from 0 is 0
-            failures.append(f"its torque {shown:.3g} N m is below {100 * MIN_TORQUE_SHARE:g} % of the record's RMS "
-                            f"torque {self.torque_rms:.3g} N m")
+            findings.append(Finding(Check.TORQUE, bool(torque >= limit), torque, limit, "N m", share=MIN_TORQUE_SHARE,
+                                    reference=self.torque_rms, shown=shown))
         if effect.name == "rubber":
             half_gap = self.rig.plant.half_gap
-            if not value >= MIN_RUBBER_SHARE * half_gap:
-                failures.append(f"beta {value:.3g} rad is below {100 * MIN_RUBBER_SHARE:g} % of the half gap "
-                                f"{half_gap:.3g} rad")
-            if not value > self.twist_uncertainty:
-                failures.append(f"beta {value:.3g} rad is within the twist's uncertainty {self.twist_uncertainty:.3g} "
-                                "rad" + ("" if self.measurements.twist is not None else
-                                         " (integrated from the speeds: record motor_angle and load_angle)"))
-        return failures
+            findings.append(Finding(Check.RUBBER_SHARE, bool(value >= MIN_RUBBER_SHARE * half_gap), value,
+                                    MIN_RUBBER_SHARE * half_gap, "rad", share=MIN_RUBBER_SHARE, reference=half_gap))
+            findings.append(Finding(Check.RUBBER_TWIST, bool(value > self.twist_uncertainty), value,
+                                    self.twist_uncertainty, "rad", twist_measured=self.measurements.twist is not None))
+        return findings
+
+    def size_failures(self, key, parameter):
+        """The checks of rule 3, the size rule, the fitted ``parameter`` of effect ``key`` fails (empty: it
+        passes; :meth:`size_findings`)."""
+        return [finding for finding in self.size_findings(key, parameter) if not finding.passed]
 
     def effect_torque(self, effect, value):
         """Typical torque (N m) of a torque effect of size ``value`` (None for rubber and delay)."""
@@ -990,15 +1024,12 @@ class _Search:
             tests.append((gain, t_stat, label))
         passing = [test for test in tests if test[0] >= MIN_GAIN and test[1] >= MIN_T]
         gain, t_stat, label = max(passing or tests)
-        failures = []
-        if not gain >= MIN_GAIN:
-            failures.append(f"gain {percent_text(gain)} % ({label}) below {100 * MIN_GAIN:g} %")
-        if not t_stat >= MIN_T:
-            failures.append(f"t {below_text(t_stat, MIN_T)} ({label}) below {MIN_T:g}")
-        failures += self.size_failures(added, parameter)
-        reason = "; ".join(failures) if failures else f"gain {percent_text(gain)} % ({label}), t {t_stat:.1f}, CI excludes 0"
-        return dataclasses.replace(candidate, added=added, gain=gain, t_statistic=t_stat, accepted=not failures,
-                                   reason=reason)
+        findings = [Finding(Check.GAIN, bool(gain >= MIN_GAIN), gain, MIN_GAIN, "1", mode=label),
+                    Finding(Check.T_STATISTIC, bool(t_stat >= MIN_T), t_stat, MIN_T, "1", mode=label),
+                    *self.size_findings(added, parameter)]
+        reason = Reason(Step.FORWARD, tuple(findings))
+        return dataclasses.replace(candidate, added=added, gain=gain, t_statistic=t_stat, accepted=reason.accepted,
+                                   reason_record=reason)
 
 
 def _forward(search, baseline, keys, tried):
@@ -1027,7 +1058,7 @@ def _forward(search, baseline, keys, tried):
                                 | {get_effect(key).value_key: get_effect(key).start(search.rig)}) for key in added],
                               screen=True)
         screened = [search.judge(fit, current, key) for fit, key in zip(screens, added)]
-        tried += [dataclasses.replace(trial, reason="screening: " + trial.reason) for trial in screened]
+        tried += [_stepped(trial, Step.SCREENING) for trial in screened]
         promising = sorted((t for t in screened if t.gain >= MIN_GAIN), key=lambda t: -t.gain)[:MAX_REFITS]
         fulls = search.fits([(trial.effects, _without_speeds(trial.calibration.values)) for trial in promising])
         refits = [search.judge(full, current, trial.added) for full, trial in zip(fulls, promising)]
@@ -1064,7 +1095,7 @@ def _backward(search, steps, runners, tried):
         withouts = search.fits([(tuple(k for k in final.effects if k != key),
                                  final.calibration.values | {get_effect(key).value_key: 0.0}) for key in final.effects])
         checks = [(search.judge(final, without, key), without) for key, without in zip(final.effects, withouts)]
-        tried += [dataclasses.replace(check, reason="backward check: " + check.reason) for check, _ in checks]
+        tried += [_stepped(check, Step.BACKWARD) for check, _ in checks]
         failing = [(not _includes_null(final.calibration.effect_parameter(check.added), check.added), check.gain,
                     without) for check, without in checks if not (check.accepted or _separated(search, check, without))]
         if not failing:
@@ -1089,6 +1120,11 @@ def _separated(search, check, reduced):
     return bool(_absorption(search, check, reduced))
 
 
+def _stepped(candidate, step):
+    """``candidate`` with its reason's step ``step`` (a screening, a backward check)."""
+    return dataclasses.replace(candidate, reason_record=dataclasses.replace(candidate.reason_record, step=step))
+
+
 def _absorption(search, joint, reduced):
     """``(kept, dropped, warning)`` for a member dropped from ``joint`` (leaving ``reduced``) whose joint
     value passes the size rule (rule 3: its interval excludes its null value, and it is large enough to be
@@ -1106,19 +1142,17 @@ def _absorption(search, joint, reduced):
         before, after = joint.calibration.effect_parameter(key), reduced.calibration.effect_parameter(key)
         low, high = before.ci95
         if not low <= after.value <= high:
-            notes.append((key, dropped, f"{key} absorbs {dropped}: fitted together on the estimation part they are "
-                         f"{before.value:.4g} ({low:.4g} .. {high:.4g}) {before.unit} and {parameter.value:.4g} "
-                         f"({parameter.ci95[0]:.4g} .. {parameter.ci95[1]:.4g}) {parameter.unit}, but {dropped} does "
-                         f"not improve the validation part enough to be named, and without it {key} is "
-                         f"{after.value:.4g} {after.unit}: this record does not tell the two apart (a longer record, "
-                         f"or one whose speed covers a wider range, would)"))
+            notes.append((key, dropped, Absorbed(
+                structure=search.structure, kept=key, dropped=dropped, kept_value=before.value, kept_ci95=(low, high),
+                kept_unit=before.unit, dropped_value=parameter.value, dropped_ci95=tuple(parameter.ci95),
+                dropped_unit=parameter.unit, kept_alone=after.value)))
     return notes
 
 
 def _judged_alone(search, model, tried):
     """A one-effect ``model`` judged against the nominal structure: ``(model, [(key, gain)])`` or ``(None, [])``."""
     check = search.judge(model, search.baseline, model.effects[0])
-    tried.append(dataclasses.replace(check, reason="backward check: " + check.reason))
+    tried.append(_stepped(check, Step.BACKWARD))
     return (model, [(check.added, check.gain)]) if check.accepted else (None, [])
 
 
@@ -1133,13 +1167,13 @@ def _polished(search, chosen, order, tried):
     """
     while True:
         refined = search.polish(chosen)
-        weak = {key: "; ".join(failures) for key in chosen.effects
-                if (failures := search.size_failures(key, refined.calibration.effect_parameter(key)))}
+        checked = {key: search.size_findings(key, refined.calibration.effect_parameter(key)) for key in chosen.effects}
+        weak = {key: findings for key, findings in checked.items() if not all(f.passed for f in findings)}
         if not weak:
             return refined, order
-        for key, why in weak.items():
-            tried.append(dataclasses.replace(refined, added=key, accepted=False, reason=(
-                f"after the free-run refinement: {why}; dropped")))
+        for key, findings in weak.items():
+            tried.append(dataclasses.replace(refined, added=key, accepted=False,
+                                             reason_record=Reason(Step.REFINEMENT, tuple(findings))))
         rest = tuple(key for key in chosen.effects if key not in weak)
         if not rest:
             return None, []
@@ -1170,21 +1204,17 @@ def _causes(whole, order, structure):
 
 
 def _side_notes(keys, tried):
-    """A note for each named friction whose other side explained the data as well on its own (within 1 %)."""
+    """A :class:`~.reasons.SideUndetermined` for each named friction whose other side explained the data as well
+    on its own (within 1 %)."""
     alone = {trial.effects[0]: trial.gain for trial in tried if len(trial.effects) == 1 and trial.added}
     notes = []
     for key in keys:
         effect = get_effect(key)
         other = f"{effect.name}@{'motor' if effect.side == 'load' else 'load'}" if effect.side else None
         if other in alone and key in alone and abs(alone[other] - alone[key]) < 0.01:
-            notes.append(f"the side of {effect.name} is not determined by the data: on its own it explains the "
-                         f"validation data as well on the {other.split('@')[1]} side (gain {100 * alone[other]:.1f} % "
-                         f"against {100 * alone[key]:.1f} %); the shaft is too stiff here to tell the sides apart")
+            notes.append(SideUndetermined(effect=effect.name, side=effect.side, other_side=other.split("@")[1],
+                                          gain=alone[key], other_gain=alone[other]))
     return notes
-
-
-_UNEXPLAINED = "the named causes leave much of the data unexplained"
-_WEAK_BASELINE = "the baseline explains too little"
 
 
 def _weak(baseline):
@@ -1200,29 +1230,22 @@ def _unexplained(extended):
 
 
 def _warnings(measurements, baseline, extended, whole, keys, structure="two_mass"):
-    """Loading notes (decimation), a weak baseline or extended model, a short record, values of the whole-record
-    calibration ``whole`` on a bound, unphysical intervals, initial states; for the rigid-body stage only what
-    concerns its own values."""
+    """The warning records (:mod:`.reasons`) of a stage: loading notes (decimation), a weak baseline or extended
+    model, a short record, values of the whole-record calibration ``whole`` on a bound, unphysical intervals,
+    initial states; for the rigid-body stage only what concerns its own values."""
     two_mass = structure == "two_mass"
-    notes = list(measurements.notes) if two_mass else []
+    notes = [RecordNote(structure=structure, text=note) for note in measurements.notes] if two_mass else []
     if _weak(baseline):
-        worst = min(baseline.fit_percent.values())
-        notes.append(f"{_WEAK_BASELINE} of the validation data (k-step fit {worst:.1f} % on a speed, "
-                     f"below {BASELINE_MIN_FIT:g} %): no cause is named; check the rig file (inertias, stiffness, "
-                     f"gear ratio, units) and the record")
+        name, worst = min(baseline.fit_percent.items(), key=lambda item: item[1])
+        notes.append(WeakBaseline(structure=structure, speed=name, fit=worst, minimum=BASELINE_MIN_FIT))
     elif keys and _unexplained(extended):
         name, fit = min(extended.ahead_fit_percent.items(), key=lambda item: item[1])
-        notes.append(f"{_UNEXPLAINED}: with the named causes the model still predicts {name} {VALIDATION_HORIZON:g} s "
-                     f"ahead only to {fit:.1f} % (below {EXTENDED_MIN_AHEAD_FIT:g} %); something outside the "
-                     f"catalogue remains (a pose-dependent gravity torque or inertia, a feed-forward, a torque the "
-                     f"record does not hold), and the named values absorb part of it")
+        notes.append(Unexplained(structure=structure, speed=name, fit=fit, horizon=VALIDATION_HORIZON,
+                                 minimum=EXTENDED_MIN_AHEAD_FIT))
     segments = baseline.calibration.n_clusters
     if two_mass and segments < MIN_SEGMENTS:
-        horizon = baseline.calibration.horizon
-        of = f" of {horizon} samples" if horizon else ""
-        notes.append(f"the estimation part holds only {segments} independent segments{of} (fewer than {MIN_SEGMENTS}): "
-                     f"cluster-robust intervals over so few segments are too narrow, and so short a record may not "
-                     f"show enough of the motion to tell effects apart; record longer")
+        notes.append(FewSegments(structure=structure, segments=segments, samples=baseline.calibration.horizon,
+                                 minimum=MIN_SEGMENTS))
     parameters = whole.parameters
     physical = PLANT_PARAMETERS + RIGID_PARAMETERS + tuple(get_effect(k).value_key for k in keys
                                                            if not get_effect(k).signed)
@@ -1230,24 +1253,19 @@ def _warnings(measurements, baseline, extended, whole, keys, structure="two_mass
     for name, parameter in parameters.items():
         low, _ = parameter.ci95
         if parameter.on_bound and name not in ("motor_speed0", "load_speed0"):
-            bounded.append(f"{name} = {parameter.value:.4g} {parameter.unit} (range [{parameter.lower:.4g}, "
-                           f"{parameter.upper:.4g}])")
+            bounded.append(BoundValue(name, parameter.value, parameter.unit, parameter.lower, parameter.upper))
         elif name in physical and low < 0.0 <= parameter.value:
-            notes.append(f"the 95 % interval of {name} includes unphysical negative values "
-                         f"({low:.4g} .. {parameter.ci95[1]:.4g} {parameter.unit})")
+            notes.append(UnphysicalInterval(structure=structure, name=name, value=parameter.value,
+                                            ci95=tuple(parameter.ci95), unit=parameter.unit))
     if bounded:
-        plant = [name for name in parameters if name in PLANT_PARAMETERS and parameters[name].on_bound]
-        hint = (" (values of the shaft a record cannot determine where it does not resolve the shaft's mode: the "
-                "causes are then named from the rigid-body model, which does not use them; elsewhere, check them in "
-                "the rig file)" if plant else "")
-        notes.append(f"{'these values end' if len(bounded) > 1 else 'this value ends'} on a bound of the range the "
-                     f"fit allows, so the data do not determine {'them' if len(bounded) > 1 else 'it'}{hint}: "
-                     + "; ".join(bounded))
+        plant = any(name in PLANT_PARAMETERS and parameters[name].on_bound for name in parameters)
+        notes.append(OnBound(structure=structure, values=tuple(bounded), plant=plant))
     return notes + (_initial_state_notes(measurements, whole) if two_mass else [])
 
 
 def _initial_state_notes(measurements, calibration):
-    """A note for each fitted initial speed of a free run that contradicts the measured one (5 noise std)."""
+    """An :class:`~.reasons.InitialSpeed` for each fitted initial speed of a free run that contradicts the measured
+    one (5 noise std)."""
     parameters = calibration.parameters
     measured = data_states(measurements, 0.0, [calibration.window[0]])[0]
     noise = speed_noise(measurements)
@@ -1256,8 +1274,7 @@ def _initial_state_notes(measurements, calibration):
         if name in parameters:
             gap = parameters[name].value - measured[column]
             if abs(gap) > 5.0 * noise[min(column - 1, noise.size - 1)] + 1e-9:
-                notes.append(f"the fitted initial {name[:-1].replace('_', ' ')} {parameters[name].value:.4g} rad/s "
-                             f"contradicts the measured {measured[column]:.4g} rad/s")
+                notes.append(InitialSpeed(name=name, fitted=parameters[name].value, measured=float(measured[column])))
     return notes
 
 
@@ -1277,7 +1294,7 @@ def stage_disagreements(answer, other):
     -------
     list of dict
         ``{"effect", "two_mass", "rigid_body", "note"}``, each structure's entry ``{"value", "ci95", "unit"}``,
-        ``note`` both fits in a sentence (the diagnosis' warning).
+        ``note`` both fits in a sentence (the diagnosis' warning, rendered from a :class:`~.reasons.Disagreement`).
     """
     found = []
     for cause in answer.causes:
@@ -1292,15 +1309,20 @@ def stage_disagreements(answer, other):
             found.append({"effect": name, answer.structure: {"value": mine.value, "ci95": list(mine.ci95),
                                                              "unit": mine.unit},
                           other.structure: summed})
-            found[-1]["note"] = disagreement_note(found[-1])
+            found[-1]["note"] = warning_sentence(_disagreement(found[-1]))
     return found
+
+
+def _disagreement(entry):
+    """A :func:`stage_disagreements` entry as a :class:`~.reasons.Disagreement` record."""
+    return Disagreement(effect=entry["effect"], two_mass=entry["two_mass"], rigid_body=entry["rigid_body"])
 
 
 def _select(search, keys):
     """One stage of a diagnosis over ``keys`` (module docs): the nominal structure calibrated, forward selection,
     backward elimination and the free-run refinement, unless the baseline explains too little; a :class:`Stage`."""
     baseline = search.settle_skew(search.fit(()))
-    tried = [dataclasses.replace(baseline, reason="the nominal structure (reference)")]
+    tried = [dataclasses.replace(baseline, reason_record=Reason(Step.REFERENCE))]
     weak = _weak(baseline)
     search.baseline = baseline
     chosen, order = (None, []) if weak else _backward(search, *_forward(search, baseline, keys, tried), tried)
@@ -1402,10 +1424,9 @@ def _diagnose(measurements, rig, candidates, estimation_fraction, transient_frac
     undetermined = {disagreement["effect"] for disagreement in disagreements}
     causes = [dataclasses.replace(cause, determined=cause.determined and cause.effect not in undetermined)
               for cause in answer.causes]
-    warnings = list(two_mass.warnings)
+    warnings = list(two_mass.warning_records)
     if answer is rigid:
-        warnings += [f"rigid-body model: {warning}" for warning in rigid.warnings]
-        warnings += [disagreement["note"] for disagreement in disagreements]
+        warnings += rigid.warning_records + [_disagreement(disagreement) for disagreement in disagreements]
 
     def analysis(candidate):
         p = candidate.prediction
@@ -1415,7 +1436,7 @@ def _diagnose(measurements, rig, candidates, estimation_fraction, transient_frac
     return Diagnosis(
         causes=causes, sentence=diagnosis_sentence(answer, causes, shaft, measurements, VALIDATION_HORIZON),
         baseline=two_mass.baseline,
-        extended=two_mass.extended, candidates=two_mass.candidates, warnings=warnings,
+        extended=two_mass.extended, candidates=two_mass.candidates, warning_records=warnings,
         residuals_baseline=analysis(two_mass.baseline), residuals_extended=analysis(two_mass.extended),
         measurements=measurements, rig=rig, estimation=estimation, validation=validation, structure=answer.structure,
         shaft=shaft, two_mass_causes=two_mass.causes, rigid_body=rigid, disagreements=disagreements,

@@ -3,8 +3,10 @@
 Rendered from a :class:`~backlash_df.identify.diagnose.Diagnosis` and its
 :class:`~backlash_df.identify.diagnose.Cause` and
 :class:`~backlash_df.identify.diagnose.Stage` objects (their fitted parameters,
-fits and flags).  What the search records as it goes (each candidate's reason, the
-warnings) stays with the search; the figures are drawn by the results and handed in.
+fits and flags), and from the records of why the search decided as it did
+(:mod:`backlash_df.identify.reasons`): each candidate's reason
+(:func:`reason_sentence`) and the warnings (:func:`warning_sentence`), each read by
+its rule's name.  The figures are drawn by the results and handed in.
 Values print as fitted, except in the report's parameter table, where a value the
 fit does not resolve prints as 0 (:func:`parameter_resolution`).
 """
@@ -12,11 +14,9 @@ fit does not resolve prints as 0 (:func:`parameter_resolution`).
 import html
 import math
 
-from .html import figure_html, html_page, rig_sections, table_html
+from .html import below_text, figure_html, html_page, percent_text, rig_sections, table_html
 
-__all__ = ["GAIN_DEFINITION", "FIT_DEFINITION", "FAR_BELOW_INTERVAL", "FIT_RESOLUTION", "parameter_resolution",
-           "shown_value", "effects_name", "parameter_text", "value_text", "cause_summary", "cause_sentence",
-           "skew_sentence", "resolution_sentence", "disagreement_note", "prediction_mode_text", "diagnosis_sentence",
+__all__ = ["FAR_BELOW_INTERVAL", "FIT_RESOLUTION", "parameter_resolution", "reason_sentence", "warning_sentence",
            "diagnosis_sentences", "diagnosis_report"]
 
 #: What a cause's gain is, in the words the terminal and the report print.
@@ -206,19 +206,161 @@ def disagreement_note(disagreement):
 
     Parameters
     ----------
-    disagreement : dict
-        ``{"effect", "two_mass", "rigid_body"}``, each model's entry ``{"value", "ci95", "unit"}``
-        (:func:`~backlash_df.identify.diagnose.stage_disagreements`).
+    disagreement : Disagreement
+        Its ``effect`` and each model's entry ``two_mass``, ``rigid_body``: ``{"value", "ci95", "unit"}``
+        (:class:`~backlash_df.identify.reasons.Disagreement`).
 
     Returns
     -------
     str
     """
-    name, rigid, two_mass = disagreement["effect"], disagreement["rigid_body"], disagreement["two_mass"]
+    name, rigid, two_mass = disagreement.effect, disagreement.rigid_body, disagreement.two_mass
     return (f"{name}: the rigid-body model gives {rigid['value']:.4g} ({rigid['ci95'][0]:.4g} .. {rigid['ci95'][1]:.4g}) "
             f"{rigid['unit']}, the two-mass model {two_mass['value']:.4g} ({two_mass['ci95'][0]:.4g} .. "
             f"{two_mass['ci95'][1]:.4g}) {two_mass['unit']}: they disagree beyond their 95 % intervals, so no value "
             f"is named; the record does not determine it")
+
+
+# --------------------------------------------------------------------------- a candidate's reason
+
+
+def _torque_check(finding):
+    return (f"its torque {finding.shown:.3g} N m is below {100 * finding.share:g} % of the record's RMS torque "
+            f"{finding.reference:.3g} N m")
+
+
+def _twist_check(finding):
+    return (f"beta {finding.value:.3g} rad is within the twist's uncertainty {finding.limit:.3g} rad"
+            + ("" if finding.twist_measured else " (integrated from the speeds: record motor_angle and load_angle)"))
+
+
+#: A failed check in words, by its rule (:class:`~backlash_df.identify.reasons.Check`).
+_FAILED = {
+    "gain": lambda f: f"gain {percent_text(f.value)} % ({f.mode}) below {100 * f.limit:g} %",
+    "t statistic": lambda f: f"t {below_text(f.value, f.limit)} ({f.mode}) below {f.limit:g}",
+    "interval": lambda f: f"95 % CI includes {f.limit:g}",
+    "delay": lambda f: "delay shorter than one sample",
+    "torque": _torque_check,
+    "rubber share": lambda f: (f"beta {f.value:.3g} rad is below {100 * f.share:g} % of the half gap "
+                               f"{f.reference:.3g} rad"),
+    "rubber twist": _twist_check,
+}
+_STEP_WORDS = {"screening": "screening: ", "backward check": "backward check: ", "forward": ""}
+
+
+def reason_sentence(reason):
+    """Why a candidate was accepted or not, in the words of the search table, from its record.
+
+    Parameters
+    ----------
+    reason : Reason
+        The step that judged the candidate and its findings (:class:`~backlash_df.identify.reasons.Reason`).
+
+    Returns
+    -------
+    str
+        ``the nominal structure (reference)``; the failed checks joined by ``; `` (``after the free-run
+        refinement: ...; dropped`` after the refinement), or, where every check passed, the gain, t and
+        interval that passed; a screening or backward check says so first.
+    """
+    if reason.step == "reference":
+        return "the nominal structure (reference)"
+    failed = "; ".join(_FAILED[str(finding.rule)](finding) for finding in reason.findings if not finding.passed)
+    if reason.step == "refinement":
+        return f"after the free-run refinement: {failed}; dropped"
+    if not failed:
+        gain, t, interval = (next(f for f in reason.findings if f.rule == rule)
+                             for rule in ("gain", "t statistic", "interval"))
+        failed = f"gain {percent_text(gain.value)} % ({gain.mode}), t {t.value:.1f}, CI excludes {interval.limit:g}"
+    return _STEP_WORDS[str(reason.step)] + failed
+
+
+# --------------------------------------------------------------------------- warnings
+
+
+def _weak_baseline(caveat):
+    return (f"the baseline explains too little of the validation data (k-step fit {caveat.fit:.1f} % on a speed, "
+            f"below {caveat.minimum:g} %): no cause is named; check the rig file (inertias, stiffness, gear ratio, "
+            f"units) and the record")
+
+
+def _unexplained(caveat):
+    return (f"the named causes leave much of the data unexplained: with the named causes the model still predicts "
+            f"{caveat.speed} {caveat.horizon:g} s ahead only to {caveat.fit:.1f} % (below {caveat.minimum:g} %); "
+            f"something outside the catalogue remains (a pose-dependent gravity torque or inertia, a feed-forward, a "
+            f"torque the record does not hold), and the named values absorb part of it")
+
+
+def _few_segments(caveat):
+    of = f" of {caveat.samples} samples" if caveat.samples else ""
+    return (f"the estimation part holds only {caveat.segments} independent segments{of} (fewer than "
+            f"{caveat.minimum}): cluster-robust intervals over so few segments are too narrow, and so short a record "
+            f"may not show enough of the motion to tell effects apart; record longer")
+
+
+def _unphysical(caveat):
+    low, high = caveat.ci95
+    return (f"the 95 % interval of {caveat.name} includes unphysical negative values ({low:.4g} .. {high:.4g} "
+            f"{caveat.unit})")
+
+
+def _on_bound(caveat):
+    several = len(caveat.values) > 1
+    hint = (" (values of the shaft a record cannot determine where it does not resolve the shaft's mode: the "
+            "causes are then named from the rigid-body model, which does not use them; elsewhere, check them in "
+            "the rig file)" if caveat.plant else "")
+    return (f"{'these values end' if several else 'this value ends'} on a bound of the range the fit allows, so the "
+            f"data do not determine {'them' if several else 'it'}{hint}: "
+            + "; ".join(f"{v.name} = {v.value:.4g} {v.unit} (range [{v.lower:.4g}, {v.upper:.4g}])"
+                        for v in caveat.values))
+
+
+def _initial_speed(caveat):
+    return (f"the fitted initial {caveat.name[:-1].replace('_', ' ')} {caveat.fitted:.4g} rad/s contradicts the "
+            f"measured {caveat.measured:.4g} rad/s")
+
+
+def _absorbed(caveat):
+    (low, high), (dropped_low, dropped_high) = caveat.kept_ci95, caveat.dropped_ci95
+    return (f"{caveat.kept} absorbs {caveat.dropped}: fitted together on the estimation part they are "
+            f"{caveat.kept_value:.4g} ({low:.4g} .. {high:.4g}) {caveat.kept_unit} and {caveat.dropped_value:.4g} "
+            f"({dropped_low:.4g} .. {dropped_high:.4g}) {caveat.dropped_unit}, but {caveat.dropped} does not improve "
+            f"the validation part enough to be named, and without it {caveat.kept} is {caveat.kept_alone:.4g} "
+            f"{caveat.kept_unit}: this record does not tell the two apart (a longer record, or one whose speed "
+            f"covers a wider range, would)")
+
+
+def _side(caveat):
+    return (f"the side of {caveat.effect} is not determined by the data: on its own it explains the validation data "
+            f"as well on the {caveat.other_side} side (gain {100 * caveat.other_gain:.1f} % against "
+            f"{100 * caveat.gain:.1f} %); the shaft is too stiff here to tell the sides apart")
+
+
+#: A warning in words, by its concern (:class:`~backlash_df.identify.reasons.Concern`).
+_WARNINGS = {
+    "record": lambda caveat: caveat.text, "weak baseline": _weak_baseline, "unexplained": _unexplained,
+    "few segments": _few_segments, "unphysical interval": _unphysical, "on bound": _on_bound,
+    "initial speed": _initial_speed, "absorbed": _absorbed, "side": _side, "disagreement": disagreement_note,
+}
+
+
+def warning_sentence(caveat, *, stage_named=False):
+    """A diagnosis' warning in words, from its record.
+
+    Parameters
+    ----------
+    caveat : RecordNote, WeakBaseline, ...
+        The concern and its numbers (a record of :mod:`backlash_df.identify.reasons`).
+    stage_named : bool
+        Whether to say ``rigid-body model:`` first where the warning concerns the rigid-body stage's values
+        (a diagnosis' warnings name it; the stage's own do not).
+
+    Returns
+    -------
+    str
+    """
+    text = _WARNINGS[str(caveat.rule)](caveat)
+    return f"rigid-body model: {text}" if stage_named and caveat.structure == "rigid_body" else text
 
 
 def prediction_mode_text(mode):

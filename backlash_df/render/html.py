@@ -11,10 +11,7 @@ import html
 import io
 import math
 
-__all__ = ["figure_png", "figure_bytes", "FIGURE_FORMATS", "figure_html", "table_html", "html_page", "rig_sections",
-           "percent_text",
-           "signed_percent", "ROUNDOFF", "roundoff_zero", "resolved", "below_text", "bias_text", "text_table",
-           "number_cell"]
+__all__ = ["figure_html", "table_html", "html_page", "signed_percent", "ROUNDOFF", "roundoff_zero"]
 
 #: Relative size below which a computed value is round-off: printed as 0 (the JSON keeps the value).
 ROUNDOFF = 1e-12

@@ -10,8 +10,7 @@ import math
 
 from .html import figure_html, html_page, rig_sections, roundoff_zero, signed_percent, table_html, text_table
 
-__all__ = ["prediction_rows", "prediction_sections", "prediction_report", "PREDICTION_NOTE", "SIMULATED_NOTE",
-           "VERDICT_RUNS_NOTE"]
+__all__ = ["prediction_rows", "prediction_report"]
 
 #: Which run the table's simulated numbers come from (text).
 SIMULATED_NOTE = (

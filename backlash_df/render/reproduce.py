@@ -10,7 +10,7 @@ import textwrap
 
 import numpy as np
 
-__all__ = ["LAW_LABELS", "TABLE_ONE_QUANTITY", "table_one_text", "figure2_summary"]
+__all__ = ["table_one_text", "figure2_summary"]
 
 #: Each law by the paper's equations.
 LAW_LABELS = {

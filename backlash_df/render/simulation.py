@@ -5,7 +5,7 @@ the run's length, steps and samples, its inputs and, with a record, the fit of e
 compared column.
 """
 
-__all__ = ["FIT_DEFINITION", "simulated_record_lines"]
+__all__ = ["simulated_record_lines"]
 
 #: What a fit percentage is, as the text states it.
 FIT_DEFINITION = "fit = 100 (1 - |y - y_sim| / |y - mean y|) %, free run"

@@ -13,7 +13,7 @@ import numpy as np
 from ..config import RANGES
 from .html import figure_html, html_page, rig_sections, table_html
 
-__all__ = ["VERDICT_CODES", "value_label", "grid_labels", "map_tables", "map_sentences", "map_report"]
+__all__ = ["VERDICT_CODES", "map_tables", "map_sentences", "map_report"]
 
 #: One character per verdict in the text grids of :func:`map_tables`.
 VERDICT_CODES = {"no oscillation": ".", "limit cycle": "C", "bistable": "B", "unstable": "U", "undetermined": "?"}

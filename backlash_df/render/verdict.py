@@ -10,7 +10,7 @@ import math
 from ..disturbances import kind_words
 from .html import roundoff_zero, signed_percent, text_table
 
-__all__ = ["reason_text", "verdict_rows", "orbit_rows", "VERDICT_NOTE", "ORBIT_NOTE"]
+__all__ = ["reason_text"]
 
 
 def reason_text(evidence):
