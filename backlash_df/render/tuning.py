@@ -12,8 +12,7 @@ import math
 
 from .html import figure_html, html_page, rig_sections, table_html
 
-__all__ = ["values_text", "margin_text", "gain_margin_text", "plateau_text", "bound_text", "tuning_sentences",
-           "front_table", "tuning_tables", "range_caption", "tuning_report"]
+__all__ = ["tuning_sentences", "tuning_tables", "tuning_report"]
 
 
 def values_text(tuning):
