@@ -471,8 +471,13 @@ def friction_loop():
 
 
 def friction_run(loop, dt):
-    """``simulate`` of the stick-slip case at step ``dt``: the whole call a user makes."""
-    return simulate(loop.rig, t_end=FRICTION_T_END, dt=dt, initial={"load_angle": FRICTION_START})
+    """``simulate`` of the stick-slip case at step ``dt``: the whole call a user makes, with one BLAS thread as the
+    command line pins it (the CPU clock of best_of would otherwise count OpenBLAS threads spinning after the
+    call's few small matrix functions, twice the kernel's time)."""
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(1, user_api="blas"):
+        return simulate(loop.rig, t_end=FRICTION_T_END, dt=dt, initial={"load_angle": FRICTION_START})
 
 
 def friction_accuracy(loop, dt):
