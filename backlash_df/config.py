@@ -88,9 +88,9 @@ stribeck_speed                     [0, 1e6] rad/s        speeds of any drive (> 
 catalogue's effects (:mod:`backlash_df.identify.effects`) as a diagnosis names them, with
 true stiction at rest (:class:`~backlash_df.system.Sticking`).  The time simulation models
 all of it, the describing-function prediction takes dry friction on one side as a slaved
-damper and the verdict's probes simulate it; viscous friction is linear and part of every
-analysis' ``G``; the exact orbits, the sweeps and the tuning do not model dry (Coulomb,
-breakaway) friction yet and refuse it, and no loop models ``torque_offset`` yet (:meth:`Rig.require_modelled`, called by
+damper, the verdict's probes (and so the tuning's certificates) simulate it; viscous
+friction is linear and part of every analysis' ``G``; the exact orbits and the sweeps do
+not model dry (Coulomb, breakaway) friction yet and refuse it, and no loop models ``torque_offset`` yet (:meth:`Rig.require_modelled`, called by
 :func:`~backlash_df.loops.drive_loop`); the rig still loads, so that a diagnosed rig
 (:meth:`~backlash_df.identify.Diagnosis.rig_out`) can be written and read.
 
@@ -419,8 +419,8 @@ class Rig:
             True for the time simulation, which models Coulomb and breakaway friction
             with stiction, the describing-function prediction, which takes it as a slaved
             damper (:class:`~backlash_df.limit_cycles.FrictionSlaving`), and the verdict,
-            whose probes simulate it; False for the analyses that do not model it yet
-            (the exact orbits, the sweeps, the tuning).
+            whose probes simulate it (so the tuning's certificates); False for the
+            analyses that do not model it yet (the exact orbits, the sweeps).
 
         Raises
         ------
@@ -435,9 +435,9 @@ class Rig:
                if getattr(self.friction, name) != 0.0]
         if dry and not dry_friction:
             raise RigError(f"{self.source}: [friction] {dry[0]} = {getattr(self.friction, dry[0]):g}: the exact "
-                           f"orbits, continue, map and tune do not model dry friction yet (it would be left out); "
-                           f"`simulate` and `predict` (its describing function and verdict) do, and viscous friction "
-                           f"every analysis does")
+                           f"orbits, continue and map do not model dry friction yet (it would be left out); "
+                           f"`simulate`, `predict` (its describing function and verdict) and `tune` do, and viscous "
+                           f"friction every analysis does")
 
     def to_dict(self):
         """The rig as the rig file's tables (a dict :func:`rig_from_dict` reads back).

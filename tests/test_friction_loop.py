@@ -274,3 +274,25 @@ def test_the_verdict_with_dry_friction(friction, ti, outcome):
         period = 2.0 * np.diff(_breakaways(hunting))[-1]  # two break-aways a period
         assert verdict.cycle.omega == pytest.approx(2.0 * math.pi / period, rel=1e-2)
         assert verdict.df_agrees is False  # the DF sees no stick-slip cycle, and the verdict says so
+
+
+# --------------------------------------------------------------------------- tuning with dry friction
+
+@pytest.mark.parametrize("ti, certified", [(0.2, False), (5.0, True)])
+def test_a_certificate_with_dry_friction_rests_on_the_df_and_the_probes(ti, certified):
+    """The stick-slip cascade hunts with fast integral action and settles with slow: the certificate says which, and
+    that no exact orbit was sought."""
+    from backlash_df.tuning import certify
+
+    certificate = certify(_rig(STICK_SLIP, ti=ti))
+    assert certificate.certified is certified
+    assert certificate.verdict.orbits == () and "do not model dry friction" in certificate.verdict.orbit_note
+    if not certified:
+        assert certificate.verdict.verdict == "bistable" and certificate.amplitude > 0.005
+
+
+@pytest.mark.slow
+def test_tune_with_dry_friction_says_what_its_certificate_rests_on():
+    tuned = bd.tune(_rig(STICK_SLIP), {"ti": (0.05, 5.0)}, gain_margin=1.0)
+    assert tuned.feasible and tuned.values()["ti"] > 0.2
+    assert any(line.startswith("dry friction: the exact orbits do not model it yet") for line in tuned.sentences())

@@ -48,8 +48,20 @@ def tuning_sentences(tuning):
     lines.append(f"{tuning.model}: {best.verdict.verdict}: {best.verdict.reason}")
     if tuning.margin:
         lines.append(f"margin: {margin_text(tuning.margin)}")
-    lines += [line for line in (gain_margin_text(tuning), plateau_text(tuning), bound_text(tuning)) if line]
+    lines += [line for line in (gain_margin_text(tuning), plateau_text(tuning), bound_text(tuning),
+                                friction_text(tuning)) if line]
     return lines
+
+
+def friction_text(tuning):
+    """What a certificate of a rig with dry friction rests on, or "" without dry friction."""
+    prediction = tuning.best.verdict.prediction
+    friction = None if prediction is None or prediction.rig is None else prediction.rig.friction
+    if friction is None or not any((friction.coulomb_motor, friction.coulomb_load, friction.breakaway_motor,
+                                    friction.breakaway_load)):
+        return ""
+    return ("dry friction: the exact orbits do not model it yet, so each certificate rests on the describing "
+            "functions (the friction's included) and the probes' simulations (stick and slip)")
 
 
 def gain_margin_text(tuning):
