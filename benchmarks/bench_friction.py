@@ -60,6 +60,8 @@ KUKA_CONTROLLER = {"structure": "cascade", "feedback": "motor", "position_feedba
                    "ti": 0.16, "kv": 6.0, "torque_limit": 3000.0}
 #: The position reference: 0 to 0.4 rad in 1.5 s (0.27 rad/s, the record's speeds are up to 0.44 rad/s), then held
 #: until 4 s; every 1 ms.
+#: The same cascade without its torque limit, for ``tune`` (:func:`kuka_design`).
+KUKA_TUNED = {**KUKA_CONTROLLER, "torque_limit": 0.0}
 KUKA_RAMP = (0.4, 1.5, 4.0, 1e-3)
 KUKA_BAND = 1e-4  # rad: the settling band after the ramp (0.006 degrees; the record's encoder steps are 2e-6 rad)
 
@@ -177,6 +179,26 @@ def kuka_case(folder, repeat):
           f"{np.mean(torque_f[on_ramp] - torque_b[on_ramp]):.0f} N m on average (the friction at "
           f"{height / ramp:.3g} rad/s: {friction.coulomb_load + friction.viscous_load * height / ramp:.0f} N m); "
           f"simulate's CPU time {cpu_f / cpu_b:.2f}x")
+    kuka_design(folder, diagnosed, repeat)
+
+
+def kuka_design(folder, diagnosed, repeat):
+    """``predict`` and ``tune --vary kv`` of the KUKA cascade with the diagnosed friction and without: the verdict,
+    the tuning and their time.  ``tune`` takes the cascade without its torque limit (:data:`KUKA_TUNED`): the
+    friction's describing function, which the certificate needs, is solved in a loop without one."""
+    for name, changes in (("with its friction", {}), ("without friction", {"friction": {}})):
+        tag = "bare" if changes else "friction"
+        limited = variant(diagnosed, folder / f"kuka_cascade_{tag}.toml", controller=KUKA_CONTROLLER, **changes)
+        wall, cpu, text = cli("predict", limited, repeat=repeat)
+        verdict = next(line for line in text.splitlines() if line.startswith("phase-plane:")).split(":")[1].strip()
+        row("KUKA", f"predict, {name}", wall, cpu, f"verdict {verdict}")
+        free = variant(diagnosed, folder / f"kuka_free_{tag}.toml", controller=KUKA_TUNED, **changes)
+        wall, cpu, text = cli("tune", free, "--vary", "kv", "1,60", "--json", folder / f"tune_{tag}.json",
+                              repeat=repeat)
+        answer = json.loads((folder / f"tune_{tag}.json").read_text())
+        row("KUKA", f"tune --vary kv 1,60, {name}", wall, cpu,
+            f"{'certified' if answer['feasible'] else 'none certified'}: kv = {answer['best']['values']['kv']:.4g} "
+            f"1/s, bandwidth {answer['best']['bandwidth']:.4g} rad/s, {len(answer['searched']['certified'])} certificates")
 
 
 # --------------------------------------------------------------------------- b. the generator's record

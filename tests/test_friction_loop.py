@@ -296,3 +296,12 @@ def test_tune_with_dry_friction_says_what_its_certificate_rests_on():
     tuned = bd.tune(_rig(STICK_SLIP), {"ti": (0.05, 5.0)}, gain_margin=1.0)
     assert tuned.feasible and tuned.values()["ti"] > 0.2
     assert any(line.startswith("dry friction: the exact orbits do not model it yet") for line in tuned.sentences())
+
+
+def test_tune_where_the_friction_df_does_not_apply_says_why_nothing_is_certified():
+    """With a torque limit the friction's DF is not solved (each prediction's note): no certificate, one verdict of
+    the fastest tuning, and the first line says why (it crashed on an empty search before)."""
+    tuned = bd.tune(_rig(STICK_SLIP, ti=math.inf, torque_limit=100.0), {"kv": (5.0, 20.0)}, gain_margin=1.0)
+    assert not tuned.feasible and tuned.values()["kv"] == 20.0
+    assert tuned.sentences()[0].startswith("no tuning certified: a certificate needs the describing function, and "
+                                           "here the describing function of dry friction")

@@ -41,6 +41,10 @@ def tuning_sentences(tuning):
     best = tuning.best
     if tuning.feasible:
         lines = [f"certified: {values_text(tuning)}: bandwidth {best.bandwidth:.4g} rad/s"]
+    elif best.amplitude == 0.0 and best.verdict.prediction is not None and best.verdict.prediction.note:
+        lines = [f"no tuning certified: a certificate needs the describing function, and here "
+                 f"{best.verdict.prediction.note}; the fastest tuning: {values_text(tuning)}: bandwidth "
+                 f"{best.bandwidth:.4g} rad/s"]
     else:
         lines = [f"no tuning certified; least hunting: {values_text(tuning)}: bandwidth {best.bandwidth:.4g} "
                  f"rad/s, hunting at A = {best.amplitude:.4g} rad (simulated; the smallest of "
