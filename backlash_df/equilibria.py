@@ -51,7 +51,7 @@ from .disturbances import KINDS, MOTOR_SPEED, TWIST, Disturbance
 from .loops import drive_loop
 from .system import closed_loop_matrix, lti_linear_part, with_pade
 
-__all__ = ["LinearStability", "linear_stability", "Rest", "rest_points", "loop_rests"]
+__all__ = ["LinearStability", "linear_stability", "Rest", "rest_points", "loop_rests", "friction_band"]
 
 #: Pade order of the dead time in every pole computation of the verdict and the rests.
 PADE_ORDER = 8
@@ -526,3 +526,51 @@ def _flow(matrix, directions, undelayed, rows):
             power = power @ power
             filled += count
         return np.einsum("fi,sid->sfd", rows, states)
+
+
+#: The states whose span :func:`friction_band` reports: the position a cascade holds, and the shaft's twist.
+BAND_STATES = ("load_angle", "theta_d")
+_BAND_RESOLUTION = 1e-9  # a band narrower than this share of its values (or of the gap) is round-off
+
+
+def friction_band(rig, model, pade_order=PADE_ORDER):
+    """The rests the load's dry friction holds: per position state, the band they span.
+
+    A load stuck at rest is held by its friction ``F`` with ``|F| <= F_c + F_s`` (the
+    static level of ``[friction]``), which acts on the loop as a load torque ``T_l - F``:
+    the rests of the loop with friction are those of the loop without it under every
+    load torque in ``[T_l - F_c - F_s, T_l + F_c + F_s]``, a set, not a point.  Its ends
+    are :func:`rest_points` at the two extreme load torques; the band of each state of
+    :data:`BAND_STATES` the loop has is their span (a P position loop rests anywhere
+    within ``+-(F_c + F_s) / (kp kv)`` of its reference; with integral action the
+    position rests at the reference, and the twist spans ``+-(F_c + F_s) / k``).
+
+    Parameters
+    ----------
+    rig : Rig
+        With ``[friction]`` on the load side (the motor side's friction is not a load
+        torque and gives no band here).
+    model : BacklashModel
+    pade_order : int
+
+    Returns
+    -------
+    dict
+        ``{state name: (low, high)}`` (rad) of the states whose band has a width (more
+        than 1e-9 of its values or of the gap: round-off is no band); empty without load
+        friction or where an end has no rest.
+    """
+    static = rig.friction.coulomb_load + rig.friction.breakaway_load
+    if static == 0.0:
+        return {}
+    part = drive_loop(rig, dry_friction=True).linear_part()
+    ends = [rest_points(part, model, [0.0, rig.load.torque + sign * static], pade_order)[0] for sign in (-1.0, 1.0)]
+    if not all(ends):
+        return {}
+    band = {}
+    for name in (name for name in BAND_STATES if name in part.state_names):
+        values = [rest.state[part.state_names.index(name)] for rests in ends for rest in rests]
+        # a width of round-off (a position held at its reference by integral action) is no band
+        if max(values) - min(values) > _BAND_RESOLUTION * max(max(map(abs, values)), rig.plant.half_gap):
+            band[name] = (float(min(values)), float(max(values)))
+    return band

@@ -64,7 +64,7 @@ import math
 
 
 from .disturbances import KINDS, TWIST, Disturbance, standard_disturbances
-from .equilibria import LinearStability, contact_shaft, linear_stability, loop_rests
+from .equilibria import LinearStability, contact_shaft, friction_band, linear_stability, loop_rests
 from .loops import drive_loop
 from .models import BacklashModel
 from .orbits import exact_orbits, periodic_orbit
@@ -380,6 +380,10 @@ class LoopVerdict:
         from the DF's unstable cycles (whether or not ``exact`` was asked for).
     prediction : LimitCyclePrediction or None
         The DF prediction the verdict weighed.
+    rest_band : dict
+        With dry friction on the load: the band its rests span, ``{state: (low, high)}``
+        (rad; :func:`~backlash_df.equilibria.friction_band`): the loop rests anywhere in it,
+        the probes' rest one point of it; empty otherwise.
     """
 
     model: str
@@ -393,6 +397,7 @@ class LoopVerdict:
     rest_note: str = ""
     separatrix: object = None
     prediction: object = dataclasses.field(default=None, repr=False, compare=False)
+    rest_band: dict = dataclasses.field(default_factory=dict)
 
     @property
     def verdict(self):
@@ -464,6 +469,7 @@ class LoopVerdict:
             "saturated": bool(self.saturated),
             "probes": [probe.to_dict() for probe in self.probes],
             "exact_orbits": [orbit.to_dict() for orbit in self.orbits],
+            **({"rest_band": {name: list(span) for name, span in self.rest_band.items()}} if self.rest_band else {}),
         }
 
     def plot(self, ax=None):
@@ -727,8 +733,9 @@ def judge_loop(rig, prediction, *, linear=None, t_end=10.0, max_t_end=320.0, dis
         separatrix = _separatrix(rig, prediction, orbits, evidence.cycle)
         if separatrix is not None and separatrix not in orbits:
             evidence = _decide(prediction, contact, rests, probes, orbits + (separatrix,))
+    band = friction_band(rig, model) if user_linear is None and part.sticking is not None else {}
     return LoopVerdict(prediction.model, evidence, contact, opened, probes, orbits=orbits, orbit_note=note,
-                       rests=rests, rest_note=rest_note, separatrix=separatrix, prediction=prediction)
+                       rests=rests, rest_note=rest_note, separatrix=separatrix, prediction=prediction, rest_band=band)
 
 
 def _longer(rig, model, unsettled, linear, max_t_end, dt):

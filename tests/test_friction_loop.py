@@ -305,3 +305,21 @@ def test_tune_where_the_friction_df_does_not_apply_says_why_nothing_is_certified
     assert not tuned.feasible and tuned.values()["kv"] == 20.0
     assert tuned.sentences()[0].startswith("no tuning certified: a certificate needs the describing function, and "
                                            "here the describing function of dry friction")
+
+
+def test_the_verdict_reports_the_dead_band_against_its_closed_form():
+    """A P cascade rests anywhere within ``(F_c + F_s) / (kp kv)`` of its reference; with integral action the position
+    rests on it and the twist spans ``(F_c + F_s) / k`` beyond the gap."""
+    static = STICK_SLIP["coulomb_load"] + STICK_SLIP["breakaway_load"]
+    p_loop = _rig(STICK_SLIP, ti=math.inf)
+    band = bd.judge_loop(p_loop, bd.predict_limit_cycles(p_loop)).rest_band
+    half = static / (CASCADE["kp"] * CASCADE["kv"])
+    np.testing.assert_allclose(band["load_angle"], (-half, half), rtol=1e-12)
+    pi_loop = _rig(STICK_SLIP)
+    verdict = bd.judge_loop(pi_loop, bd.predict_limit_cycles(pi_loop))
+    alpha, k = PLANT["half_gap"], PLANT["stiffness"]
+    assert "load_angle" not in verdict.rest_band
+    np.testing.assert_allclose(verdict.rest_band["theta_d"], (-alpha - static / k, alpha + static / k), rtol=1e-12)
+    assert verdict.to_dict()["rest_band"]["theta_d"] == list(verdict.rest_band["theta_d"])
+    plain = _rig({}, ti=math.inf)
+    assert bd.judge_loop(plain, bd.predict_limit_cycles(plain)).rest_band == {}

@@ -44,7 +44,16 @@ def analysis_sentences(analysis):
     for verdict in analysis.verdicts:
         note = f" (exact orbits: {verdict.orbit_note})" if verdict.orbit_note else ""
         lines.append(f"{verdict.model}: {verdict.verdict}: {verdict.reason}{note}")
+        if verdict.rest_band:
+            lines.append(f"{verdict.model}: {rest_band_text(verdict.rest_band)}")
     return lines
+
+
+def rest_band_text(band):
+    """The rests a load's dry friction holds, as a sentence: ``the load's dry friction holds a rest anywhere in
+    load_angle -0.0667 .. 0.0667 rad, theta_d ... rad``."""
+    spans = ", ".join(f"{name} {low:.4g} .. {high:.4g} rad" for name, (low, high) in band.items())
+    return f"the load's dry friction holds a rest anywhere in {spans} (a band, not a point)"
 
 
 def analysis_report(analysis, figure, title="", rig_text=""):
