@@ -55,6 +55,10 @@ How each law is computed:
   damped dead-zone (26), ``N = (k + j c w) F(alpha / A)``; revised dead-zone
   (27), a dead-zone of ``y`` of amplitude ``R = A sqrt(1 + (c w / k)^2)``:
   ``N = (k + j c w) F(alpha / R)``.
+
+The classical elements (saturation, dead zone, relay with hysteresis, the play) and
+python-control's element objects have their closed forms in :mod:`.classical`,
+re-exported here.
 """
 
 import dataclasses
@@ -65,11 +69,22 @@ from .._json import json_ready
 from ..models import BacklashModel, make_model
 from ..plotting import ResultPlot, axes_or_new, label_contours, legend_beside, log_scale
 from ._evaluation import as_model, balance, check_scales, evaluate, validated
+from .classical import (
+    dead_zone_describing_function,
+    nonlinearity_describing_function,
+    play_describing_function,
+    relay_describing_function,
+    saturation_describing_function,
+)
 
 __all__ = [
     "describing_function",
     "dual_input_describing_function",
     "saturation_describing_function",
+    "dead_zone_describing_function",
+    "relay_describing_function",
+    "play_describing_function",
+    "nonlinearity_describing_function",
     "friction_describing_function",
     "dc_bias",
     "BiasedDescribing",
@@ -159,36 +174,6 @@ def dual_input_describing_function(model, amplitude, omega, *, bias=0.0, method=
     (100.0, 20.0)
     """
     return tuple(evaluate(model, amplitude, omega, bias, method))
-
-
-def saturation_describing_function(amplitude, limit):
-    """Describing function of the saturation ``clip(u, -limit, limit)`` of ``u = U sin(w t)``: a real gain.
-
-    ``N_s = 1`` for ``U <= limit``, else ``(2 / pi) (asin r + r sqrt(1 - r^2))``
-    with ``r = limit / U`` (Gelb and Vander Velde, 1968): the torque limit's
-    describing function in a loop that also holds the backlash.
-
-    Parameters
-    ----------
-    amplitude : array_like
-        U, the first-harmonic amplitude of the command, N m (>= 0).
-    limit : float
-        N m, > 0.
-
-    Returns
-    -------
-    ndarray
-        N_s in (0, 1], the shape of ``amplitude``.
-
-    Examples
-    --------
-    >>> round(float(saturation_describing_function(2.0, 1.0)), 6)
-    0.608998
-    """
-    amplitude = np.asarray(amplitude, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r = np.clip(limit / amplitude, 0.0, 1.0)
-        return np.where(amplitude <= limit, 1.0, 2.0 / np.pi * (np.arcsin(r) + r * np.sqrt(1.0 - r * r)))
 
 
 def friction_describing_function(amplitude, coulomb, breakaway=0.0, stribeck_speed=1.0):
