@@ -461,4 +461,4 @@ def test_tune_report_in_browser(examples_copy, tmp_path, rig, gains):
     for value in tuning["best"]["values"].values():
         assert shown(value, facts["text"]), f"best value {value} not on the page"
     if not tuning["feasible"]:
-        assert "star: the least hunting tuning" in facts["text"] and "the best certified" not in facts["text"]
+        assert "star: no tuning certified; the least hunting" in facts["text"] and "the best certified" not in facts["text"]
