@@ -34,7 +34,7 @@ no tuning in range is certified the answer says so and gives the tuning of the
 smallest hunting amplitude.
 """
 
-import collections
+import collections.abc
 import dataclasses
 import functools
 import itertools
@@ -45,6 +45,7 @@ import numpy as np
 
 from ._json import json_ready
 from .checkpoint import describe, opened, run_cells
+from .config import Uncertainty, rig_from_dict
 from .disturbances import shaft_mode
 from .equilibria import linear_stability
 from .limit_cycles import predict_limit_cycles, verify_limit_cycles
@@ -68,6 +69,10 @@ _PLATEAU = 0.01  # a bandwidth gaining less than this (relative) over the last f
 _KNEE_BISECTIONS = 7  # log bisections of the knee: to a factor 2**(1/128), 0.5 %
 #: The direction of gentler control of each value: a smaller gain, a slower integral action or speed filter.
 _GENTLER = {"kp": -1.0, "kv": -1.0, "ti": 1.0, "speed_filter": 1.0}
+_VERTICES = 3  # up to this many uncertain values: every vertex of the box; beyond, a fractional design
+#: The signs of the uncertain values beyond the three most influential, from those three's signs (s1, s2, s3):
+#: the generators of a two-level fractional design of 8 runs (cycled beyond seven values).
+_GENERATORS = ((0, 1, 2), (0, 1), (0, 2), (1, 2))
 
 
 # --------------------------------------------------------------------------- the objective
@@ -199,11 +204,28 @@ class _Settings:
     model: str
     tolerance: float
     gain_margin: float = 1.0
+    points: tuple = ()  # the uncertainty box's points besides the nominal rig: ((name, value), ...) each
+
+
+def _box_rigs(settings):
+    """The nominal rig, then the rig at each of the box's points (:func:`_design`)."""
+    return (settings.rig, *(settings.rig.with_values(**dict(point)) for point in settings.points))
 
 
 def _screen_cell(settings, values):
-    """The DF's view of one tuning: bandwidth, largest stable cycle, near miss."""
-    tuned = _tuned(settings.rig, settings.names, values)
+    """The DF's view of one tuning, the worst over the box: the nominal bandwidth, the largest stable cycle and
+    the closest near miss at any of its rigs; it hunts if it hunts at any."""
+    cells = [_screen_one(settings, rig, values) for rig in _box_rigs(settings)]
+    if len(cells) == 1:
+        return cells[0]
+    misses = [c.near_miss for c in cells if math.isfinite(c.near_miss)]
+    return Candidate(cells[0].values, cells[0].bandwidth, max(c.amplitude for c in cells),
+                     min(misses, default=math.nan), any(c.hunts for c in cells))
+
+
+def _screen_one(settings, rig, values):
+    """The DF's view of one tuning of ``rig``: bandwidth, largest stable cycle, near miss."""
+    tuned = _tuned(rig, settings.names, values)
     bandwidth = contact_bandwidth(tuned, settings.model)
     prediction = predict_limit_cycles(tuned, settings.model, grid=_DF_GRID)
     stable = prediction.stable_cycles
@@ -240,7 +262,11 @@ class Certificate:
         (1) the DF loci do not meet, (2) shooting finds no periodic orbit, (3) every
         probe settles; or, with a tolerance, the loop hunts within it.
     amplitude : float
-        The hunting amplitude A of theta_d the simulations reached, rad; 0 where they settle.
+        The hunting amplitude A of theta_d the simulations reached, rad; 0 where they settle (over an
+        uncertainty box: the largest at the rigs certified).
+    failed_at : tuple of (str, float)
+        Over an uncertainty box (:func:`tune`), the uncertain values of the first of its rigs (the
+        nominal one first) where the certificate fails; empty where it holds or there is no box.
     """
 
     values: tuple
@@ -248,6 +274,7 @@ class Certificate:
     verdict: object
     certified: bool
     amplitude: float
+    failed_at: tuple = ()
 
     def __repr__(self):
         word = "certified" if self.certified else "not certified"
@@ -302,12 +329,38 @@ def certify(rig, model=None, tolerance=0.0, refinement=1):
 
 
 def _certify_cell(settings, values, kept=None):
-    """The certificate of one tuning; taken from the checkpoint ``kept`` if it holds it, added to it if not."""
-    key = ("certify", *(float(v) for v in values))
+    """The certificate of one tuning over the box: the nominal rig's, certified only if it holds at every
+    point of the box too (checked in order until one fails, :attr:`Certificate.failed_at`)."""
+    values = tuple(float(v) for v in values)
+    nominal = _certify_at(settings, settings.rig, ("certify", *values), values, kept)
+    if not settings.points:
+        return nominal
+    box = {name: value for point in settings.points for name, value in point}
+    here = tuple((name, getattr(_owner(settings.rig, name), name)) for name in box)
+    if not nominal.certified:
+        return dataclasses.replace(nominal, failed_at=here)
+    amplitude = nominal.amplitude
+    for index, point in enumerate(settings.points, 1):
+        other = _certify_at(settings, settings.rig.with_values(**dict(point)), ("certify", "box", index, *values),
+                            values, kept)
+        amplitude = max(amplitude, other.amplitude)
+        if not other.certified:
+            return dataclasses.replace(nominal, certified=False, amplitude=amplitude, failed_at=point)
+    return dataclasses.replace(nominal, amplitude=amplitude)
+
+
+def _owner(rig, name):
+    """The table of ``rig`` holding the uncertain value ``name`` (``[plant]``, ``[friction]`` or ``[load]``)."""
+    return next(table for table in (rig.plant, rig.friction, rig.load) if hasattr(table, name))
+
+
+def _certify_at(settings, rig, key, values, kept):
+    """The certificate of ``values`` on ``rig``; taken from the checkpoint ``kept`` if it holds ``key``, added to
+    it if not."""
     if kept is not None and key in kept:
         return kept[key]
-    certificate = certify(_tuned(settings.rig, settings.names, values), settings.model, settings.tolerance)
-    certificate = dataclasses.replace(certificate, values=tuple(float(v) for v in values))
+    certificate = certify(_tuned(rig, settings.names, values), settings.model, settings.tolerance)
+    certificate = dataclasses.replace(certificate, values=values)
     if kept is not None:
         kept.add(key, certificate)
     return certificate
@@ -392,6 +445,12 @@ class Tuning:
         the answer is the first.  Empty where a tuning is certified.
     source : str
         The rig's file.
+    uncertainty : dict
+        Over an uncertainty box (:func:`tune`): ``{"box": {name: (low, high)}, "points": n,
+        "binding": {name: value} or None, "worst_bandwidth": rad/s}``: the box, the number of
+        rigs certified (the nominal one included), the box point where the nearest faster tuning
+        that fails its certificate fails (None where none was found), and the answer's smallest
+        bandwidth over those rigs; empty without a box.
     """
 
     names: tuple
@@ -412,6 +471,7 @@ class Tuning:
     gain_margin: dict = dataclasses.field(default_factory=dict)
     simulated: tuple = ()
     source: str = ""
+    uncertainty: dict = dataclasses.field(default_factory=dict)
 
     def values(self, point=None):
         """The varied values of ``point`` (default the best tuning) by name."""
@@ -450,6 +510,9 @@ class Tuning:
                          "simulated": [{"values": dict(zip(self.names, values)), "amplitude": amplitude}
                                        for values, amplitude in self.simulated]},
             "seconds": self.seconds,
+            "uncertainty": {"box": {name: list(box) for name, box in self.uncertainty["box"].items()},
+                            "points": self.uncertainty["points"], "binding": self.uncertainty["binding"],
+                            "worst_bandwidth": self.uncertainty["worst_bandwidth"]} if self.uncertainty else None,
         })
 
     def plot(self, ax=None):
@@ -735,7 +798,8 @@ def _simulated_amplitude(settings, values):
     return max(found) if found else max(c.amplitude for c in prediction.stable_cycles)
 
 
-def tune(rig, vary, *, tolerance=0.0, gain_margin=1.25, model=None, executor=None, progress=None, checkpoint=None):
+def tune(rig, vary, *, tolerance=0.0, gain_margin=1.25, uncertainty=None, model=None, executor=None, progress=None,
+         checkpoint=None):
     """The tuning of largest contact-loop bandwidth whose verdict is certified ``no oscillation`` (module docs).
 
     Parameters
@@ -752,6 +816,16 @@ def tune(rig, vary, *, tolerance=0.0, gain_margin=1.25, model=None, executor=Non
         ``g`` or ``1/g`` (each alone and all combinations: ``3**n - 1`` scaled
         tunings, certified as the answer is, out of the range too).  Default 1.25
         (a gain 25 % off); 1 checks no scaled tuning.
+    uncertainty : dict of str to (float, float), optional
+        A box of rig values the real drive may have: any numeric ``[plant]``,
+        ``[friction]`` or ``[load]`` key and its absolute ``(low, high)``, holding the
+        rig's value (``{"load_inertia": (4.0, 8.0), "half_gap": (0.03, 0.1)}``).
+        Default: the rig's ``[uncertainty]`` table; ``{}``: none.  A tuning is
+        certified only if it is certified (gain margin included) at the nominal rig
+        and at every point of the box's design (:func:`_design`: every vertex for up
+        to three values), and the DF screen clears a cell only if it clears it at all
+        of them.  The objective stays the nominal rig's bandwidth; the least hunting
+        tuning (none certified) and the front are the nominal rig's.
     model : str, optional
         Torque law (default the rig's).
     executor : concurrent.futures.Executor, optional
@@ -759,7 +833,8 @@ def tune(rig, vary, *, tolerance=0.0, gain_margin=1.25, model=None, executor=Non
     progress : callable, optional
         ``progress(stage, done, total)`` (the package's one protocol) as the stages
         ``screening``, ``refinement``, ``certification``, ``plateau``, ``least hunting``
-        (none certified), ``gain margin`` and ``front`` advance.
+        (none certified), ``gain margin``, ``binding`` (a box: certificates of the nearest
+        faster tuning) and ``front`` advance.
     checkpoint : str, Path or Checkpoint, optional
         Keep every screened cell, boundary bisection, certificate and front point
         as it finishes (:class:`~backlash_df.checkpoint.Checkpoint`; a path: a new
@@ -774,16 +849,74 @@ def tune(rig, vary, *, tolerance=0.0, gain_margin=1.25, model=None, executor=Non
     ------
     ValueError
         An unknown or non-varying value, a range with low >= high or not positive,
-        a tolerance < 0, a gain margin < 1 or not finite: one line; a checkpoint that exists (without ``resume``) or
-        belongs to another run.
+        a tolerance < 0, a gain margin < 1 or not finite, an uncertain value that is unknown or not
+        numeric, with low > high or a box that excludes the rig's value: one line; a checkpoint that exists
+        (without ``resume``) or belongs to another run.
     """
     names, ranges = _validated(rig, vary, tolerance)
     if not (isinstance(gain_margin, (int, float)) and math.isfinite(gain_margin) and gain_margin >= 1.0):
         raise ValueError(f"tune: the gain margin is a factor >= 1 (1: none); got {gain_margin!r}")
     name = rig.make_model(model).name
-    settings = _Settings(rig, names, name, float(tolerance), float(gain_margin))
+    rig = _boxed(rig, uncertainty)
+    settings = _Settings(rig, names, name, float(tolerance), float(gain_margin), _design(rig, names, name))
     with opened(checkpoint, "tune", {"settings": describe(settings, omit={"source"}), "ranges": ranges}) as kept:
         return _search(settings, ranges, executor, progress, kept)
+
+
+def _boxed(rig, uncertainty):
+    """``rig`` with the box ``uncertainty`` (None: its own) as its ``[uncertainty]`` table, checked as the rig
+    file's is (a one-line ``ValueError``)."""
+    if uncertainty is None:
+        return rig
+    if not isinstance(uncertainty, collections.abc.Mapping):
+        raise ValueError(f"tune: uncertainty is a mapping name -> (low, high), e.g. {{'load_inertia': (4.0, 8.0)}}; "
+                         f"got {uncertainty!r}")
+    data = {**rig.to_dict(), "uncertainty": dict(uncertainty)}
+    return dataclasses.replace(rig, uncertainty=rig_from_dict(data, source="tune: uncertainty").uncertainty)
+
+
+def _design(rig, names, model):
+    """The points of the rig's uncertainty box certified beside the nominal rig: ``((name, value), ...)`` each.
+
+    Up to three uncertain values (of ``low < high``): every vertex of the box, ``2**k``
+    points.  Beyond three: 8 points, two levels each: the vertices of the three most
+    influential values, every other value at its low or high end by the sign of a
+    generator of those three's signs (:data:`_GENERATORS`: ``s1 s2 s3``, ``s1 s2``,
+    ``s1 s3``, ``s2 s3``, cycled), a two-level fractional design.  A value's influence:
+    the change of the nominal tuning's DF view from its low to its high end, the others
+    nominal: ``|ln(omega_b(high) / omega_b(low))|`` plus the change of the closest
+    approach of the loci (0 where they meet), an unstable contact loop counting as
+    infinite; ties by the table's order.
+    """
+    box = {name: (low, high) for name, (low, high) in rig.uncertainty.items() if low < high}
+    if not box:
+        return ()
+    if len(box) <= _VERTICES:
+        return tuple(tuple(zip(box, corner)) for corner in itertools.product(*box.values()))
+    settings = _Settings(dataclasses.replace(rig, uncertainty=Uncertainty()), names, model, 0.0)
+    nominal = tuple(getattr(rig.controller, name) for name in names)
+
+    def view(name, value):
+        cell = _screen_one(settings, settings.rig.with_values(**{name: value}), nominal)
+        return cell.bandwidth, (cell.near_miss if math.isfinite(cell.near_miss) else 0.0)
+
+    def influence(name):
+        (low_band, low_miss), (high_band, high_miss) = (view(name, end) for end in box[name])
+        bands = abs(math.log(high_band / low_band)) if math.isfinite(low_band * high_band) and low_band * high_band > 0 \
+            else math.inf
+        return bands + abs(high_miss - low_miss)
+
+    order = sorted(box, key=lambda name: -influence(name))
+    first, rest = order[:_VERTICES], order[_VERTICES:]
+    points = []
+    for signs in itertools.product((0, 1), repeat=_VERTICES):
+        point = {name: box[name][sign] for name, sign in zip(first, signs)}
+        for index, name in enumerate(rest):
+            lows = sum(1 - signs[i] for i in _GENERATORS[index % len(_GENERATORS)])
+            sign = 1 if lows % 2 == 0 else 0  # the product of the signs (low -1, high +1)
+            point[name] = box[name][sign]
+        points.append(tuple((name, point[name]) for name in box))
+    return tuple(points)
 
 
 def _search(settings, ranges, executor, progress, kept):
@@ -838,6 +971,7 @@ def _search(settings, ranges, executor, progress, kept):
     if not feasible:  # the least hunting tuning among those simulated (module docs)
         best, simulated = _least_hunting(settings, screen, search, executor, kept, progress)
     achieved = _achieved(search, best, met) if feasible else {}
+    box = _box_answer(search, best, feasible) if settings.points else {}
     front = _front(settings, screen, best, feasible, executor, kept, progress, simulated)
     on_bound = tuple(n for n, v, (low, high) in zip(names, best.values, ranges)
                      if math.isclose(v, low, rel_tol=1e-9) or math.isclose(v, high, rel_tol=1e-9))
@@ -845,7 +979,40 @@ def _search(settings, ranges, executor, progress, kept):
                   _margin(names, best, search.hunting) if feasible else {}, front, tuple(screen), shape, boundary,
                   tuple(search.tried), seconds, on_bound, plateau,
                   {"requested": settings.gain_margin, "achieved": achieved} if feasible else {},
-                  tuple(sorted(simulated.items(), key=lambda item: item[1])), settings.rig.source)
+                  tuple(sorted(simulated.items(), key=lambda item: item[1])), settings.rig.source, box)
+
+
+def _box_answer(search, best, feasible):
+    """:attr:`Tuning.uncertainty`: the box, its rigs, the binding point and the answer's worst bandwidth.
+
+    The binding point: where the nearest (log distance) faster tuning whose certificate
+    failed in the search fails it; where none failed a certificate, the faster tunings the
+    DF said hunt are certified (stage ``binding``), nearest first, until one fails (at
+    most three; None where none does).
+    """
+    settings = search.settings
+    binding = None
+    if feasible:
+        faster = [c for c in search.tried if not c.certified and c.failed_at
+                  and not c.bandwidth <= best.bandwidth]  # NaN: an unstable contact loop is faster than any
+        if faster:
+            nearest = min(faster, key=lambda c: (_log_distance(best.values, c.values), c.values))
+            binding = dict(nearest.failed_at)
+        else:
+            hunting = sorted({values for values, source in search.hunting if source.startswith("DF")},
+                             key=lambda values: (_log_distance(best.values, values), values))
+            hunting = [values for values in hunting if not contact_bandwidth(
+                _tuned(settings.rig, settings.names, values), settings.model) <= best.bandwidth]
+            for values in hunting[:3]:
+                certificate = search.certify(values, "binding")
+                if not certificate.certified:
+                    binding = dict(certificate.failed_at)
+                    break
+            search.finish("binding")
+    worst = min((contact_bandwidth(_tuned(rig, settings.names, best.values), settings.model)
+                 for rig in _box_rigs(settings)), key=lambda band: (not math.isnan(band), band))
+    return {"box": dict(settings.rig.uncertainty), "points": 1 + len(settings.points), "binding": binding,
+            "worst_bandwidth": worst}
 
 
 class _Certifier:
