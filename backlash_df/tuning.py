@@ -32,6 +32,13 @@ values can move toward the nearest hunting tuning found; the **front** is the
 best bandwidth for each tolerance from 0 up to the largest cycle in range.  Where
 no tuning in range is certified the answer says so and gives the tuning of the
 smallest hunting amplitude.
+
+**Uncertainty.**  Over a box of rig values (``uncertainty``, or the rig's
+``[uncertainty]`` table), a tuning counts as certified only if its certificate, gain
+margin included, holds at the nominal rig and at every point of the box's design
+(:func:`_design`), and the DF screen clears a cell only if it clears it at all of them;
+the bandwidth is the nominal rig's.  The answer names the binding point: where the
+nearest faster tuning fails its certificate.
 """
 
 import collections.abc
@@ -822,8 +829,9 @@ def tune(rig, vary, *, tolerance=0.0, gain_margin=1.25, uncertainty=None, model=
         rig's value (``{"load_inertia": (4.0, 8.0), "half_gap": (0.03, 0.1)}``).
         Default: the rig's ``[uncertainty]`` table; ``{}``: none.  A tuning is
         certified only if it is certified (gain margin included) at the nominal rig
-        and at every point of the box's design (:func:`_design`: every vertex for up
-        to three values), and the DF screen clears a cell only if it clears it at all
+        and at every point of the box's design (every vertex for up to three values;
+        beyond, a two-level fractional design of 8 rigs: the contract page, ``tune --json``),
+        and the DF screen clears a cell only if it clears it at all
         of them.  The objective stays the nominal rig's bandwidth; the least hunting
         tuning (none certified) and the front are the nominal rig's.
     model : str, optional
