@@ -36,7 +36,7 @@ smallest hunting amplitude.
 **Uncertainty.**  Over a box of rig values (``uncertainty``, or the rig's
 ``[uncertainty]`` table), a tuning counts as certified only if its certificate, gain
 margin included, holds at the nominal rig and at every point of the box's design
-(:func:`_design`), and the DF screen clears a cell only if it clears it at all of them;
+(:func:`uncertainty_design`), and the DF screen clears a cell only if it clears it at all of them;
 the bandwidth is the nominal rig's.  The answer names the binding point: where the
 nearest faster tuning fails its certificate.
 """
@@ -63,7 +63,8 @@ from .render.tuning import tuning_report, tuning_sentences, tuning_tables
 from .system import closed_loop_response
 from .verdict import judge_loop
 
-__all__ = ["TUNABLE", "Candidate", "Certificate", "FrontPoint", "Tuning", "contact_bandwidth", "certify", "tune"]
+__all__ = ["TUNABLE", "Candidate", "Certificate", "FrontPoint", "Tuning", "contact_bandwidth", "certify", "tune",
+           "uncertainty_design"]
 
 #: Rig values tune varies, with their units (``kv``: a cascade's only).
 TUNABLE = {"kp": "N m s/rad", "ti": "s", "speed_filter": "s", "kv": "1/s"}
@@ -215,7 +216,7 @@ class _Settings:
 
 
 def _box_rigs(settings):
-    """The nominal rig, then the rig at each of the box's points (:func:`_design`)."""
+    """The nominal rig, then the rig at each of the box's points (:func:`uncertainty_design`)."""
     return (settings.rig, *(settings.rig.with_values(**dict(point)) for point in settings.points))
 
 
@@ -335,25 +336,44 @@ def certify(rig, model=None, tolerance=0.0, refinement=1):
     return Certificate((), contact_bandwidth(rig, name), verdict, bool(quiet or within), float(amplitude))
 
 
-def _certify_cell(settings, values, kept=None):
+def _certify_cell(settings, values, kept=None, executor=None, first=()):
     """The certificate of one tuning over the box: the nominal rig's, certified only if it holds at every
-    point of the box too (checked in order until one fails, :attr:`Certificate.failed_at`)."""
+    point of the box too (:attr:`Certificate.failed_at`: the first where it fails).
+
+    The nominal rig is certified first, then the box points ``first`` (indices from 1: where other tunings
+    failed lately) one by one, then the others: one by one until one fails, or on ``executor`` together.
+    """
     values = tuple(float(v) for v in values)
     nominal = _certify_at(settings, settings.rig, ("certify", *values), values, kept)
     if not settings.points:
         return nominal
-    box = {name: value for point in settings.points for name, value in point}
-    here = tuple((name, getattr(_owner(settings.rig, name), name)) for name in box)
     if not nominal.certified:
-        return dataclasses.replace(nominal, failed_at=here)
-    amplitude = nominal.amplitude
-    for index, point in enumerate(settings.points, 1):
-        other = _certify_at(settings, settings.rig.with_values(**dict(point)), ("certify", "box", index, *values),
-                            values, kept)
-        amplitude = max(amplitude, other.amplitude)
-        if not other.certified:
-            return dataclasses.replace(nominal, certified=False, amplitude=amplitude, failed_at=point)
+        box = {name: value for point in settings.points for name, value in point}
+        return dataclasses.replace(nominal, failed_at=tuple((name, getattr(_owner(settings.rig, name), name))
+                                                            for name in box))
+    rest = [index for index in range(1, len(settings.points) + 1) if index not in first]
+    one_by_one = [*first, *rest] if executor is None else list(first)
+    found = {}
+    for index in one_by_one:
+        found[index] = _certify_point(settings, values, index, kept)
+        if not found[index].certified:
+            break
+    if executor is not None and all(c.certified for c in found.values()):
+        found.update(zip(rest, run_cells(functools.partial(_certify_point, settings, values), rest,
+                                         executor=executor, checkpoint=kept,
+                                         keys=[("certify", "box", index, *values) for index in rest])))
+    amplitude = max([nominal.amplitude] + [c.amplitude for c in found.values()])
+    failed = [index for index in found if not found[index].certified]
+    if failed:
+        return dataclasses.replace(nominal, certified=False, amplitude=amplitude,
+                                   failed_at=settings.points[failed[0] - 1])
     return dataclasses.replace(nominal, amplitude=amplitude)
+
+
+def _certify_point(settings, values, index, kept=None):
+    """The certificate of ``values`` at the box's point ``index`` (from 1)."""
+    return _certify_at(settings, settings.rig.with_values(**dict(settings.points[index - 1])),
+                       ("certify", "box", index, *values), values, kept)
 
 
 def _owner(rig, name):
@@ -883,6 +903,39 @@ def _boxed(rig, uncertainty):
     return dataclasses.replace(rig, uncertainty=rig_from_dict(data, source="tune: uncertainty").uncertainty)
 
 
+def uncertainty_design(rig, vary, *, model=None):
+    """The rigs of the box ``rig.uncertainty`` that :func:`tune` certifies beside the nominal one.
+
+    Parameters
+    ----------
+    rig : Rig
+        With its ``[uncertainty]`` table (:attr:`~backlash_df.config.Rig.uncertainty`).
+    vary : dict or sequence of str
+        The varied values (their nominal values rank the influence of more than three
+        uncertain values).
+    model : str, optional
+        Torque law (default the rig's).
+
+    Returns
+    -------
+    tuple of dict
+        Each point's uncertain values by name, absolute (the rig file's units): every
+        vertex for up to three values (values whose low equals their high left out),
+        beyond three the 8 rigs of a two-level fractional design (the contract page,
+        ``tune --json``).
+
+    Examples
+    --------
+    >>> import backlash_df as bd
+    >>> rig = bd.rig_from_dict({"plant": {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0,
+    ...     "half_gap": 0.05}, "controller": {"kp": 30.0, "ti": 0.5},
+    ...     "uncertainty": {"load_inertia": [5.0, 6.0], "half_gap": [0.04, 0.06]}})
+    >>> uncertainty_design(rig, {"kp": (1.0, 100.0)})[-1]
+    {'load_inertia': 6.0, 'half_gap': 0.06}
+    """
+    return tuple(dict(point) for point in _design(rig, tuple(vary), rig.make_model(model).name))
+
+
 def _design(rig, names, model):
     """The points of the rig's uncertainty box certified beside the nominal rig: ``((name, value), ...)`` each.
 
@@ -948,7 +1001,7 @@ def _search(settings, ranges, executor, progress, kept):
     seconds["refinement"] = time.perf_counter() - start
 
     start = time.perf_counter()
-    search = _Certifier(settings, kept, report)
+    search = _Certifier(settings, kept, report, executor)
     search.hunting += [(h.values, "DF boundary") for _, h in refined] + [(c.values, "DF screen")
                                                                           for c in screen if c.hunts]
     candidates = sorted([c for c in list(screen) + list(boundary) if not c.hunts and math.isfinite(c.bandwidth)],
@@ -1025,11 +1078,13 @@ def _box_answer(search, best, feasible):
 
 class _Certifier:
     """The certificates of one search: each tuning certified once (the checkpoint's, else this run's), every one
-    tried kept in order, the hunting tunings found, and the scaled tunings of the gain margin."""
+    tried kept in order, the hunting tunings found, and the scaled tunings of the gain margin.  Over a box, the
+    points where certificates failed are tried first (the latest first), the others on ``executor``."""
 
-    def __init__(self, settings, kept, report):
-        self.settings, self.kept, self.report = settings, kept, report
+    def __init__(self, settings, kept, report, executor=None):
+        self.settings, self.kept, self.report, self.executor = settings, kept, report, executor
         self.tried, self.hunting, self._done, self.counts = [], [], {}, collections.Counter()
+        self._failing = []  # box point indices (from 1) where certificates failed, the latest first
 
     def certify(self, values, stage):
         """The certificate of ``values`` (a new one is reported to ``stage``, unless None, and kept in
@@ -1039,7 +1094,10 @@ class _Certifier:
             if stage is not None:
                 self.report(stage, self.counts[stage], None)
                 self.counts[stage] += 1
-            certificate = _certify_cell(self.settings, values, self.kept)
+            certificate = _certify_cell(self.settings, values, self.kept, self.executor, tuple(self._failing))
+            if certificate.failed_at in self.settings.points:
+                index = self.settings.points.index(certificate.failed_at) + 1
+                self._failing = [index] + [i for i in self._failing if i != index]
             self._done[values] = certificate
             self.tried.append(certificate)
             if not certificate.certified:

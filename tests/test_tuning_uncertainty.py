@@ -18,7 +18,7 @@ import backlash_df as bd
 import backlash_df.tuning as tuning_module
 from backlash_df.checkpoint import Checkpoint
 from backlash_df.cli import main
-from backlash_df.tuning import _design
+from backlash_df.tuning import uncertainty_design
 from conftest import EXAMPLES
 from test_tuning import LAG, blocks_bandwidth, settles
 
@@ -98,7 +98,7 @@ def test_the_rig_s_own_table_is_the_default_and_an_empty_box_the_nominal_tune(tu
     """The [uncertainty] table read from a rig file gives the box; ``{}`` ignores it (the same answer as a rig
     without one)."""
     boxed = bd.rig_from_dict({**LAG.to_dict(), "uncertainty": {name: list(ends) for name, ends in BOX.items()}})
-    assert _design(boxed, ("kp",), "phase-plane") == tuple(tuple(point.items()) for point in corners(BOX)[:4])
+    assert uncertainty_design(boxed, VARY) == tuple(corners(BOX)[:4])
     plain = bd.tune(boxed, VARY, gain_margin=1, uncertainty={})
     assert plain.best.values == tunings["nominal"].best.values and plain.uncertainty == {}
     assert plain.to_dict()["uncertainty"] is None
@@ -110,10 +110,10 @@ def test_beyond_three_values_the_design_is_eight_balanced_orthogonal_runs():
     box = {"load_inertia": (5.0, 6.5), "stiffness": (5500.0, 7000.0), "damping": (8.0, 12.0),
            "motor_inertia": (0.38, 0.42), "half_gap": (0.04, 0.06)}
     rig = bd.rig_from_dict({**LAG.to_dict(), "uncertainty": {name: list(ends) for name, ends in box.items()}})
-    points = _design(rig, ("kp",), "phase-plane")
-    assert len(points) == 8 and len(set(points)) == 8
-    signs = np.array([[1 if value == box[name][1] else -1 for name, value in point] for point in points])
-    assert all(value in box[name] for point in points for name, value in point)
+    points = uncertainty_design(rig, VARY)
+    assert len(points) == 8 and len({tuple(point.items()) for point in points}) == 8
+    signs = np.array([[1 if point[name] == box[name][1] else -1 for name in box] for point in points])
+    assert all(value in box[name] for point in points for name, value in point.items())
     assert np.all(signs.sum(axis=0) == 0)
     gram = signs.T @ signs
     assert np.array_equal(gram, 8 * np.eye(5, dtype=int))
