@@ -452,7 +452,8 @@ class Tuning:
     certificates : tuple of Certificate
         Every certificate tried, in order.
     seconds : dict
-        Wall time of ``screening``, ``refinement``, ``certification`` and (the gain margin held) ``plateau``, s.
+        Wall time of ``screening``, ``refinement``, ``certification``, (the gain margin held) ``plateau`` and
+        (over an uncertainty box) ``binding``, s.
     on_bound : tuple of str
         The varied values at a bound of their range in the answer (its true best may lie beyond).
     plateau : dict
@@ -1032,7 +1033,11 @@ def _search(settings, ranges, executor, progress, kept):
     if not feasible:  # the least hunting tuning among those simulated (module docs)
         best, simulated = _least_hunting(settings, screen, search, executor, kept, progress)
     achieved = _achieved(search, best, met) if feasible else {}
-    box = _box_answer(search, best, feasible) if settings.points else {}
+    box = {}
+    if settings.points:
+        start = time.perf_counter()
+        box = _box_answer(search, best, feasible)
+        seconds["binding"] = time.perf_counter() - start
     front = _front(settings, screen, best, feasible, executor, kept, progress, simulated)
     on_bound = tuple(n for n, v, (low, high) in zip(names, best.values, ranges)
                      if math.isclose(v, low, rel_tol=1e-9) or math.isclose(v, high, rel_tol=1e-9))
