@@ -8,6 +8,7 @@ the binding point by simulating the next faster tuning there; bad input is one l
 
 import concurrent.futures
 import itertools
+import json
 import math
 
 import numpy as np
@@ -102,6 +103,27 @@ def test_the_rig_s_own_table_is_the_default_and_an_empty_box_the_nominal_tune(tu
     plain = bd.tune(boxed, VARY, gain_margin=1, uncertainty={})
     assert plain.best.values == tunings["nominal"].best.values and plain.uncertainty == {}
     assert plain.to_dict()["uncertainty"] is None
+
+
+@pytest.mark.xdist_group("tune-robust")
+def test_the_command_line_takes_the_rig_file_s_table_and_nominal_ignores_it(tunings, tmp_path):
+    """A rig file with the box as its [uncertainty] table: ``tune`` writes the robust tuning's JSON, ``--nominal``
+    the nominal one's."""
+    path = tmp_path / "boxed.toml"
+    bd.write_rig(bd.rig_from_dict({**LAG.to_dict(), "uncertainty": {name: list(ends) for name, ends in BOX.items()}}),
+                 path)
+    for options, expected in (([], tunings["robust"]), (["--nominal"], tunings["nominal"])):
+        out = tmp_path / "tune.json"
+        result = CliRunner().invoke(main, ["tune", str(path), "--vary", "kp", "20,400", "--gain-margin", "1",
+                                           "--json", str(out), *options])
+        assert result.exit_code == 0, result.output
+        box_lines = [line for line in result.output.splitlines() if line.startswith("uncertainty:")]
+        assert box_lines == [line for line in expected.sentences() if line.startswith("uncertainty:")]
+        assert bool(box_lines) == (not options)
+        written, wanted = json.loads(out.read_text()), json.loads(json.dumps(expected.to_dict()))
+        for key in ("seconds", "rig"):
+            written.pop(key), wanted.pop(key)
+        assert written == wanted
 
 
 def test_beyond_three_values_the_design_is_eight_balanced_orthogonal_runs():
