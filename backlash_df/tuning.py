@@ -32,9 +32,16 @@ values can move toward the nearest hunting tuning found; the **front** is the
 best bandwidth for each tolerance from 0 up to the largest cycle in range.  Where
 no tuning in range is certified the answer says so and gives the tuning of the
 smallest hunting amplitude.
+
+**Uncertainty.**  Over a box of rig values (``uncertainty``, or the rig's
+``[uncertainty]`` table), a tuning counts as certified only if its certificate, gain
+margin included, holds at the nominal rig and at every point of the box's design
+(:func:`uncertainty_design`), and the DF screen clears a cell only if it clears it at all of them;
+the bandwidth is the nominal rig's.  The answer names the binding point: where the
+nearest faster tuning fails its certificate.
 """
 
-import collections
+import collections.abc
 import dataclasses
 import functools
 import itertools
@@ -45,6 +52,7 @@ import numpy as np
 
 from ._json import json_ready
 from .checkpoint import describe, opened, run_cells
+from .config import Uncertainty, rig_from_dict
 from .disturbances import shaft_mode
 from .equilibria import linear_stability
 from .limit_cycles import predict_limit_cycles, verify_limit_cycles
@@ -55,7 +63,8 @@ from .render.tuning import tuning_report, tuning_sentences, tuning_tables
 from .system import closed_loop_response
 from .verdict import judge_loop
 
-__all__ = ["TUNABLE", "Candidate", "Certificate", "FrontPoint", "Tuning", "contact_bandwidth", "certify", "tune"]
+__all__ = ["TUNABLE", "Candidate", "Certificate", "FrontPoint", "Tuning", "contact_bandwidth", "certify", "tune",
+           "uncertainty_design"]
 
 #: Rig values tune varies, with their units (``kv``: a cascade's only).
 TUNABLE = {"kp": "N m s/rad", "ti": "s", "speed_filter": "s", "kv": "1/s"}
@@ -68,6 +77,10 @@ _PLATEAU = 0.01  # a bandwidth gaining less than this (relative) over the last f
 _KNEE_BISECTIONS = 7  # log bisections of the knee: to a factor 2**(1/128), 0.5 %
 #: The direction of gentler control of each value: a smaller gain, a slower integral action or speed filter.
 _GENTLER = {"kp": -1.0, "kv": -1.0, "ti": 1.0, "speed_filter": 1.0}
+_VERTICES = 3  # up to this many uncertain values: every vertex of the box; beyond, a fractional design
+#: The signs of the uncertain values beyond the three most influential, from those three's signs (s1, s2, s3):
+#: the generators of a two-level fractional design of 8 runs (cycled beyond seven values).
+_GENERATORS = ((0, 1, 2), (0, 1), (0, 2), (1, 2))
 
 
 # --------------------------------------------------------------------------- the objective
@@ -199,11 +212,28 @@ class _Settings:
     model: str
     tolerance: float
     gain_margin: float = 1.0
+    points: tuple = ()  # the uncertainty box's points besides the nominal rig: ((name, value), ...) each
+
+
+def _box_rigs(settings):
+    """The nominal rig, then the rig at each of the box's points (:func:`uncertainty_design`)."""
+    return (settings.rig, *(settings.rig.with_values(**dict(point)) for point in settings.points))
 
 
 def _screen_cell(settings, values):
-    """The DF's view of one tuning: bandwidth, largest stable cycle, near miss."""
-    tuned = _tuned(settings.rig, settings.names, values)
+    """The DF's view of one tuning, the worst over the box: the nominal bandwidth, the largest stable cycle and
+    the closest near miss at any of its rigs; it hunts if it hunts at any."""
+    cells = [_screen_one(settings, rig, values) for rig in _box_rigs(settings)]
+    if len(cells) == 1:
+        return cells[0]
+    misses = [c.near_miss for c in cells if math.isfinite(c.near_miss)]
+    return Candidate(cells[0].values, cells[0].bandwidth, max(c.amplitude for c in cells),
+                     min(misses, default=math.nan), any(c.hunts for c in cells))
+
+
+def _screen_one(settings, rig, values):
+    """The DF's view of one tuning of ``rig``: bandwidth, largest stable cycle, near miss."""
+    tuned = _tuned(rig, settings.names, values)
     bandwidth = contact_bandwidth(tuned, settings.model)
     prediction = predict_limit_cycles(tuned, settings.model, grid=_DF_GRID)
     stable = prediction.stable_cycles
@@ -242,7 +272,11 @@ class Certificate:
         friction shooting is not tried (the orbits do not model it yet: the verdict's
         ``orbit_note`` says so), and (1) and (3) decide.
     amplitude : float
-        The hunting amplitude A of theta_d the simulations reached, rad; 0 where they settle.
+        The hunting amplitude A of theta_d the simulations reached, rad; 0 where they settle (over an
+        uncertainty box: the largest at the rigs certified).
+    failed_at : tuple of (str, float)
+        Over an uncertainty box (:func:`tune`), the uncertain values of the first of its rigs (the
+        nominal one first) where the certificate fails; empty where it holds or there is no box.
     """
 
     values: tuple
@@ -250,6 +284,7 @@ class Certificate:
     verdict: object
     certified: bool
     amplitude: float
+    failed_at: tuple = ()
 
     def __repr__(self):
         word = "certified" if self.certified else "not certified"
@@ -303,13 +338,58 @@ def certify(rig, model=None, tolerance=0.0, refinement=1):
     return Certificate((), contact_bandwidth(rig, name), verdict, bool(quiet or within), float(amplitude))
 
 
-def _certify_cell(settings, values, kept=None):
-    """The certificate of one tuning; taken from the checkpoint ``kept`` if it holds it, added to it if not."""
-    key = ("certify", *(float(v) for v in values))
+def _certify_cell(settings, values, kept=None, executor=None, first=()):
+    """The certificate of one tuning over the box: the nominal rig's, certified only if it holds at every
+    point of the box too (:attr:`Certificate.failed_at`: the first where it fails).
+
+    The nominal rig is certified first, then the box points ``first`` (indices from 1: where other tunings
+    failed lately) one by one, then the others: one by one until one fails, or on ``executor`` together.
+    """
+    values = tuple(float(v) for v in values)
+    nominal = _certify_at(settings, settings.rig, ("certify", *values), values, kept)
+    if not settings.points:
+        return nominal
+    if not nominal.certified:
+        box = {name: value for point in settings.points for name, value in point}
+        return dataclasses.replace(nominal, failed_at=tuple((name, getattr(_owner(settings.rig, name), name))
+                                                            for name in box))
+    rest = [index for index in range(1, len(settings.points) + 1) if index not in first]
+    one_by_one = [*first, *rest] if executor is None else list(first)
+    found = {}
+    for index in one_by_one:
+        found[index] = _certify_point(settings, values, index, kept)
+        if not found[index].certified:
+            break
+    if executor is not None and all(c.certified for c in found.values()):
+        found.update(zip(rest, run_cells(functools.partial(_certify_point, settings, values), rest,
+                                         executor=executor, checkpoint=kept,
+                                         keys=[("certify", "box", index, *values) for index in rest])))
+    amplitude = max([nominal.amplitude] + [c.amplitude for c in found.values()])
+    failed = [index for index in found if not found[index].certified]
+    if failed:
+        return dataclasses.replace(nominal, certified=False, amplitude=amplitude,
+                                   failed_at=settings.points[failed[0] - 1])
+    return dataclasses.replace(nominal, amplitude=amplitude)
+
+
+def _certify_point(settings, values, index, kept=None):
+    """The certificate of ``values`` at the box's point ``index`` (from 1)."""
+    return _certify_at(settings, settings.rig.with_values(**dict(settings.points[index - 1])),
+                       ("certify", "box", index, *values), values, kept)
+
+
+def _owner(rig, name):
+    """The table of ``rig`` holding the uncertain value ``name`` (``[plant]``, ``[friction]`` or ``[load]``)."""
+    return next(table for table in (rig.plant, rig.friction, rig.load) if hasattr(table, name))
+
+
+def _certify_at(settings, rig, key, values, kept):
+    """The certificate of ``values`` on ``rig``; taken from the checkpoint ``kept`` if it holds ``key``, added to
+    it if not."""
     if kept is not None and key in kept:
         return kept[key]
-    certificate = certify(_tuned(settings.rig, settings.names, values), settings.model, settings.tolerance)
-    certificate = dataclasses.replace(certificate, values=tuple(float(v) for v in values))
+    certificate = certify(_tuned(rig, settings.names, values), settings.model, settings.tolerance)
+    certificate = dataclasses.replace(certificate, values=values)
     if kept is not None:
         kept.add(key, certificate)
     return certificate
@@ -374,7 +454,8 @@ class Tuning:
     certificates : tuple of Certificate
         Every certificate tried, in order.
     seconds : dict
-        Wall time of ``screening``, ``refinement``, ``certification`` and (the gain margin held) ``plateau``, s.
+        Wall time of ``screening``, ``refinement``, ``certification``, (the gain margin held) ``plateau`` and
+        (over an uncertainty box) ``binding``, s.
     on_bound : tuple of str
         The varied values at a bound of their range in the answer (its true best may lie beyond).
     plateau : dict
@@ -394,6 +475,12 @@ class Tuning:
         the answer is the first.  Empty where a tuning is certified.
     source : str
         The rig's file.
+    uncertainty : dict
+        Over an uncertainty box (:func:`tune`): ``{"box": {name: (low, high)}, "points": n,
+        "binding": {name: value} or None, "worst_bandwidth": rad/s}``: the box, the number of
+        rigs certified (the nominal one included), the box point where the nearest faster tuning
+        that fails its certificate fails (None where none was found), and the answer's smallest
+        bandwidth over those rigs; empty without a box.
     """
 
     names: tuple
@@ -414,6 +501,7 @@ class Tuning:
     gain_margin: dict = dataclasses.field(default_factory=dict)
     simulated: tuple = ()
     source: str = ""
+    uncertainty: dict = dataclasses.field(default_factory=dict)
 
     def values(self, point=None):
         """The varied values of ``point`` (default the best tuning) by name."""
@@ -452,6 +540,9 @@ class Tuning:
                          "simulated": [{"values": dict(zip(self.names, values)), "amplitude": amplitude}
                                        for values, amplitude in self.simulated]},
             "seconds": self.seconds,
+            "uncertainty": {"box": {name: list(box) for name, box in self.uncertainty["box"].items()},
+                            "points": self.uncertainty["points"], "binding": self.uncertainty["binding"],
+                            "worst_bandwidth": self.uncertainty["worst_bandwidth"]} if self.uncertainty else None,
         })
 
     def plot(self, ax=None):
@@ -739,7 +830,8 @@ def _simulated_amplitude(settings, values):
     return max(found) if found else max(c.amplitude for c in prediction.stable_cycles)
 
 
-def tune(rig, vary, *, tolerance=0.0, gain_margin=1.25, model=None, executor=None, progress=None, checkpoint=None):
+def tune(rig, vary, *, tolerance=0.0, gain_margin=1.25, uncertainty=None, model=None, executor=None, progress=None,
+         checkpoint=None):
     """The tuning of largest contact-loop bandwidth whose verdict is certified ``no oscillation`` (module docs).
 
     Parameters
@@ -756,6 +848,17 @@ def tune(rig, vary, *, tolerance=0.0, gain_margin=1.25, model=None, executor=Non
         ``g`` or ``1/g`` (each alone and all combinations: ``3**n - 1`` scaled
         tunings, certified as the answer is, out of the range too).  Default 1.25
         (a gain 25 % off); 1 checks no scaled tuning.
+    uncertainty : dict of str to (float, float), optional
+        A box of rig values the real drive may have: any numeric ``[plant]``,
+        ``[friction]`` or ``[load]`` key and its absolute ``(low, high)``, holding the
+        rig's value (``{"load_inertia": (4.0, 8.0), "half_gap": (0.03, 0.1)}``).
+        Default: the rig's ``[uncertainty]`` table; ``{}``: none.  A tuning is
+        certified only if it is certified (gain margin included) at the nominal rig
+        and at every point of the box's design (every vertex for up to three values;
+        beyond, a two-level fractional design of 8 rigs: the contract page, ``tune --json``),
+        and the DF screen clears a cell only if it clears it at all
+        of them.  The objective stays the nominal rig's bandwidth; the least hunting
+        tuning (none certified) and the front are the nominal rig's.
     model : str, optional
         Torque law (default the rig's).
     executor : concurrent.futures.Executor, optional
@@ -763,7 +866,8 @@ def tune(rig, vary, *, tolerance=0.0, gain_margin=1.25, model=None, executor=Non
     progress : callable, optional
         ``progress(stage, done, total)`` (the package's one protocol) as the stages
         ``screening``, ``refinement``, ``certification``, ``plateau``, ``least hunting``
-        (none certified), ``gain margin`` and ``front`` advance.
+        (none certified), ``gain margin``, ``binding`` (a box: certificates of the nearest
+        faster tuning) and ``front`` advance.
     checkpoint : str, Path or Checkpoint, optional
         Keep every screened cell, boundary bisection, certificate and front point
         as it finishes (:class:`~backlash_df.checkpoint.Checkpoint`; a path: a new
@@ -778,16 +882,107 @@ def tune(rig, vary, *, tolerance=0.0, gain_margin=1.25, model=None, executor=Non
     ------
     ValueError
         An unknown or non-varying value, a range with low >= high or not positive,
-        a tolerance < 0, a gain margin < 1 or not finite: one line; a checkpoint that exists (without ``resume``) or
-        belongs to another run.
+        a tolerance < 0, a gain margin < 1 or not finite, an uncertain value that is unknown or not
+        numeric, with low > high or a box that excludes the rig's value: one line; a checkpoint that exists
+        (without ``resume``) or belongs to another run.
     """
     names, ranges = _validated(rig, vary, tolerance)
     if not (isinstance(gain_margin, (int, float)) and math.isfinite(gain_margin) and gain_margin >= 1.0):
         raise ValueError(f"tune: the gain margin is a factor >= 1 (1: none); got {gain_margin!r}")
     name = rig.make_model(model).name
-    settings = _Settings(rig, names, name, float(tolerance), float(gain_margin))
+    rig = _boxed(rig, uncertainty)
+    settings = _Settings(rig, names, name, float(tolerance), float(gain_margin), _design(rig, names, name))
     with opened(checkpoint, "tune", {"settings": describe(settings, omit={"source"}), "ranges": ranges}) as kept:
         return _search(settings, ranges, executor, progress, kept)
+
+
+def _boxed(rig, uncertainty):
+    """``rig`` with the box ``uncertainty`` (None: its own) as its ``[uncertainty]`` table, checked as the rig
+    file's is (a one-line ``ValueError``)."""
+    if uncertainty is None:
+        return rig
+    if not isinstance(uncertainty, collections.abc.Mapping):
+        raise ValueError(f"tune: uncertainty is a mapping name -> (low, high), e.g. {{'load_inertia': (4.0, 8.0)}}; "
+                         f"got {uncertainty!r}")
+    data = {**rig.to_dict(), "uncertainty": dict(uncertainty)}
+    return dataclasses.replace(rig, uncertainty=rig_from_dict(data, source="tune: uncertainty").uncertainty)
+
+
+def uncertainty_design(rig, vary, *, model=None):
+    """The rigs of the box ``rig.uncertainty`` that :func:`tune` certifies beside the nominal one.
+
+    Parameters
+    ----------
+    rig : Rig
+        With its ``[uncertainty]`` table (:attr:`~backlash_df.config.Rig.uncertainty`).
+    vary : dict or sequence of str
+        The varied values (their nominal values rank the influence of more than three
+        uncertain values).
+    model : str, optional
+        Torque law (default the rig's).
+
+    Returns
+    -------
+    tuple of dict
+        Each point's uncertain values by name, absolute (the rig file's units): every
+        vertex for up to three values (values whose low equals their high left out),
+        beyond three the 8 rigs of a two-level fractional design (the contract page,
+        ``tune --json``).
+
+    Examples
+    --------
+    >>> import backlash_df as bd
+    >>> rig = bd.rig_from_dict({"plant": {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0,
+    ...     "half_gap": 0.05}, "controller": {"kp": 30.0, "ti": 0.5},
+    ...     "uncertainty": {"load_inertia": [5.0, 6.0], "half_gap": [0.04, 0.06]}})
+    >>> uncertainty_design(rig, {"kp": (1.0, 100.0)})[-1]
+    {'load_inertia': 6.0, 'half_gap': 0.06}
+    """
+    return tuple(dict(point) for point in _design(rig, tuple(vary), rig.make_model(model).name))
+
+
+def _design(rig, names, model):
+    """The points of the rig's uncertainty box certified beside the nominal rig: ``((name, value), ...)`` each.
+
+    Up to three uncertain values (of ``low < high``): every vertex of the box, ``2**k``
+    points.  Beyond three: 8 points, two levels each: the vertices of the three most
+    influential values, every other value at its low or high end by the sign of a
+    generator of those three's signs (:data:`_GENERATORS`: ``s1 s2 s3``, ``s1 s2``,
+    ``s1 s3``, ``s2 s3``, cycled), a two-level fractional design.  A value's influence:
+    the change of the nominal tuning's DF view from its low to its high end, the others
+    nominal: ``|ln(omega_b(high) / omega_b(low))|`` plus the change of the closest
+    approach of the loci (0 where they meet), an unstable contact loop counting as
+    infinite; ties by the table's order.
+    """
+    box = {name: (low, high) for name, (low, high) in rig.uncertainty.items() if low < high}
+    if not box:
+        return ()
+    if len(box) <= _VERTICES:
+        return tuple(tuple(zip(box, corner)) for corner in itertools.product(*box.values()))
+    settings = _Settings(dataclasses.replace(rig, uncertainty=Uncertainty()), names, model, 0.0)
+    nominal = tuple(getattr(rig.controller, name) for name in names)
+
+    def view(name, value):
+        cell = _screen_one(settings, settings.rig.with_values(**{name: value}), nominal)
+        return cell.bandwidth, (cell.near_miss if math.isfinite(cell.near_miss) else 0.0)
+
+    def influence(name):
+        (low_band, low_miss), (high_band, high_miss) = (view(name, end) for end in box[name])
+        bands = abs(math.log(high_band / low_band)) if math.isfinite(low_band * high_band) and low_band * high_band > 0 \
+            else math.inf
+        return bands + abs(high_miss - low_miss)
+
+    order = sorted(box, key=lambda name: -influence(name))
+    first, rest = order[:_VERTICES], order[_VERTICES:]
+    points = []
+    for signs in itertools.product((0, 1), repeat=_VERTICES):
+        point = {name: box[name][sign] for name, sign in zip(first, signs)}
+        for index, name in enumerate(rest):
+            lows = sum(1 - signs[i] for i in _GENERATORS[index % len(_GENERATORS)])
+            sign = 1 if lows % 2 == 0 else 0  # the product of the signs (low -1, high +1)
+            point[name] = box[name][sign]
+        points.append(tuple((name, point[name]) for name in box))
+    return tuple(points)
 
 
 def _search(settings, ranges, executor, progress, kept):
@@ -811,7 +1006,7 @@ def _search(settings, ranges, executor, progress, kept):
     seconds["refinement"] = time.perf_counter() - start
 
     start = time.perf_counter()
-    search = _Certifier(settings, kept, report)
+    search = _Certifier(settings, kept, report, executor)
     search.hunting += [(h.values, "DF boundary") for _, h in refined] + [(c.values, "DF screen")
                                                                           for c in screen if c.hunts]
     candidates = sorted([c for c in list(screen) + list(boundary) if not c.hunts and math.isfinite(c.bandwidth)],
@@ -842,6 +1037,11 @@ def _search(settings, ranges, executor, progress, kept):
     if not feasible:  # the least hunting tuning among those simulated (module docs)
         best, simulated = _least_hunting(settings, screen, search, executor, kept, progress)
     achieved = _achieved(search, best, met) if feasible else {}
+    box = {}
+    if settings.points:
+        start = time.perf_counter()
+        box = _box_answer(search, best, feasible)
+        seconds["binding"] = time.perf_counter() - start
     front = _front(settings, screen, best, feasible, executor, kept, progress, simulated)
     on_bound = tuple(n for n, v, (low, high) in zip(names, best.values, ranges)
                      if math.isclose(v, low, rel_tol=1e-9) or math.isclose(v, high, rel_tol=1e-9))
@@ -849,16 +1049,51 @@ def _search(settings, ranges, executor, progress, kept):
                   _margin(names, best, search.hunting) if feasible else {}, front, tuple(screen), shape, boundary,
                   tuple(search.tried), seconds, on_bound, plateau,
                   {"requested": settings.gain_margin, "achieved": achieved} if feasible else {},
-                  tuple(sorted(simulated.items(), key=lambda item: item[1])), settings.rig.source)
+                  tuple(sorted(simulated.items(), key=lambda item: item[1])), settings.rig.source, box)
+
+
+def _box_answer(search, best, feasible):
+    """:attr:`Tuning.uncertainty`: the box, its rigs, the binding point and the answer's worst bandwidth.
+
+    The binding point: where the nearest (log distance) faster tuning whose certificate
+    failed in the search fails it; where none failed a certificate, the faster tunings the
+    DF said hunt are certified (stage ``binding``), nearest first, until one fails (at
+    most three; None where none does).
+    """
+    settings = search.settings
+    binding = None
+    if feasible:
+        faster = [c for c in search.tried if not c.certified and c.failed_at
+                  and not c.bandwidth <= best.bandwidth]  # NaN: an unstable contact loop is faster than any
+        if faster:
+            nearest = min(faster, key=lambda c: (_log_distance(best.values, c.values), c.values))
+            binding = dict(nearest.failed_at)
+        else:
+            hunting = sorted({values for values, source in search.hunting if source.startswith("DF")},
+                             key=lambda values: (_log_distance(best.values, values), values))
+            hunting = [values for values in hunting if not contact_bandwidth(
+                _tuned(settings.rig, settings.names, values), settings.model) <= best.bandwidth]
+            for values in hunting[:3]:
+                certificate = search.certify(values, "binding")
+                if not certificate.certified:
+                    binding = dict(certificate.failed_at)
+                    break
+            search.finish("binding")
+    worst = min((contact_bandwidth(_tuned(rig, settings.names, best.values), settings.model)
+                 for rig in _box_rigs(settings)), key=lambda band: (not math.isnan(band), band))
+    return {"box": dict(settings.rig.uncertainty), "points": 1 + len(settings.points), "binding": binding,
+            "worst_bandwidth": worst}
 
 
 class _Certifier:
     """The certificates of one search: each tuning certified once (the checkpoint's, else this run's), every one
-    tried kept in order, the hunting tunings found, and the scaled tunings of the gain margin."""
+    tried kept in order, the hunting tunings found, and the scaled tunings of the gain margin.  Over a box, the
+    points where certificates failed are tried first (the latest first), the others on ``executor``."""
 
-    def __init__(self, settings, kept, report):
-        self.settings, self.kept, self.report = settings, kept, report
+    def __init__(self, settings, kept, report, executor=None):
+        self.settings, self.kept, self.report, self.executor = settings, kept, report, executor
         self.tried, self.hunting, self._done, self.counts = [], [], {}, collections.Counter()
+        self._failing = []  # box point indices (from 1) where certificates failed, the latest first
 
     def certify(self, values, stage):
         """The certificate of ``values`` (a new one is reported to ``stage``, unless None, and kept in
@@ -868,7 +1103,10 @@ class _Certifier:
             if stage is not None:
                 self.report(stage, self.counts[stage], None)
                 self.counts[stage] += 1
-            certificate = _certify_cell(self.settings, values, self.kept)
+            certificate = _certify_cell(self.settings, values, self.kept, self.executor, tuple(self._failing))
+            if certificate.failed_at in self.settings.points:
+                index = self.settings.points.index(certificate.failed_at) + 1
+                self._failing = [index] + [i for i in self._failing if i != index]
             self._done[values] = certificate
             self.tried.append(certificate)
             if not certificate.certified:

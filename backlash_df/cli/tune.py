@@ -28,6 +28,22 @@ def _ranges(ctx, param, values):
     return vary
 
 
+def _boxes(ctx, param, values):
+    """``--uncertain NAME LOW,HIGH`` (repeatable) as ``{name: (low, high)}``, or None where not given."""
+    if not values:
+        return None
+    boxes = {}
+    for name, text in values:
+        try:
+            low, high = (float(item) for item in text.split(","))
+        except ValueError:
+            raise click.BadParameter(f"{name} {text!r}: give LOW,HIGH (two numbers)") from None
+        if name in boxes:
+            raise click.BadParameter(f"{name} given twice")
+        boxes[name] = (low, high)
+    return boxes
+
+
 @click.command("tune")
 @click.argument("rig_file", type=click.Path(dir_okay=False))
 @click.option("--vary", "vary", nargs=2, multiple=True, required=True, metavar="NAME LOW,HIGH", callback=_ranges,
@@ -37,13 +53,17 @@ def _ranges(ctx, param, values):
 @click.option("--gain-margin", "gain_margin", type=float, default=1.25, show_default=True,
               help="Every varied value may be off by this factor (up or down) with the loop still certified; "
                    "1: none.")
+@click.option("--uncertain", "uncertain", nargs=2, multiple=True, metavar="NAME LOW,HIGH", callback=_boxes,
+              help="A rig value ([plant], [friction] or [load]) and the absolute range the drive's may lie in: "
+                   "certified at every vertex of the box (repeatable; replaces the rig's [uncertainty] table).")
+@click.option("--nominal", is_flag=True, help="Ignore the rig's [uncertainty] table: certify the nominal rig only.")
 @click.option("--model", "model_name", default=None, type=MODEL,
               help="Torque law certified (default: the rig's [model] backlash).")
 @executor_options
 @checkpoint_options
 @click.option("--json", "json_out", type=click.Path(dir_okay=False), help="Write the tuning as JSON.")
 @click.option("--report", "report_out", type=click.Path(dir_okay=False), help="Write a self-contained HTML report.")
-def tune_command(rig_file, vary, tolerance, gain_margin, model_name, workers, dask, scheduler, checkpoint_path, resume,
+def tune_command(rig_file, vary, tolerance, gain_margin, uncertain, nominal, model_name, workers, dask, scheduler, checkpoint_path, resume,
                  json_out, report_out):
     """The tuning of RIG_FILE with the largest bandwidth whose loop is certified not to hunt.
 
@@ -54,15 +74,21 @@ def tune_command(rig_file, vary, tolerance, gain_margin, model_name, workers, da
     certificate is kept in a checkpoint; after Ctrl-C, the same command with
     --resume computes only the others and finds the same tuning.
 
+    With an [uncertainty] table in RIG_FILE (or --uncertain), the tuning is certified
+    at every vertex of that box of rig values too.
+
     Example: backlash-df tune RIG --vary kp 1,1000 --vary ti 0.01,2
     """
+    if nominal and uncertain is not None:
+        raise click.UsageError("--nominal ignores the box that --uncertain gives: give one of them")
     outputs = Outputs({"--json": json_out, "--report": report_out})
     rig = load_rig(rig_file)
     checkpoint = checkpoint_for(outputs, "tune", checkpoint_path, resume)
     with contextlib.ExitStack() as stack:
         progress = stage_bars(stack, unit="tuning")
         with stopped_note(checkpoint, "cells"), executor_for(workers, dask, scheduler) as executor:
-            tuning = tune(rig, vary, tolerance=tolerance, gain_margin=gain_margin, model=model_name,
+            tuning = tune(rig, vary, tolerance=tolerance, gain_margin=gain_margin,
+                          uncertainty={} if nominal else uncertain, model=model_name,
                           executor=executor, progress=progress, checkpoint=checkpoint)
     for line in tuning.sentences():
         click.echo(line)

@@ -53,7 +53,7 @@ def tuning_sentences(tuning):
     if tuning.margin:
         lines.append(f"margin: {margin_text(tuning.margin)}")
     lines += [line for line in (gain_margin_text(tuning), plateau_text(tuning), bound_text(tuning),
-                                friction_text(tuning)) if line]
+                                uncertainty_text(tuning), friction_text(tuning)) if line]
     return lines
 
 
@@ -66,6 +66,24 @@ def friction_text(tuning):
         return ""
     return ("dry friction: the exact orbits do not model it yet, so each certificate rests on the describing "
             "functions (the friction's included) and the probes' simulations (stick and slip)")
+
+
+def uncertainty_text(tuning):
+    """Over an uncertainty box: how many values and rigs, the worst bandwidth, where the next faster tuning
+    hunts; "" without a box."""
+    box = tuning.uncertainty
+    if not box:
+        return ""
+    word = "certified" if tuning.feasible else "searched"
+    count = len(box["box"])
+    line = (f"uncertainty: {word} over the box of {count} value{'s' if count != 1 else ''} ({box['points']} rigs), "
+            f"worst bandwidth {box['worst_bandwidth']:.4g} rad/s")
+    if box["binding"] is not None:
+        at = ", ".join(f"{name} = {value:.4g}" for name, value in box["binding"].items())
+        line += f"; the next faster tuning hunts at {at}"
+    elif tuning.feasible:
+        line += "; no faster tuning found hunting"
+    return line
 
 
 def gain_margin_text(tuning):
@@ -142,7 +160,7 @@ def _answer_html(tuning):
               f"<b>{verdict.verdict}</b>: {html.escape(verdict.reason)}")
     if tuning.margin:
         answer += f"<br>Margin: {html.escape(margin_text(tuning.margin))}."
-    for line in (gain_margin_text(tuning), plateau_text(tuning), bound_text(tuning)):
+    for line in (gain_margin_text(tuning), plateau_text(tuning), bound_text(tuning), uncertainty_text(tuning)):
         if line:
             answer += f"<br>{html.escape(line[0].upper() + line[1:])}."
     return f'<div class="summary"><p>{answer}</p></div>'
