@@ -277,6 +277,12 @@ class Friction:
         """True if any friction is nonzero (a Stribeck speed alone is no friction)."""
         return any(getattr(self, f.name) != 0.0 for f in dataclasses.fields(self) if f.name != "stribeck_speed")
 
+    @property
+    def dry(self):
+        """The nonzero Coulomb and breakaway keys, in the table's order: the friction that sticks at rest."""
+        return tuple(name for name in ("coulomb_motor", "coulomb_load", "breakaway_motor", "breakaway_load")
+                     if getattr(self, name) != 0.0)
+
 
 class Uncertainty(collections.abc.Mapping):
     """The ``[uncertainty]`` table: rig value name -> ``(low, high)``, absolute, in the key's unit.
@@ -431,8 +437,7 @@ class Rig:
         if self.load.torque_offset != 0.0:
             raise RigError(f"{self.source}: [load] torque_offset = {self.load.torque_offset:g}: no analysis of the "
                            f"loop models a torque offset yet (it would be left out); remove the key or set it to 0")
-        dry = [name for name in ("coulomb_motor", "coulomb_load", "breakaway_motor", "breakaway_load")
-               if getattr(self.friction, name) != 0.0]
+        dry = self.friction.dry
         if dry and not dry_friction:
             raise RigError(f"{self.source}: [friction] {dry[0]} = {getattr(self.friction, dry[0]):g}: the exact "
                            f"orbits, continue and map do not model dry friction yet (it would be left out); "

@@ -428,8 +428,8 @@ class _Builder:
     def _sticking(self):
         """The dry friction of the sides that have one (:class:`~backlash_df.system.Sticking`), None without."""
         friction, plant = self.friction, self.plant
-        sides = [side for side in ("motor", "load") if friction is not None and (
-            getattr(friction, f"coulomb_{side}") > 0.0 or getattr(friction, f"breakaway_{side}") > 0.0)]
+        dry = () if friction is None else friction.dry
+        sides = [side for side in ("motor", "load") if any(key.endswith(f"_{side}") for key in dry)]
         if not sides:
             return None
         inertia = {"motor": plant.motor_inertia, "load": plant.load_inertia}

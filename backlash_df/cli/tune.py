@@ -30,18 +30,7 @@ def _ranges(ctx, param, values):
 
 def _boxes(ctx, param, values):
     """``--uncertain NAME LOW,HIGH`` (repeatable) as ``{name: (low, high)}``, or None where not given."""
-    if not values:
-        return None
-    boxes = {}
-    for name, text in values:
-        try:
-            low, high = (float(item) for item in text.split(","))
-        except ValueError:
-            raise click.BadParameter(f"{name} {text!r}: give LOW,HIGH (two numbers)") from None
-        if name in boxes:
-            raise click.BadParameter(f"{name} given twice")
-        boxes[name] = (low, high)
-    return boxes
+    return _ranges(ctx, param, values) if values else None
 
 
 @click.command("tune")

@@ -60,9 +60,7 @@ def tuning_sentences(tuning):
 def friction_text(tuning):
     """What a certificate of a rig with dry friction rests on, or "" without dry friction."""
     prediction = tuning.best.verdict.prediction
-    friction = None if prediction is None or prediction.rig is None else prediction.rig.friction
-    if friction is None or not any((friction.coulomb_motor, friction.coulomb_load, friction.breakaway_motor,
-                                    friction.breakaway_load)):
+    if prediction is None or prediction.rig is None or not prediction.rig.friction.dry:
         return ""
     return ("dry friction: the exact orbits do not model it yet, so each certificate rests on the describing "
             "functions (the friction's included) and the probes' simulations (stick and slip)")
