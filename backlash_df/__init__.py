@@ -39,6 +39,8 @@ _EXPORTS = {
     "continuation": ["Branch", "continue_limit_cycles"],
     "reproduce": ["TableOne", "TorqueComparison", "compare_torques", "integrated_torque", "table1"],
     "identify": ["Diagnosis", "Measurements", "diagnose", "load_measurements"],
+    "elements": ["DeadZone", "Play", "Relay", "Saturation"],
+    "lure": ["LureLoop", "LureOrbit", "LureSimulation", "lure_loop"],
 }
 _lazy_getattr, __dir__, _ = _lazy.attach(
     __name__, submod_attrs=_EXPORTS,
@@ -117,4 +119,12 @@ __all__ = [
     "diagnose",
     "Diagnosis",
     "ResultPlot",
+    "lure_loop",
+    "LureLoop",
+    "LureOrbit",
+    "LureSimulation",
+    "Saturation",
+    "DeadZone",
+    "Relay",
+    "Play",
 ]

@@ -219,6 +219,10 @@ class LimitCyclePrediction:
         the side through the cycle (:class:`FrictionSlaving` has no fixed point): the
         describing function of a sliding side does not hold there, so they are not
         ``cycles`` and no later stage takes them as evidence.
+    amplitude_unit, linear_name, linear_unit : str
+        How plots and text name the amplitude's unit and the linear part: ``"rad"``,
+        ``"G"``, ``"rad/(N m)"`` for a drive; ``""``, ``"H"``, ``""`` for a user's
+        Lur'e loop (:mod:`backlash_df.lure`), whose units are the user's.
     """
 
     model: str
@@ -235,6 +239,9 @@ class LimitCyclePrediction:
     rig: object = dataclasses.field(repr=False, default=None)
     user_linear: object = dataclasses.field(repr=False, default=None)
     void_cycles: tuple = ()
+    amplitude_unit: str = "rad"
+    linear_name: str = "G"
+    linear_unit: str = "rad/(N m)"
 
     def loop(self, rig=None, linear=None):
         """``(rig, law, user_linear)``: what a later stage simulates, the prediction's own.
@@ -273,8 +280,8 @@ class LimitCyclePrediction:
         return isinstance(self.describing, BiasedDescribing)
 
     def __repr__(self):
-        cycles = ", ".join(f"{'stable' if c.stable else 'unstable'} A={c.amplitude:.4g} rad w={c.omega:.4g} rad/s"
-                           for c in self.cycles) or (f"no DF: {self.note}" if self.note else "no cycle")
+        cycles = ", ".join(f"{'stable' if c.stable else 'unstable'} A={c.amplitude:.4g}{_unit(self)} w={c.omega:.4g} "
+                           f"rad/s" for c in self.cycles) or (f"no DF: {self.note}" if self.note else "no cycle")
         if self.void_cycles:
             cycles += f"; {len(self.void_cycles)} void (the friction holds the side through the cycle)"
         miss = f"; closest miss {100 * self.near_misses[0].distance:.2f} %" if self.near_misses else ""
@@ -1066,7 +1073,8 @@ def limit_cycle_plot(predictions, ax=None, *, n_loci=7, n_amplitudes=200, g_omeg
     panel = (view[3] - view[2]) / (view[1] - view[0])  # the view's height over its width
     figure, axes = axes_or_new(ax, figsize=(8, 2.6 + 6.6 * min(max(panel, 0.5), 0.9)), layout="constrained")
     ax = axes[0]
-    ax.plot(g.real, g.imag, color="k", lw=1.6, label="G(jw)")
+    name, unit = first.linear_name, f" ({first.linear_unit})" if first.linear_unit else ""
+    ax.plot(g.real, g.imag, color="k", lw=1.6, label=f"{name}(jw)")
     for prediction, model in zip(predictions, loci):
         for k, (locus, _, color, bold) in enumerate(model):
             ax.plot(locus.real, locus.imag, color=color, lw=1.4 if bold else 0.6, alpha=1.0 if bold else 0.5,
@@ -1079,9 +1087,9 @@ def limit_cycle_plot(predictions, ax=None, *, n_loci=7, n_amplitudes=200, g_omeg
     ax.axvline(0.0, color="0.7", lw=0.5)
     scaled_ticks(ax.xaxis)
     scaled_ticks(ax.yaxis)
-    ax.set_xlabel("real part (rad/(N m))")
-    ax.set_ylabel("imaginary part (rad/(N m))")
-    ax.set_title("G(jw) and -1/N(A, w); thin loci labelled with w (rad/s)", fontsize="medium")
+    ax.set_xlabel(f"real part{unit}")
+    ax.set_ylabel(f"imaginary part{unit}")
+    ax.set_title(f"{name}(jw) and -1/N(A, w); thin loci labelled with w (rad/s)", fontsize="medium")
     if own_figure:
         legend = legend_below(figure, fontsize=8)
     else:
@@ -1107,12 +1115,19 @@ def _mark_cycles(ax, prediction, color):
         kind = "stable" if cycle.stable else "unstable"
         ax.plot(at.real, at.imag, "o" if cycle.stable else "x", color=color, ms=8, ls="none",
                 mfc=color if cycle.stable else "none",
-                label=f"{prediction.model}: {kind} cycle A = {cycle.amplitude:.4g} rad, w = {cycle.omega:.4g} rad/s")
+                label=f"{prediction.model}: {kind} cycle A = {cycle.amplitude:.4g}{_unit(prediction)}, "
+                      f"w = {cycle.omega:.4g} rad/s")
     for miss in prediction.near_misses[:3]:
         at = -1.0 / complex(prediction.describing(miss.amplitude, miss.omega))
         ax.plot(at.real, at.imag, "d", color=color, ms=6, mfc="none", ls="none",
-                label=f"{prediction.model}: near miss {100 * miss.distance:.2f} % at A = {miss.amplitude:.4g} rad, "
+                label=f"{prediction.model}: near miss {100 * miss.distance:.2f} % at A = {miss.amplitude:.4g}"
+                      f"{_unit(prediction)}, "
                       f"w = {miss.omega:.4g} rad/s")
+
+
+def _unit(prediction):
+    """`` rad`` (a space and the amplitude's unit), or nothing where the unit is the user's."""
+    return f" {prediction.amplitude_unit}" if prediction.amplitude_unit else ""
 
 
 def _label_loci(ax, loci, gap=(0.06, 0.025)):

@@ -20,6 +20,7 @@ for _variable in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
 
 import pytest  # noqa: E402
+import control as ct  # noqa: E402
 
 import backlash_df as bd
 from backlash_df.disturbances import standard_disturbances
@@ -99,6 +100,7 @@ def results():
     measured, _ = bd.simulated_limit_cycle(rig, "phase-plane", t_end=2.0, max_t_end=2.0, kick=5.0)
     model = rig.make_model("phase-plane")
     tuning = bd.tune(example_rig("load_feedback"), {"kp": (20.0, 40.0)})  # hunts at every gain: the least hunting
+    lure = bd.lure_loop(ct.tf(8, [1, 2, 2, 1]), bd.Saturation(1.0))  # python-control's saturation example
     return {
         "LimitCyclePrediction": prediction,
         "LimitCycle": prediction.cycles[0],
@@ -139,6 +141,8 @@ def results():
         "Rest": verdict.rests[0],
         "Reason": diagnosis.candidates[1].reason_record,
         "Finding": diagnosis.candidates[1].reason_record.findings[0],
+        "LureOrbit": lure.periodic_orbit((3.344, 1.4142)),
+        "LureSimulation": lure.simulate(10.0),
         **_caveats(),
     }
 
@@ -167,7 +171,8 @@ def _caveats():
 #: Keys of ``results`` whose class draws a picture (``plot(ax=None)``).
 PLOTS = ["LimitCyclePrediction", "LoopVerdict", "LoopAnalysis", "PeriodicOrbit", "Branch", "DesignMap",
          "SimulationResult", "DescribingFunctionResult", "ValidityMap", "TorqueComparison", "TableOne", "Measurements",
-         "SimulatedRecord", "Diagnosis", "Replay", "FreeRunReplay", "ResidualAnalysis", "Tuning"]
+         "SimulatedRecord", "Diagnosis", "Replay", "FreeRunReplay", "ResidualAnalysis", "Tuning", "LureOrbit",
+         "LureSimulation"]
 
 #: Keys of ``results`` whose class writes a report (``report_html(title="", rig_text="")``).
 REPORTS = ["LimitCyclePrediction", "LoopAnalysis", "Branch", "DesignMap", "Diagnosis", "Tuning"]

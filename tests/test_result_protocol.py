@@ -57,7 +57,8 @@ def test_every_public_result_class_is_covered(results):
                                          "ResidualAnalysis", "LoadLimit", "Tuning", "Certificate", "Candidate",
                                          "Disturbance", "Rest", "Reason", "Finding", "RecordNote", "WeakBaseline",
                                          "Unexplained", "FewSegments", "UnphysicalInterval", "OnBound", "InitialSpeed",
-                                         "Absorbed", "SideUndetermined", "Disagreement"]))
+                                         "Absorbed", "SideUndetermined", "Disagreement", "LureOrbit",
+                                         "LureSimulation"]))
 def test_to_dict_is_json_and_the_repr_one_line(results, name):
     result = results[name]
     data = result.to_dict()

@@ -40,6 +40,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .._json import json_ready
+from .._threads import single_threaded_blas
 from .effects import get_effect
 from .predictors import (DEFAULT_HORIZON, INITIAL_STATE_STEP, PLANT_PARAMETERS, horizon_samples, nominal_values,
                          predict, prediction_model, segment_bounds)
@@ -413,14 +414,6 @@ def calibrate(measurements, rig, effects=(), window=None, start_values=None, hor
     with single_threaded_blas():
         return _calibrate(measurements, rig, effects, window, start_values, horizon, executor, max_nfev, polish,
                           fixed, structure)
-
-
-def single_threaded_blas():
-    """A context holding BLAS to one thread: the fits' matrices are small, and BLAS threads
-    spinning on a busy machine cost several times the work itself (threadpoolctl)."""
-    from threadpoolctl import threadpool_limits
-
-    return threadpool_limits(limits=1, user_api="blas")
 
 
 def _calibrate(measurements, rig, effects, window, start_values, horizon, executor, max_nfev, polish, fixed,

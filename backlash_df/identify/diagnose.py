@@ -97,7 +97,8 @@ from ..plotting import ResultPlot, axes_or_new, legend_beside
 from ..render.diagnosis import (cause_sentence, cause_summary, diagnosis_report, diagnosis_sentence,
                                 diagnosis_sentences, prediction_mode_text, reason_sentence, shown_value, skew_sentence,
                                 value_text, warning_sentence)
-from .calibrate import calibrate, refine, single_threaded_blas
+from .._threads import single_threaded_blas
+from .calibrate import calibrate, refine
 from .effects import COULOMB_GRID, EFFECT_NAMES, STRIBECK_GRID, get_effect, peak_speed, smoothing_speeds
 from .predictors import DEFAULT_HORIZON, PLANT_PARAMETERS, RIGID_PARAMETERS, predict, segment_bounds
 from .reasons import (Absorbed, BoundValue, Check, Disagreement, FewSegments, Finding, InitialSpeed, OnBound, Reason,

@@ -1,0 +1,273 @@
+"""The classical nonlinear elements of a Lur'e loop, as piecewise-affine hybrid automata.
+
+python-control's describing-function elements and the textbooks' (Gelb and Vander Velde,
+*Multiple-Input Describing Functions and Nonlinear System Design*, 1968):
+
+* :class:`Saturation` ``clip(y, -L, L)`` (``control.saturation_nonlinearity(L)``);
+* :class:`DeadZone` ``s (y - d sign y)`` outside ``|y| <= d``, 0 inside;
+* :class:`Relay` with hysteresis: ``+M`` once ``y`` has exceeded ``h``, ``-M`` once it
+  has fallen below ``-h`` (``control.relay_hysteresis_nonlinearity(M, h)``);
+* :class:`Play` of total width ``b``: the output stays put while the input moves within
+  ``b / 2`` of it and follows at ``b / 2`` behind once pushed
+  (``control.friction_backlash_nonlinearity(b)``, friction-dominated backlash).
+
+Each is exact as a hybrid automaton whose every mode is affine in the element's input
+``y``, its rate ``dy/dt`` and, for the play, its memory ``m`` (the held output)::
+
+    F = a_y y + a_m m + a_0,      dm/dt = rate * dy/dt,
+
+and whose switches are the zero crossings, in a given direction, of affine guards
+``g = g_y y + g_dy dy/dt + g_m m + g_0``.  :mod:`backlash_df.lure` closes a linear
+system around one of them and integrates, shoots and predicts on these modes; their
+describing functions are the closed forms of :mod:`backlash_df.describing.classical`.
+:func:`element_of` maps python-control's element objects to them.
+"""
+
+import dataclasses
+import functools
+import math
+
+from .describing.classical import (
+    dead_zone_describing_function,
+    play_describing_function,
+    relay_describing_function,
+    saturation_describing_function,
+)
+
+__all__ = ["Saturation", "DeadZone", "Relay", "Play", "Mode", "Guard", "element_of"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Mode:
+    """One smooth piece: ``F = a_y y + a_m m + a_0``, ``dm/dt = rate dy/dt``, left by its guards."""
+
+    name: str
+    output: tuple  # (a_y, a_m, a_0)
+    guards: tuple  # of Guard
+    rate: float = 0.0
+
+
+@dataclasses.dataclass(frozen=True)
+class Guard:
+    """A switch: ``g = g_y y + g_dy dy/dt + g_m m + g_0`` crosses zero upward (``direction`` +1) or downward (-1)."""
+
+    coefficients: tuple  # (g_y, g_dy, g_m, g_0)
+    direction: int
+    target: int
+
+
+def _positive(name, value):
+    """``value`` as a float; one-line ``ValueError`` unless finite and > 0."""
+    number = float(value)
+    if not (number > 0.0 and math.isfinite(number)):
+        raise ValueError(f"{name} must be finite and > 0, got {value!r}")
+    return number
+
+
+def _level_guards(level, up, down):
+    """Guards of a two-sided threshold ``|y| = level``: to ``up`` crossing ``+level`` upward, ``down`` ``-level`` downward."""
+    return (Guard((1.0, 0.0, 0.0, -level), 1, up), Guard((1.0, 0.0, 0.0, level), -1, down))
+
+
+class _Element:
+    """What every element shares: the label, the DF's threshold, the mode found from a state."""
+
+    memory = False  # whether the element carries a continuous state m
+
+    @property
+    def label(self):
+        """The element and its values, for results: ``"play (b = 1)"``."""
+        values = ", ".join(f"{symbol} = {value:.6g}" for symbol, value in self.symbols())
+        return f"{self.kind} ({values})"
+
+    def mode_at(self, y, dy, m=0.0, branch=1):
+        """The mode the element is in at input ``y``, rate ``dy``, memory ``m`` (a relay's ``branch`` where undecided).
+
+        The mode whose guards do not fire at once: for each candidate, the state must lie on
+        the mode's side of every guard (strictly, or on it and moving away).
+        """
+        for index in self.candidates(branch):
+            if all(not _fires(guard, y, dy, m, self.modes[index]) for guard in self.modes[index].guards):
+                return index
+        raise ValueError(f"no mode of the {self.label} holds y = {y!r}, dy/dt = {dy!r}, m = {m!r}")
+
+    def candidates(self, branch):
+        """The modes in the order :meth:`mode_at` tries them."""
+        return range(len(self.modes))
+
+    def output(self, mode, y, m=0.0):
+        """F (the element's output) in ``mode``."""
+        a_y, a_m, a_0 = self.modes[mode].output
+        return a_y * y + a_m * m + a_0
+
+
+def _fires(guard, y, dy, m, mode):
+    """Whether ``guard`` of ``mode`` is already crossed at (y, dy, m): beyond it in its direction."""
+    g_y, g_dy, g_m, g_0 = guard.coefficients
+    value = g_y * y + g_dy * dy + g_m * m + g_0
+    return guard.direction * value > 0.0 or (value == 0.0 and guard.direction * g_y * dy > 0.0)
+
+
+@dataclasses.dataclass(frozen=True)
+class Saturation(_Element):
+    """``clip(y, -limit, limit)``: modes linear, upper, lower."""
+
+    limit: float
+    kind = "saturation"
+
+    def __post_init__(self):
+        object.__setattr__(self, "limit", _positive("the saturation's limit", self.limit))
+
+    def symbols(self):
+        return (("L", self.limit),)
+
+    @functools.cached_property
+    def modes(self):
+        lim = self.limit
+        return (Mode("linear", (1.0, 0.0, 0.0), _level_guards(lim, 1, 2)),
+                Mode("upper", (0.0, 0.0, lim), (Guard((1.0, 0.0, 0.0, -lim), -1, 0),)),
+                Mode("lower", (0.0, 0.0, -lim), (Guard((1.0, 0.0, 0.0, lim), 1, 0),)))
+
+    @property
+    def threshold(self):
+        """Amplitudes at or below which N is constant (the DF's search starts above 0)."""
+        return 0.0
+
+    def describing_function(self, amplitude):
+        """N(A) = :func:`~backlash_df.describing.classical.saturation_describing_function`."""
+        return saturation_describing_function(amplitude, self.limit) + 0j
+
+
+@dataclasses.dataclass(frozen=True)
+class DeadZone(_Element):
+    """``slope (y - half_width sign y)`` for ``|y| > half_width``, 0 inside."""
+
+    half_width: float
+    slope: float = 1.0
+    kind = "dead zone"
+
+    def __post_init__(self):
+        object.__setattr__(self, "half_width", _positive("the dead zone's half width", self.half_width))
+        object.__setattr__(self, "slope", _positive("the dead zone's slope", self.slope))
+
+    def symbols(self):
+        return (("d", self.half_width), ("s", self.slope))
+
+    @functools.cached_property
+    def modes(self):
+        d, s = self.half_width, self.slope
+        return (Mode("inside", (0.0, 0.0, 0.0), _level_guards(d, 1, 2)),
+                Mode("above", (s, 0.0, -s * d), (Guard((1.0, 0.0, 0.0, -d), -1, 0),)),
+                Mode("below", (s, 0.0, s * d), (Guard((1.0, 0.0, 0.0, d), 1, 0),)))
+
+    @property
+    def threshold(self):
+        return self.half_width
+
+    def describing_function(self, amplitude):
+        """N(A) = :func:`~backlash_df.describing.classical.dead_zone_describing_function`."""
+        return dead_zone_describing_function(amplitude, self.half_width, slope=self.slope) + 0j
+
+
+@dataclasses.dataclass(frozen=True)
+class Relay(_Element):
+    """``+level`` once y has exceeded ``hysteresis``, ``-level`` once below ``-hysteresis``; modes high, low."""
+
+    level: float
+    hysteresis: float = 0.0
+    kind = "relay"
+
+    def __post_init__(self):
+        object.__setattr__(self, "level", _positive("the relay's level", self.level))
+        hysteresis = float(self.hysteresis)
+        if not (hysteresis >= 0.0 and math.isfinite(hysteresis)):
+            raise ValueError(f"the relay's hysteresis must be finite and >= 0, got {self.hysteresis!r}")
+        object.__setattr__(self, "hysteresis", hysteresis)
+
+    def symbols(self):
+        return (("M", self.level), ("h", self.hysteresis))
+
+    @functools.cached_property
+    def modes(self):
+        h, level = self.hysteresis, self.level
+        return (Mode("high", (0.0, 0.0, level), (Guard((1.0, 0.0, 0.0, h), -1, 1),)),
+                Mode("low", (0.0, 0.0, -level), (Guard((1.0, 0.0, 0.0, -h), 1, 0),)))
+
+    def candidates(self, branch):
+        """Between the thresholds both modes hold: ``branch`` (+1 high, -1 low) decides."""
+        return (0, 1) if branch > 0 else (1, 0)
+
+    @property
+    def threshold(self):
+        return self.hysteresis
+
+    def describing_function(self, amplitude):
+        """N(A) = :func:`~backlash_df.describing.classical.relay_describing_function`."""
+        return relay_describing_function(amplitude, self.level, hysteresis=self.hysteresis)
+
+
+@dataclasses.dataclass(frozen=True)
+class Play(_Element):
+    """The play of total width ``width``: modes held (``F = m``), pushed up (``F = y - b/2``), pushed down."""
+
+    width: float
+    kind = "play"
+    memory = True
+
+    def __post_init__(self):
+        object.__setattr__(self, "width", _positive("the play's width", self.width))
+
+    def symbols(self):
+        return (("b", self.width),)
+
+    @functools.cached_property
+    def modes(self):
+        half = 0.5 * self.width
+        return (Mode("held", (0.0, 1.0, 0.0), (Guard((1.0, 0.0, -1.0, -half), 1, 1),
+                                               Guard((1.0, 0.0, -1.0, half), -1, 2))),
+                Mode("pushed up", (1.0, 0.0, -half), (Guard((0.0, 1.0, 0.0, 0.0), -1, 0),), rate=1.0),
+                Mode("pushed down", (1.0, 0.0, half), (Guard((0.0, 1.0, 0.0, 0.0), 1, 0),), rate=1.0))
+
+    @property
+    def threshold(self):
+        return 0.5 * self.width
+
+    def describing_function(self, amplitude):
+        """N(A) = :func:`~backlash_df.describing.classical.play_describing_function`."""
+        return play_describing_function(amplitude, self.width)
+
+
+def element_of(nonlinearity):
+    """The element a python-control nonlinearity object stands for, or one of this module's, unchanged.
+
+    ``control.saturation_nonlinearity(ub)`` (symmetric) is :class:`Saturation` ``(ub)``,
+    ``control.friction_backlash_nonlinearity(b)`` is :class:`Play` ``(b)``,
+    ``control.relay_hysteresis_nonlinearity(b, c)`` is :class:`Relay` ``(b, c)``.
+
+    Raises
+    ------
+    ValueError
+        Any other object, named by its type; an asymmetric saturation; values the element refuses.
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> element_of(ct.friction_backlash_nonlinearity(1.0)).label
+    'play (b = 1)'
+    """
+    if isinstance(nonlinearity, (Saturation, DeadZone, Relay, Play)):
+        return nonlinearity
+    import control
+
+    if isinstance(nonlinearity, control.saturation_nonlinearity):
+        if nonlinearity.lb != -nonlinearity.ub:
+            raise ValueError(f"an asymmetric saturation (lb = {nonlinearity.lb!r}, ub = {nonlinearity.ub!r}) "
+                             "has no describing function about zero bias here")
+        return Saturation(nonlinearity.ub)
+    if isinstance(nonlinearity, control.friction_backlash_nonlinearity):
+        return Play(nonlinearity.b)
+    if isinstance(nonlinearity, control.relay_hysteresis_nonlinearity):
+        return Relay(nonlinearity.b, nonlinearity.c)
+    raise ValueError(f"no element for a {type(nonlinearity).__qualname__} object: a Lur'e loop takes "
+                     "backlash_df.elements' Saturation, DeadZone, Relay and Play, or python-control's "
+                     "saturation_nonlinearity, friction_backlash_nonlinearity and relay_hysteresis_nonlinearity")

@@ -1,0 +1,316 @@
+"""A user's Lur'e loop (python-control's H and one element): prediction, exact orbits, simulation, bad input.
+
+The exact orbits are checked against a reference written here: H realised in its
+controllable canonical form from the transfer function's coefficients (not
+python-control's realisation), the element's switching logic written again from its
+textbook definition, scipy's DOP853 with event location (rtol 1e-12) as the
+integrator, and a shooting of its own (scipy's hybrid Powell root on
+``(X(T) - X0, y0)`` with a finite-difference Jacobian), whose monodromy by finite
+differences gives the stability.  The reference starts 1 % away from the orbit
+under test and converges on its own.
+"""
+
+import math
+
+import control as ct
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+from scipy.optimize import brentq, root
+
+import backlash_df as bd
+from backlash_df.elements import DeadZone, Play, Relay, Saturation
+from backlash_df.orbits import OrbitNotFound
+
+#: python-control's describing-function examples (doc/descfcn.rst, examples/describing_functions.ipynb).
+SATURATION_H = ct.tf(8, [1, 2, 2, 1])
+BACKLASH_H = ct.tf(4, [1, 2, 2, 1]) * ct.tf(*ct.pade(5, 4))
+
+
+# ------------------------------------------------------------------ the reference
+
+
+def canonical(system):
+    """``(A, B, C)`` of ``system``'s controllable canonical form, from its coefficients."""
+    num = np.atleast_1d(np.squeeze(system.num[0][0])).astype(float)
+    den = np.atleast_1d(np.squeeze(system.den[0][0])).astype(float)
+    num, den = num / den[0], den / den[0]
+    n = den.size - 1
+    num = np.concatenate([np.zeros(n + 1 - num.size), num])
+    a = np.zeros((n, n))
+    a[:-1, 1:] = np.eye(n - 1)
+    a[-1] = -den[:0:-1]
+    b = np.zeros(n)
+    b[-1] = 1.0
+    return a, b, num[:0:-1].copy()
+
+
+class Reference:
+    """The loop ``x' = A x - B F``, ``y = C x`` with the element written from its definition.
+
+    Discrete states: the saturation's and dead zone's side (-1, 0, +1), the relay's
+    branch (+-1), the play's contact (0 held, +-1 pushed) with its output ``m`` as a
+    last continuous state.
+    """
+
+    def __init__(self, system, element):
+        self.a, self.b, self.c = canonical(system)
+        self.element = element
+        self.memory = isinstance(element, Play)
+
+    def output(self, side, y, m):
+        e = self.element
+        if isinstance(e, Saturation):
+            return e.limit * side if side else y
+        if isinstance(e, DeadZone):
+            return e.slope * (y - side * e.half_width) if side else 0.0
+        if isinstance(e, Relay):
+            return e.level * side
+        return m if side == 0 else y - side * e.width / 2
+
+    def rhs(self, side):
+        def f(t, state):
+            x = state[: self.a.shape[0]]
+            y = self.c @ x
+            dx = self.a @ x - self.b * self.output(side, y, state[-1] if self.memory else 0.0)
+            if not self.memory:
+                return dx
+            return np.append(dx, (self.c @ dx) if side else 0.0)
+        return f
+
+    def events(self, side):
+        """``[(function, direction, next side)]`` of the discrete state ``side``."""
+        e, n = self.element, self.a.shape[0]
+
+        def y_minus(level):
+            return lambda t, s: self.c @ s[:n] - level
+
+        if isinstance(e, (Saturation, DeadZone)):
+            level = e.limit if isinstance(e, Saturation) else e.half_width
+            if side == 0:
+                return [(y_minus(level), 1, 1), (y_minus(-level), -1, -1)]
+            return [(y_minus(side * level), -side, 0)]
+        if isinstance(e, Relay):
+            return [(y_minus(-side * e.hysteresis), -side, -side)]
+        if side == 0:
+            return [(lambda t, s: self.c @ s[:n] - s[-1] - e.width / 2, 1, 1),
+                    (lambda t, s: self.c @ s[:n] - s[-1] + e.width / 2, -1, -1)]
+        return [(lambda t, s: self.rhs(side)(t, s)[-1], -side, 0)]
+
+    def flow(self, state, side, duration, samples=None):
+        """``(state, side)`` after ``duration``; with ``samples``, also y at that many equal steps."""
+        t, out = 0.0, []
+        grid = None if samples is None else np.linspace(0.0, duration, samples, endpoint=False)
+        while True:
+            found = self.events(side)
+            functions = []
+            for function, direction, _ in found:
+                function.terminal, function.direction = True, direction
+                functions.append(function)
+            sol = solve_ivp(self.rhs(side), (t, duration), state, method="DOP853", rtol=1e-12, atol=1e-14,
+                            events=functions, dense_output=samples is not None)
+            if grid is not None:
+                inside = grid[(grid >= t) & (grid < sol.t[-1])]
+                out.append(self.c @ sol.sol(inside)[: self.a.shape[0]] if inside.size else np.empty(0))
+            if sol.status != 1:
+                state = sol.y[:, -1]
+                break
+            k = next(i for i, times in enumerate(sol.t_events) if times.size)
+            t, state, side = sol.t_events[k][0], sol.y_events[k][0], found[k][2]
+        return (state, side) if samples is None else (state, side, np.concatenate(out))
+
+    def shoot(self, state, side, period):
+        """The reference's own periodic orbit near ``(state, period)`` on the section ``y = y0``."""
+        n = state.size
+        level = self.c @ state[: self.a.shape[0]]
+
+        def residual(z):
+            end, _ = self.flow(z[:n], side, z[n])
+            return np.append(end - z[:n], self.c @ z[: self.a.shape[0]] - level)
+
+        start = np.append(state * 1.01, period * 1.01)
+        start[: self.a.shape[0]] -= self.c * ((self.c @ start[: self.a.shape[0]] - level) / (self.c @ self.c))
+        found = root(residual, start, method="hybr", options={"xtol": 1e-12})
+        assert found.success, found.message
+        z = found.x
+        step = 1e-6 * np.abs(z[:n]).max()
+        monodromy = np.column_stack([
+            (self.flow(z[:n] + step * e, side, z[n])[0] - self.flow(z[:n] - step * e, side, z[n])[0]) / (2 * step)
+            for e in np.eye(n)])
+        _, _, y = self.flow(z[:n], side, z[n], samples=2 ** 13)
+        phases = 2 * np.pi * np.arange(y.size) / y.size
+        amplitude = abs(2 * np.mean(y * np.exp(-1j * phases)))
+        multipliers = np.linalg.eigvals(monodromy)
+        nontrivial = np.delete(multipliers, np.argmin(np.abs(multipliers - 1)))
+        return z[n], amplitude, float(np.abs(nontrivial).max())
+
+
+def side_of(orbit):
+    """The reference's discrete state for the mode an orbit starts in."""
+    names = {"linear": 0, "inside": 0, "held": 0, "upper": 1, "above": 1, "pushed up": 1, "high": 1,
+             "lower": -1, "below": -1, "pushed down": -1, "low": -1}
+    return names[orbit.loop.element.modes[orbit.mode].name]
+
+
+def reference_state(orbit):
+    """The orbit's start in the reference's coordinates."""
+    return in_reference(orbit.loop, orbit.state)
+
+
+def in_reference(loop, state):
+    """An augmented state of ``loop`` in the reference's coordinates: the same output and derivatives
+    (the realisations are similar; their observability matrices map one to the other)."""
+    n = loop.a.shape[0]
+    a_ref, b_ref, c_ref = canonical(loop.system)
+    obs_pc = np.vstack([loop.c @ np.linalg.matrix_power(loop.a, k) for k in range(n)])
+    obs_ref = np.vstack([c_ref @ np.linalg.matrix_power(a_ref, k) for k in range(n)])
+    x = np.linalg.solve(obs_ref, obs_pc @ state[:n])
+    return np.append(x, state[n:])
+
+
+# ------------------------------------------------------------------ the published cases
+
+
+def test_the_prediction_is_python_control_s():
+    saturation = bd.lure_loop(SATURATION_H, ct.saturation_nonlinearity(1)).predict()
+    (cycle,) = saturation.cycles
+    assert (round(cycle.amplitude, 3), round(cycle.omega, 4), cycle.stable) == (3.344, 1.4142, True)
+    assert saturation.model == "saturation (L = 1)"
+    response = ct.describing_function_response(BACKLASH_H, ct.friction_backlash_nonlinearity(1),
+                                               np.linspace(0.6, 5, 50), np.logspace(-3, 3, 500))
+    play = bd.lure_loop(BACKLASH_H, ct.friction_backlash_nonlinearity(1)).predict()
+    assert len(play.cycles) == 2 and not any(c.stable for c in play.cycles)
+    for cycle, (a_pc, w_pc) in zip(play.cycles, sorted(response.intersections)):
+        assert (cycle.amplitude, cycle.omega) == (pytest.approx(a_pc, rel=1e-6), pytest.approx(w_pc, rel=1e-6))
+
+
+@pytest.fixture(scope="module")
+def published_orbits():
+    loops = {"saturation": bd.lure_loop(SATURATION_H, ct.saturation_nonlinearity(1)),
+             "play": bd.lure_loop(BACKLASH_H, ct.friction_backlash_nonlinearity(1))}
+    return {name: loop.exact_orbits(loop.predict()) for name, loop in loops.items()}
+
+
+@pytest.mark.parametrize(("name", "index", "stable"), [("saturation", 0, True), ("play", 0, False), ("play", 1, False)])
+def test_exact_orbits_agree_with_the_reference(published_orbits, name, index, stable):
+    cycle, orbit = published_orbits[name][index]
+    assert not isinstance(orbit, str), orbit
+    assert orbit.stable is stable
+    assert orbit.residual < 1e-10
+    period, amplitude, largest = Reference(orbit.loop.system, orbit.loop.element).shoot(
+        reference_state(orbit), side_of(orbit), orbit.period)
+    assert orbit.period == pytest.approx(period, rel=1e-7)
+    assert orbit.amplitude == pytest.approx(amplitude, rel=1e-6)
+    assert orbit.max_multiplier == pytest.approx(largest, rel=1e-4)
+    assert (largest < 1) is stable
+
+
+def test_the_describing_function_errs_most_on_the_flat_topped_cycle(published_orbits):
+    """python-control's first backlash cycle is some 10 % off in amplitude and 15 % in frequency; the others
+    within 2 % (the figures of the docs page)."""
+    errors = {(name, i): (cycle.amplitude / orbit.amplitude - 1, cycle.omega / orbit.omega - 1)
+              for name, pairs in published_orbits.items() for i, (cycle, orbit) in enumerate(pairs)}
+    assert errors[("play", 0)][0] == pytest.approx(-0.0961, abs=2e-3)
+    assert errors[("play", 0)][1] == pytest.approx(-0.132, abs=2e-3)
+    assert max(abs(e) for key in [("saturation", 0), ("play", 1)] for e in errors[key]) < 0.02
+
+
+def test_a_simulation_settles_on_the_stable_orbit():
+    loop = bd.lure_loop(SATURATION_H, ct.saturation_nonlinearity(1))
+    (_, orbit), = loop.exact_orbits(loop.predict())
+    sim = loop.simulate(120.0, y0=0.5, dt=0.002)
+    last = sim.y[sim.time > 100.0]
+    assert orbit.peak * (1 - 3e-6) < last.max() <= orbit.peak * (1 + 1e-9)  # sampled every 2 ms
+    rising = np.flatnonzero((sim.y[:-1] < 0) & (sim.y[1:] >= 0) & (sim.time[:-1] > 60.0))
+    crossings = sim.time[rising] - sim.y[rising] * 0.002 / (sim.y[rising + 1] - sim.y[rising])
+    assert np.diff(crossings).mean() == pytest.approx(orbit.period, rel=1e-6)
+
+
+def test_the_simulation_matches_the_reference_from_a_kick():
+    """From y = 0.7 with the play's output at 0 (held): beyond the unstable cycles, 20 s through its switches."""
+    loop = bd.lure_loop(BACKLASH_H, Play(1.0))
+    x0 = loop.c * (0.7 / (loop.c @ loop.c))
+    sim = loop.simulate(20.0, x0=x0, m0=0.0, dt=0.5)
+    assert sim.y[0] == pytest.approx(0.7) and sim.modes[0] == 0
+    assert len(set(sim.modes)) == 3  # held, pushed up and down along the way
+    end, _ = Reference(BACKLASH_H, Play(1.0)).flow(in_reference(loop, sim.states[0]), 0, 20.0)
+    assert canonical(BACKLASH_H)[2] @ end[:-1] == pytest.approx(sim.y[-1], abs=1e-9)
+    assert end[-1] == pytest.approx(sim.states[-1, -1], abs=1e-9)
+
+
+# ------------------------------------------------------------------ the other elements
+
+
+@pytest.mark.parametrize("element", [Relay(1.0, 0.2), DeadZone(0.3, 2.0), Saturation(0.5)],
+                         ids=["relay with hysteresis", "dead zone", "saturation"])
+def test_other_elements_orbits_agree_with_the_reference(element):
+    system = ct.tf(1 if isinstance(element, Relay) else 30, [1, 3, 2, 0])
+    loop = bd.lure_loop(system, element)
+    prediction = loop.predict()
+    assert prediction.cycles, prediction
+    for cycle, orbit in loop.exact_orbits(prediction):
+        assert not isinstance(orbit, str), orbit
+        period, amplitude, largest = Reference(system, element).shoot(reference_state(orbit), side_of(orbit),
+                                                                      orbit.period)
+        assert orbit.period == pytest.approx(period, rel=1e-7)
+        assert orbit.amplitude == pytest.approx(amplitude, rel=1e-6)
+        assert orbit.stable is (largest < 1) is cycle.stable
+        assert orbit.output_amplitude > 0
+
+
+def tsypkin_output(theta, level):
+    """y at a switch of the symmetric cycle of a relay ``+-level`` around ``H = 1/(s (s+1) (s+2))`` with
+    half period ``theta`` (Tsypkin): ``H = 1/(2 s) - 1/(s+1) + 1/(2 (s+2))``, each term's periodic
+    response to the square wave at the switch (``r M tanh(p theta / 2) / p``; ``r M theta / 2`` for
+    the integrator)."""
+    return level * (theta / 4 - math.tanh(theta / 2) + math.tanh(theta) / 4)
+
+
+@pytest.mark.parametrize("hysteresis", [0.0, 0.2])
+def test_relay_orbits_are_tsypkin_s(hysteresis):
+    """The exact half period switches at y = h (Tsypkin's condition, solved here); the DF's frequency
+    is sqrt 2 (H real there, -1/6), the exact one lower."""
+    loop = bd.lure_loop(ct.tf(1, [1, 3, 2, 0]), Relay(1.0, hysteresis))
+    (cycle, orbit), = loop.exact_orbits(loop.predict())
+    half = brentq(lambda theta: tsypkin_output(theta, 1.0) - hysteresis, 1.0, 10.0, xtol=1e-15)
+    assert orbit.period == pytest.approx(2 * half, rel=1e-9)
+    assert orbit.stable
+    if hysteresis == 0.0:
+        assert cycle.omega == pytest.approx(math.sqrt(2), rel=1e-9)
+        assert cycle.amplitude == pytest.approx(4 / (6 * math.pi), rel=1e-9)
+        assert orbit.omega < cycle.omega
+
+
+# ------------------------------------------------------------------ bad input
+
+
+@pytest.mark.parametrize(("system", "element", "words"), [
+    (ct.tf([[[1]], [[1]]], [[[1, 1]], [[1, 2]]]), Play(1.0), "SISO"),
+    (ct.tf([1, 0, 0], [1, 1]), Play(1.0), "must be proper"),
+    (ct.tf([1, 0], [1, 1]), Play(1.0), "strictly proper"),
+    (ct.tf(1, [1, 1], 0.1), Play(1.0), "continuous time"),
+    (ct.tf(1, [1, 1]), ct.DescribingFunctionNonlinearity(), "no element for a DescribingFunctionNonlinearity"),
+    (ct.tf(1, [1, 1]), lambda y: y, "no element for a function"),
+    ("H", Play(1.0), "python-control transfer function or state space"),
+])
+def test_bad_loops_are_one_line(system, element, words):
+    with pytest.raises(ValueError, match=words) as caught:
+        bd.lure_loop(system, element)
+    assert "\n" not in str(caught.value)
+
+
+@pytest.mark.parametrize(("make", "words"), [
+    (lambda: Play(0.0), "play's width must be finite and > 0"),
+    (lambda: Saturation(-1.0), "limit must be finite and > 0"),
+    (lambda: Relay(1.0, -0.1), "hysteresis must be finite and >= 0"),
+    (lambda: DeadZone(0.1, slope=math.inf), "slope must be finite and > 0"),
+])
+def test_bad_elements_are_one_line(make, words):
+    with pytest.raises(ValueError, match=words):
+        make()
+
+
+def test_a_seed_far_from_any_orbit_is_refused_by_name():
+    loop = bd.lure_loop(BACKLASH_H, Play(1.0))
+    with pytest.raises(OrbitNotFound, match="play"):
+        loop.periodic_orbit((0.55, 5.0), max_iter=3)
