@@ -554,12 +554,18 @@ def _smallest(probes):
 
 
 def _separating(prediction, orbits, rests, starts):
-    """Amplitude (rad) of the cycle between rest and hunting (or runaway), and its source."""
+    """Amplitude (rad) of the cycle between rest and hunting (or runaway), and its source.
+
+    Below the smallest stable cycle the probes reached, the largest unstable cycle
+    bounds its basin; where they reached none (a runaway), the smallest unstable cycle
+    bounds the rest's: motions from beyond it already grow.
+    """
     target = min((p.measured.amplitude for p in starts if p.measured.found), default=math.inf)
+    pick = max if math.isfinite(target) else min
     for source, found in (("exact orbit", orbits), ("DF unstable cycle", prediction.cycles)):
         unstable = [c.amplitude for c in found if not c.stable and c.amplitude < target]
         if unstable:
-            return float(max(unstable)), source
+            return float(pick(unstable)), source
     twists = [abs(p.disturbance.value) for p in starts if p.disturbance.kind == TWIST]
     calm = [abs(p.disturbance.value) for p in rests if p.disturbance.kind == TWIST]
     below = [size for size in calm if size < min(twists, default=math.inf)]

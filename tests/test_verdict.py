@@ -613,3 +613,23 @@ def test_a_rest_whose_speeds_stand_at_round_off_is_a_rest():
         assert run.time[-1] == pytest.approx(10.0, rel=1e-6)  # decided by the first run
         speed = abs(run.state("motor_speed")[-1])
         assert 0.0 < speed < 1e-10  # the floor itself: still turning, at round-off
+
+
+def test_a_runaway_starts_at_the_smallest_unstable_cycle():
+    """A dead zone (k = 1, alpha = 0.5) behind python-control's backlash H: two unstable DF cycles and no
+    stable one; a twist of 1.2 rad, well below the larger (A = 1.72), already grows, so the smaller
+    (A = 0.789) is the one named (the larger was: a user told a twist of 1.5 rad is safe)."""
+    H = ct.tf(4, [1, 2, 2, 1]) * ct.tf(*ct.pade(5, 4))
+    rig = rig_from_dict({"plant": {"motor_inertia": 1.0, "load_inertia": 1.0, "stiffness": 1.0, "damping": 0.0,
+                                   "half_gap": 0.5},
+                         "controller": {"kp": 1.0, "ti": 1.0}, "model": {"backlash": "dead-zone"}})
+    prediction = predict_limit_cycles(rig, "dead-zone", linear=H)
+    assert [round(c.amplitude, 3) for c in prediction.cycles] == [0.789, 1.722]
+    assert not prediction.stable_cycles
+    verdict = judge_loop(rig, prediction, linear=H,
+                         disturbances=[Disturbance(TWIST, 0.7), Disturbance(TWIST, 1.2), Disturbance(TWIST, 1.5)])
+    assert verdict.verdict == "unstable"
+    assert (verdict.disturbance_to_start, verdict.disturbance_source) == (
+        pytest.approx(prediction.cycles[0].amplitude), "DF unstable cycle")
+    outcomes = {p.disturbance.value: p.outcome for p in verdict.probes if p.role != "within reach"}
+    assert outcomes[0.7] == "rest" and outcomes[1.2] == outcomes[1.5] == "diverged"
