@@ -41,6 +41,7 @@ _EXPORTS = {
     "identify": ["Diagnosis", "Measurements", "diagnose", "load_measurements"],
     "elements": ["DeadZone", "Play", "Relay", "Saturation"],
     "lure": ["LureLoop", "LureOrbit", "LureSimulation", "lure_loop"],
+    "lure_verdict": ["LureVerdict", "judge_lure_loop"],
 }
 _lazy_getattr, __dir__, _ = _lazy.attach(
     __name__, submod_attrs=_EXPORTS,
@@ -123,6 +124,8 @@ __all__ = [
     "LureLoop",
     "LureOrbit",
     "LureSimulation",
+    "judge_lure_loop",
+    "LureVerdict",
     "Saturation",
     "DeadZone",
     "Relay",

@@ -49,6 +49,8 @@ __all__ = ["LureLoop", "LureOrbit", "LureSimulation", "lure_loop"]
 
 #: Steps per period (or per fastest time constant) at which the guards are sampled for crossings.
 _STEPS_PER_PERIOD = 256
+#: A state beyond this has overflowed for any purpose of the analysis (the loop runs away).
+_OVERFLOW = 1e100
 #: Gauss-Legendre nodes per piece of a segment in the orbit's first-harmonic integrals.
 _NODES, _WEIGHTS = np.polynomial.legendre.leggauss(12)
 
@@ -223,27 +225,38 @@ class LureLoop:
         dt = t_end / 4000 if dt is None else float(dt)
         if not (0.0 < dt <= t_end):
             raise ValueError(f"dt must be in (0, t_end], got {dt!r}")
-        state, mode = self._initial(x0, y0, m0, branch)
+        state, mode = self.start(x0, y0, m0, branch)
         with single_threaded_blas():
-            return self._simulate(state, mode, t_end, dt)
+            return self.run(state, mode, t_end, dt)
 
-    def _simulate(self, state, mode, t_end, dt):
-        """:meth:`simulate` from the augmented ``state`` in ``mode``."""
+    def run(self, state, mode, t_end, dt, bound=_OVERFLOW):
+        """:meth:`simulate` from an augmented ``state`` in the element's ``mode`` (as :meth:`start` gives them).
+
+        A run whose ``|y|`` passes ``bound`` (or whose state passes 1e100) stops there, ``diverged``.
+        """
         flow = _Flow(self)
         times = np.arange(int(round(t_end / dt)) + 1) * dt
         states, modes = np.empty((times.size, self.size)), np.empty(times.size, dtype=int)
         states[0], modes[0] = state, mode
+        diverged = False
         for i in range(1, times.size):
-            mode, state, _ = flow.advance(mode, state, dt)
+            try:
+                mode, state, _ = flow.advance(mode, state, dt)
+            except _Overflow:
+                diverged = True
+            diverged = diverged or abs(self.c @ state[: self.c.size]) > bound
+            if diverged:
+                times, states, modes = times[:i], states[:i], modes[:i]
+                break
             states[i], modes[i] = state, mode
-        y, dy, m, output = (np.empty(times.size) for _ in range(4))
+        y, output = np.empty(times.size), np.empty(times.size)
         for k in np.unique(modes):
             at = modes == k
-            y[at], dy[at], m[at], output[at] = self.signals(int(k), states[at])
-        return LureSimulation(self.label, times, y, output, states, modes)
+            y[at], _, _, output[at] = self.signals(int(k), states[at])
+        return LureSimulation(self.label, times, y, output, states, modes, diverged)
 
-    def _initial(self, x0, y0, m0, branch):
-        """The augmented initial state and its mode (:meth:`simulate`)."""
+    def start(self, x0=None, y0=None, m0=None, branch=1):
+        """``(state, mode)``: the augmented initial state and the element's mode there (arguments of :meth:`simulate`)."""
         n = self.a.shape[0]
         if x0 is None:
             y_start = (1.5 * self.element.threshold or 1.0) if y0 is None else float(y0)
@@ -266,8 +279,10 @@ class LureLoop:
 
         Parameters
         ----------
-        seed : LimitCycle, LureOrbit or (amplitude, omega)
-            A describing-function cycle (or its A, w) or an orbit already found.
+        seed : LimitCycle, LureOrbit, LureSimulation or (amplitude, omega)
+            A describing-function cycle (or its A, w), an orbit already found, or a run
+            that has settled onto an oscillation (from its last two upward crossings of
+            its mean: the state, mode and period).
         tol : float
             Newton stops where the correction is below ``tol`` relative to the state's and
             the period's scales.
@@ -284,6 +299,8 @@ class LureLoop:
         """
         if isinstance(seed, LureOrbit):
             state, mode, period, level = seed.state.copy(), seed.mode, seed.period, seed.level
+        elif isinstance(seed, LureSimulation):
+            state, mode, period, level = _run_seed(seed)
         else:
             amplitude, omega = (seed.amplitude, seed.omega) if hasattr(seed, "omega") else map(float, seed)
             state, mode, level = _harmonic_seed(self, amplitude, omega)
@@ -294,6 +311,11 @@ class LureLoop:
     def exact_orbits(self, prediction, **options):
         """An exact orbit for every cycle of ``prediction`` (this loop's), or why shooting failed.
 
+        Each cycle's shooting starts from its describing-function seed and, where that
+        fails (a waveform far from the DF's sine), from the seeds of :data:`_SEED_LADDER`
+        around it; an orbit found from another seed is the cycle's only if the cycle is
+        the DF cycle nearest to it (in log A and log w).
+
         Returns
         -------
         tuple of (LimitCycle, LureOrbit or str)
@@ -302,13 +324,28 @@ class LureLoop:
         if prediction.user_linear is not self.system or prediction.model != self.label:
             raise ValueError(f"the prediction '{prediction.model}' is not this loop's ({self.label} around this H): "
                              "predict with loop.predict() first")
-        found = []
-        for cycle in prediction.cycles:
+        return tuple((cycle, self._orbit_of(cycle, prediction.cycles, options)) for cycle in prediction.cycles)
+
+    def _orbit_of(self, cycle, cycles, options):
+        """The exact orbit of one DF ``cycle`` of ``cycles`` (:meth:`exact_orbits`), or the first failure's message."""
+        first = None
+        for amplitude_factor, omega_factor in _SEED_LADDER:
             try:
-                found.append((cycle, self.periodic_orbit(cycle, **options)))
+                orbit = self.periodic_orbit((cycle.amplitude * amplitude_factor, cycle.omega * omega_factor),
+                                            **options)
             except OrbitNotFound as failure:
-                found.append((cycle, str(failure)))
-        return tuple(found)
+                first = first or str(failure)
+                continue
+            nearest = min(cycles, key=lambda c: math.hypot(math.log(c.amplitude / orbit.amplitude),
+                                                          math.log(c.omega / orbit.omega)))
+            if nearest is cycle:
+                return orbit
+        return first or f"{self.label}: shooting from the seeds around A = {cycle.amplitude:.4g} found other orbits"
+
+
+#: Seeds of :meth:`LureLoop.exact_orbits` around a DF cycle: factors on its amplitude and frequency.
+_SEED_LADDER = ((1.0, 1.0), (1.1, 1.0), (1.25, 1.0), (0.9, 1.0), (1.0, 1.1), (1.0, 0.9), (1.1, 1.1), (1.25, 1.1),
+                (1.1, 0.9), (1.4, 1.0))
 
 
 def _mode_system(loop, mode):
@@ -336,6 +373,10 @@ def _mode_system(loop, mode):
         big_m[n, :] = spec.rate * dy_row
         q[n] = spec.rate * dy_0
     return big_m, q, y_row, dy_row, dy_0, f_row, a_0
+
+
+class _Overflow(ArithmeticError):
+    """The flow ran away past :data:`_OVERFLOW`; ``args[0]`` is the time elapsed in the call (s)."""
 
 
 class _Flow:
@@ -393,6 +434,8 @@ class _Flow:
                 step = duration - elapsed
             phi, psi = self.exponential(mode, step, keep=True)
             after = phi @ state + psi
+            if not np.abs(after).max() < _OVERFLOW:
+                raise _Overflow(elapsed + step)
             hit = self._first_crossing(mode, state, after, step)
             if hit is None:
                 state, elapsed = after, elapsed + step
@@ -422,7 +465,7 @@ class _Flow:
                 point = after if phi is None else phi @ before + psi
                 return direction * (row @ point + constant)
 
-            tau = scipy.optimize.brentq(value, 0.0, step, xtol=1e-15 * step, rtol=1e-15)
+            tau = scipy.optimize.brentq(value, 0.0, step, xtol=1e-15 * step, rtol=1e-15, maxiter=200, disp=False)
             if value(tau) <= 0.0:  # land on the far side of the guard
                 tau = min(step, tau + 4.0 * np.spacing(step))
             if first is None or tau < first[0]:
@@ -447,16 +490,22 @@ def _omega_range(system):
 
 
 def _amplitude_range(loop, omega_range):
-    """From just above the element's threshold to 1000 times its scale (the threshold, or the output
-    the element can drive through H's largest gain over the ``omega_range``)."""
+    """Where a cycle can be: just above the element's threshold (a saturation's limit) up to 10 times the
+    amplitude whose first harmonic balances H's largest gain on the negative real axis in ``omega_range``
+    (a saturation's ``4 L x / pi``, a relay's ``4 M x / pi``), or 1e4 times the threshold of a dead zone
+    or a play, whose N tends to its slope."""
     element = loop.element
+    h = frequency_response_of(loop.system, np.geomspace(*omega_range, 2000))
+    crossing = np.flatnonzero((np.sign(h.imag[:-1]) != np.sign(h.imag[1:])) & (h.real[:-1] < 0.0))
+    gain = float(np.abs(h[crossing]).max()) if crossing.size else float(np.abs(h).max())
     threshold = element.threshold
-    if threshold > 0.0:
-        return (threshold * (1.0 + 1e-6), 1e3 * threshold)
-    omega = np.geomspace(*omega_range, 400)
-    drive = getattr(element, "limit", None) or getattr(element, "level", 1.0)
-    scale = drive * float(np.abs(frequency_response_of(loop.system, omega)).max())
-    return (1e-3 * scale, 1e3 * scale)
+    drive = getattr(element, "limit", None) or getattr(element, "level", None)
+    if drive is None:
+        return (threshold * (1.0 + 1e-6), 1e4 * threshold)
+    upper = 10.0 * 4.0 * drive * max(gain, 1.0) / math.pi
+    lower = threshold * (1.0 + 1e-6) if threshold > 0.0 else (drive * (1.0 + 1e-9) if hasattr(element, "limit")
+                                                              else 1e-6 * upper)
+    return (lower, max(upper, 10.0 * lower))
 
 
 def _harmonic_seed(loop, amplitude, omega):
@@ -474,6 +523,20 @@ def _harmonic_seed(loop, amplitude, omega):
     x = np.imag(resolvent * (-n * amplitude) * np.exp(1j * phase))
     mode, m = _on_sine(element, amplitude, phase)
     return loop.state_of(x, m), mode, level
+
+
+def _run_seed(run):
+    """``(state, mode, period, level)`` on a run's last full oscillation: the sample after its last-but-one
+    upward crossing of the mean of its second half, the crossings' spacing as the period."""
+    half = run.y[run.y.size // 2:]
+    mean = half.mean()
+    up = np.flatnonzero((run.y[:-1] < mean) & (run.y[1:] >= mean))
+    up = up[up >= run.y.size // 2]
+    if up.size < 3:
+        raise OrbitNotFound(f"{run.model}: the run crosses its mean fewer than three times in its second half: "
+                            "no oscillation to shoot from")
+    i, j = up[-2] + 1, up[-1] + 1
+    return run.states[i].copy(), int(run.modes[i]), float(run.time[j] - run.time[i]), float(run.y[i])
 
 
 def _section_level(element, amplitude):
@@ -512,7 +575,9 @@ class LureSimulation:
     states : ndarray, shape (samples, size)
         The augmented state ``X = [x, m]``.
     modes : ndarray of int
-        The element's mode at each sample (:attr:`backlash_df.elements` mode index).
+        The element's mode at each sample (index into the element's ``modes``).
+    diverged : bool
+        The run grew past 1e100 and stopped there (the samples end before ``t_end``).
     """
 
     model: str
@@ -521,14 +586,16 @@ class LureSimulation:
     output: np.ndarray
     states: np.ndarray = dataclasses.field(repr=False)
     modes: np.ndarray = dataclasses.field(repr=False)
+    diverged: bool = False
 
     def __repr__(self):
-        return (f"<LureSimulation {self.model}: {self.time[-1]:.4g} s, y in [{self.y.min():.4g}, "
-                f"{self.y.max():.4g}]>")
+        ran = f"diverged at {self.time[-1]:.4g} s" if self.diverged else f"{self.time[-1]:.4g} s"
+        return f"<LureSimulation {self.model}: {ran}, y in [{self.y.min():.4g}, {self.y.max():.4g}]>"
 
     def to_dict(self):
-        """JSON-ready: the model and the sampled signals."""
-        return json_ready({"model": self.model, "time": self.time, "y": self.y, "output": self.output})
+        """JSON-ready: the model, whether it diverged and the sampled signals."""
+        return json_ready({"model": self.model, "diverged": self.diverged, "time": self.time, "y": self.y,
+                           "output": self.output})
 
     def plot(self, ax=None):
         """y and the element's output F against time, one panel each."""
@@ -558,7 +625,7 @@ class LureOrbit:
     output_amplitude : float
         First-harmonic amplitude of the element's output F.
     peak : float
-        ``max |y - mean y|`` on the orbit.
+        Half the orbit's swing, ``(max y - min y) / 2``.
     multipliers : ndarray of complex
         The Floquet multipliers less the trivial one (along the flow), by decreasing modulus.
     stable : bool
@@ -674,7 +741,7 @@ def _shoot(loop, state, mode, period, level, tol, max_iter):
             return None
         try:
             end, end_mode, mono, _ = _period_map(flow, trial, mode, trial_period)
-        except OrbitNotFound:
+        except (OrbitNotFound, _Overflow):
             return None
         residual = np.append(end - trial, y_row @ trial - level)
         jacobian = np.zeros((size + 1, size + 1))
@@ -683,6 +750,7 @@ def _shoot(loop, state, mode, period, level, tol, max_iter):
         jacobian[size, :size] = y_row
         return residual, jacobian
 
+    size0 = _norm(state)
     current = evaluate(state, period)
     if current is None:
         raise OrbitNotFound(f"{loop.label}: the seed's period map does not exist (a grazing switch)")
@@ -704,6 +772,9 @@ def _shoot(loop, state, mode, period, level, tol, max_iter):
             raise OrbitNotFound(f"{loop.label}: shooting stalled at iteration {iteration} (residual "
                                 f"{np.linalg.norm(residual) / scale:.2e} of the state): no step lowers it")
         state, period, current = state + delta[:size], period + delta[size], trial
+        if _norm(state) < 1e-6 * size0:
+            raise OrbitNotFound(f"{loop.label}: shooting collapsed onto the rest (the state fell to "
+                                f"{_norm(state) / size0:.1e} of the seed's): no orbit near this seed")
     raise OrbitNotFound(f"{loop.label}: shooting did not converge in {max_iter} Newton steps (last correction "
                         f"{np.abs(delta[:size]).max() / _norm(state):.2e} of the state, "
                         f"{abs(delta[size]) / period:.2e} of the period)")
@@ -735,8 +806,8 @@ def _orbit(loop, flow, state, mode, period, level):
 
 
 def _harmonics(loop, flow, state, mode, period, events, pieces=64):
-    """First harmonics of y and F, y's mean and its peak ``max |y - mean|``, by Gauss-Legendre on every
-    smooth piece; the peak refined from the largest node (bounded Brent on the exact flow)."""
+    """First harmonics of y and F, y's mean and its half swing ``(max y - min y) / 2``, by Gauss-Legendre on
+    every smooth piece; the extremes refined from the nodes (bounded Brent on the exact flow)."""
     omega = 2.0 * math.pi / period
     bounds = sorted({0.0, period, *(t for t, _, _ in events)})
     start = (mode, state)
@@ -758,14 +829,19 @@ def _harmonics(loop, flow, state, mode, period, events, pieces=64):
                 times.append(t)
                 values.append(y)
             mode, state, _ = flow.advance(mode, state, b - a)
-    mean /= period
-    best = int(np.argmax(np.abs(np.asarray(values) - mean)))
-    reach = period / pieces
+    extremes = [_extreme(loop, flow, start, period, times, values, sign) for sign in (1.0, -1.0)]
+    return 2.0 * y1 / period, 2.0 * f1 / period, mean / period, 0.5 * (extremes[0] - extremes[1])
 
-    def deviation(t):
+
+def _extreme(loop, flow, start, period, times, values, sign):
+    """``max y`` (``sign`` 1) or ``min y`` (-1) over the orbit from ``start``: the extreme node, refined by Brent."""
+    best = int(np.argmax(sign * np.asarray(values)))
+    reach = period / 64
+
+    def negated(t):
         at, point, _ = flow.advance(*start, t % period)
-        return -abs(loop.signals(at, point)[0] - mean)
+        return -sign * loop.signals(at, point)[0]
 
-    found = scipy.optimize.minimize_scalar(deviation, bounds=(times[best] - reach, times[best] + reach),
+    found = scipy.optimize.minimize_scalar(negated, bounds=(times[best] - reach, times[best] + reach),
                                            method="bounded", options={"xatol": 1e-12 * period})
-    return 2.0 * y1 / period, 2.0 * f1 / period, mean, float(max(-found.fun, abs(values[best] - mean)))
+    return sign * max(-found.fun, sign * values[best])

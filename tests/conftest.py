@@ -143,6 +143,8 @@ def results():
         "Finding": diagnosis.candidates[1].reason_record.findings[0],
         "LureOrbit": lure.periodic_orbit((3.344, 1.4142)),
         "LureSimulation": lure.simulate(10.0),
+        "LureVerdict": (lure_verdict := bd.judge_lure_loop(bd.lure_loop(ct.tf(1, [1, 3, 2, 0]), bd.Relay(1.0, 0.2)))),
+        "LureProbe": lure_verdict.probes[0],
         **_caveats(),
     }
 
@@ -172,7 +174,7 @@ def _caveats():
 PLOTS = ["LimitCyclePrediction", "LoopVerdict", "LoopAnalysis", "PeriodicOrbit", "Branch", "DesignMap",
          "SimulationResult", "DescribingFunctionResult", "ValidityMap", "TorqueComparison", "TableOne", "Measurements",
          "SimulatedRecord", "Diagnosis", "Replay", "FreeRunReplay", "ResidualAnalysis", "Tuning", "LureOrbit",
-         "LureSimulation"]
+         "LureSimulation", "LureVerdict"]
 
 #: Keys of ``results`` whose class writes a report (``report_html(title="", rig_text="")``).
 REPORTS = ["LimitCyclePrediction", "LoopAnalysis", "Branch", "DesignMap", "Diagnosis", "Tuning"]

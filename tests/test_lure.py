@@ -10,6 +10,7 @@ differences gives the stability.  The reference starts 1 % away from the orbit
 under test and converges on its own.
 """
 
+import json
 import math
 
 import control as ct
@@ -314,3 +315,60 @@ def test_a_seed_far_from_any_orbit_is_refused_by_name():
     loop = bd.lure_loop(BACKLASH_H, Play(1.0))
     with pytest.raises(OrbitNotFound, match="play"):
         loop.periodic_orbit((0.55, 5.0), max_iter=3)
+
+
+# ------------------------------------------------------------------ the verdict
+
+#: A conditionally stable type-1 loop: a stable rest, an unstable cycle, a stable one beyond it.
+BISTABLE_H = 3 * ct.tf([1, 2, 1], 1) / (ct.tf([1, 0], 1) * ct.tf([1, 0.4, 0.04], 1) * ct.tf([0.04, 0.4, 1], 1))
+
+
+@pytest.mark.parametrize(("system", "element", "word"), [
+    (SATURATION_H, Saturation(1.0), "limit cycle"),
+    (ct.tf(0.5, [1, 3, 2, 1]), Saturation(1.0), "no oscillation"),
+    (ct.tf(1, [1, 3, 2, 0]), Relay(1.0, 0.2), "limit cycle"),
+], ids=["saturation example", "small gain", "relay"])
+def test_verdict_words(system, element, word):
+    verdict = bd.judge_lure_loop(bd.lure_loop(system, element))
+    assert verdict.verdict == word, verdict
+    if word == "limit cycle":
+        (orbit,) = {id(p.orbit): p.orbit for p in verdict.probes}.values()  # every probe on the one orbit
+        assert orbit.stable and all(p.outcome == "cycle" for p in verdict.probes)
+    else:
+        assert all(p.outcome == "rest" for p in verdict.probes)
+    assert json.loads(json.dumps(verdict.to_dict(), allow_nan=False))["verdict"] == word
+
+
+def test_the_runaway_of_the_backlash_example_starts_at_its_smallest_unstable_orbit():
+    """Both backlash cycles are unstable: the smaller exact orbit bounds the rest's basin.  The reference
+    integrator, started 3 % inside and outside it, comes to rest (the play holds anywhere within its width) and
+    runs away."""
+    loop = bd.lure_loop(BACKLASH_H, ct.friction_backlash_nonlinearity(1))
+    verdict = bd.judge_lure_loop(loop)
+    assert verdict.verdict == "unstable"
+    smallest = verdict.exact[0]
+    assert (verdict.disturbance_to_start, verdict.disturbance_source) == (smallest.amplitude, "exact orbit")
+    assert smallest.amplitude == pytest.approx(0.69255, rel=1e-4)
+    reference = Reference(BACKLASH_H, Play(1.0))
+    for factor, settles in ((0.97, True), (1.03, False)):
+        state = in_reference(loop, smallest.state * factor)
+        end, _ = reference.flow(state, side_of(smallest), 150.0)
+        assert abs(reference.c @ end[:-1]) < 1.0 if settles else abs(reference.c @ end[:-1]) > 1e3
+
+
+def test_a_bistable_loop_names_its_unstable_orbit_and_finds_the_stable_one_by_simulation():
+    """The DF's seed for the outer cycle collapses onto the rest; the probes settle on a swing no orbit has,
+    and shooting from their runs finds the stable orbit, which the reference's own shooting confirms."""
+    loop = bd.lure_loop(BISTABLE_H, Saturation(1.0))
+    verdict = bd.judge_lure_loop(loop)
+    assert verdict.verdict == "bistable", verdict
+    inner, outer = verdict.exact
+    assert not inner.stable and outer.stable and outer in verdict.simulated_orbits
+    assert verdict.disturbance_to_start == inner.amplitude
+    assert {p.outcome for p in verdict.probes if p.size < inner.amplitude} == {"rest"}
+    assert {p.outcome for p in verdict.probes if p.size > inner.amplitude} == {"cycle"}
+    period, amplitude, largest = Reference(BISTABLE_H, Saturation(1.0)).shoot(reference_state(outer),
+                                                                              side_of(outer), outer.period)
+    assert outer.period == pytest.approx(period, rel=1e-7)
+    assert outer.amplitude == pytest.approx(amplitude, rel=1e-6)
+    assert largest < 1

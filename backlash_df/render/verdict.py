@@ -10,12 +10,38 @@ import math
 from ..disturbances import kind_words
 from .html import roundoff_zero, signed_percent, text_table
 
-__all__ = ["reason_text"]
+__all__ = ["reason_text", "lure_reason_text"]
 
 
 def reason_text(evidence):
     """The verdict's reason, one sentence, from its evidence (:class:`~backlash_df.verdict.Evidence`)."""
     return _SENTENCES[evidence.rule](evidence)
+
+
+def lure_reason_text(verdict):
+    """A Lur'e loop's verdict in one sentence (:class:`~backlash_df.lure_verdict.LureVerdict`)."""
+    probes = verdict.probes
+    by = {kind: [p for p in probes if p.outcome == kind] for kind in ("rest", "cycle", "diverged", "unsettled")}
+    if by["unsettled"]:
+        probe = by["unsettled"][0]
+        return f"the start {probe.start} did not settle in {probe.duration:.4g} s (swing {probe.swing:.4g})"
+    boundary = ("" if verdict.disturbance_to_start is None else
+                f"the {verdict.disturbance_source} A = {verdict.disturbance_to_start:.4g}")
+    if verdict.verdict == "no oscillation":
+        text = f"every start settles, up to {max(p.size for p in probes):.4g}"
+        return text + ("" if verdict.df_agrees else "; DF UNRELIABLE: its stable cycle is not there")
+    orbits = sorted({id(p.orbit): p.orbit for p in by["cycle"]}.values(), key=lambda o: o.amplitude)
+    cycles = " or ".join(f"A = {o.amplitude:.4g}, w = {o.omega:.4g} rad/s" for o in orbits)
+    df = "" if verdict.df_agrees else "; DF UNRELIABLE: its stable cycles are not the exact ones"
+    runaway = (f"; starts from {min(p.size for p in by['diverged']):.4g} run away" if by["diverged"] else "")
+    if verdict.verdict == "limit cycle":
+        return f"every start ends on the stable orbit {cycles}{runaway}{df}"
+    if verdict.verdict == "bistable":
+        return (f"starts up to {max(p.size for p in by['rest']):.4g} settle, others end on the stable orbit "
+                f"{cycles}{runaway}" + (f"; {boundary} is the disturbance that starts hunting" if boundary else "")
+                + df)
+    return (f"no start ends on a cycle and starts from {min(p.size for p in by['diverged']):.4g} run away"
+            + (f"; {boundary} bounds the rest's basin" if boundary else ""))
 
 
 # --------------------------------------------------------------------------- pieces
