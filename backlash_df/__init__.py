@@ -42,6 +42,7 @@ _EXPORTS = {
     "elements": ["DeadZone", "Play", "Relay", "Saturation"],
     "lure": ["LureLoop", "LureOrbit", "LureSimulation", "lure_loop"],
     "lure_verdict": ["LureVerdict", "judge_lure_loop"],
+    "lure_continuation": ["LureBranch", "continue_lure_orbit"],
 }
 _lazy_getattr, __dir__, _ = _lazy.attach(
     __name__, submod_attrs=_EXPORTS,
@@ -126,6 +127,8 @@ __all__ = [
     "LureSimulation",
     "judge_lure_loop",
     "LureVerdict",
+    "continue_lure_orbit",
+    "LureBranch",
     "Saturation",
     "DeadZone",
     "Relay",

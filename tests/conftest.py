@@ -145,6 +145,7 @@ def results():
         "LureSimulation": lure.simulate(10.0),
         "LureVerdict": (lure_verdict := bd.judge_lure_loop(bd.lure_loop(ct.tf(1, [1, 3, 2, 0]), bd.Relay(1.0, 0.2)))),
         "LureProbe": lure_verdict.probes[0],
+        "LureBranch": bd.continue_lure_orbit(lure, "limit", [1.0, 1.2], (3.344, 1.4142)),
         **_caveats(),
     }
 
@@ -174,7 +175,7 @@ def _caveats():
 PLOTS = ["LimitCyclePrediction", "LoopVerdict", "LoopAnalysis", "PeriodicOrbit", "Branch", "DesignMap",
          "SimulationResult", "DescribingFunctionResult", "ValidityMap", "TorqueComparison", "TableOne", "Measurements",
          "SimulatedRecord", "Diagnosis", "Replay", "FreeRunReplay", "ResidualAnalysis", "Tuning", "LureOrbit",
-         "LureSimulation", "LureVerdict"]
+         "LureSimulation", "LureVerdict", "LureBranch"]
 
 #: Keys of ``results`` whose class writes a report (``report_html(title="", rig_text="")``).
 REPORTS = ["LimitCyclePrediction", "LoopAnalysis", "Branch", "DesignMap", "Diagnosis", "Tuning"]

@@ -372,3 +372,44 @@ def test_a_bistable_loop_names_its_unstable_orbit_and_finds_the_stable_one_by_si
     assert outer.period == pytest.approx(period, rel=1e-7)
     assert outer.amplitude == pytest.approx(amplitude, rel=1e-6)
     assert largest < 1
+
+
+# ------------------------------------------------------------------ continuation
+
+
+def test_the_relay_branch_along_its_hysteresis_is_tsypkin_s():
+    loop = bd.lure_loop(ct.tf(1, [1, 3, 2, 0]), Relay(1.0))
+    branch = bd.continue_lure_orbit(loop, "hysteresis", np.linspace(0.0, 0.6, 7), (0.21, 1.4))
+    assert not branch.note and branch.values.tolist() == pytest.approx(np.linspace(0.0, 0.6, 7).tolist())
+    for hysteresis, orbit in zip(branch.values, branch.orbits):
+        half = brentq(lambda theta: tsypkin_output(theta, 1.0) - hysteresis, 1.0, 20.0, xtol=1e-15)
+        assert orbit.period == pytest.approx(2 * half, rel=1e-9)
+        assert orbit.stable
+    assert np.all(np.diff(branch.amplitudes) > 0) and not branch.stability_changes
+
+
+def test_the_saturation_branch_shrinks_to_the_limit_where_the_linear_loop_turns_stable():
+    """python-control's saturation loop with H scaled down: the cycle shrinks toward A = L as the gain
+    falls to 3/8 (H(j sqrt 2) = -8 g / 3 meets -1), the DF's error vanishing with the saturation; the
+    branch is lost just above 3/8, where the orbit stops touching the limit (named in the note)."""
+    loop = bd.lure_loop(SATURATION_H, Saturation(1.0))
+    branch = bd.continue_lure_orbit(loop, "gain", np.linspace(1.0, 0.3, 8), (3.344, 1.414))
+    assert "lost" in branch.note and 0.375 < branch.values[-1] < 0.4
+    assert np.all(np.diff(branch.amplitudes) < 0) and 1.0 < branch.amplitudes[-1] < 1.1
+    errors = np.abs(branch.df_amplitudes / branch.amplitudes - 1)
+    assert errors[-1] < 0.1 * errors[0]
+    assert all(o.stable for o in branch.orbits)
+    assert branch.to_dict()["points"][0]["amplitude"] == pytest.approx(3.39494, rel=1e-5)
+
+
+@pytest.mark.parametrize(("parameter", "values", "words"), [
+    ("width", [1.0, 2.0], "unknown parameter 'width' of a saturation loop"),
+    ("gain", [1.0, 1.0], "strictly monotonic"),
+    ("gain", [1.0], "at least two"),
+    ("limit", [1.0, -1.0], "limit must be finite and > 0"),
+])
+def test_bad_continuations_are_one_line(parameter, values, words):
+    loop = bd.lure_loop(SATURATION_H, Saturation(1.0))
+    with pytest.raises(ValueError, match=words) as caught:
+        bd.continue_lure_orbit(loop, parameter, values, (3.344, 1.414))
+    assert "\n" not in str(caught.value)
