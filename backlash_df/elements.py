@@ -64,9 +64,12 @@ def _positive(name, value):
     return number
 
 
-def _level_guards(level, up, down):
-    """Guards of a two-sided threshold ``|y| = level``: to ``up`` crossing ``+level`` upward, ``down`` ``-level`` downward."""
-    return (Guard((1.0, 0.0, 0.0, -level), 1, up), Guard((1.0, 0.0, 0.0, level), -1, down))
+def _sided_modes(level, inside, above, below):
+    """The three modes of a two-sided threshold ``|y| = level``, each ``(name, output)``: inside, left
+    across ``+level`` upward to above and ``-level`` downward to below; above and below, back across it."""
+    return (Mode(*inside, (Guard((1.0, 0.0, 0.0, -level), 1, 1), Guard((1.0, 0.0, 0.0, level), -1, 2))),
+            Mode(*above, (Guard((1.0, 0.0, 0.0, -level), -1, 0),)),
+            Mode(*below, (Guard((1.0, 0.0, 0.0, level), 1, 0),)))
 
 
 class _Element:
@@ -119,18 +122,18 @@ class Saturation(_Element):
         object.__setattr__(self, "limit", _positive("the saturation's limit", self.limit))
 
     def symbols(self):
+        """``((symbol, value), ...)``: the element's values, for its label."""
         return (("L", self.limit),)
 
     @functools.cached_property
     def modes(self):
+        """The element's :class:`Mode` s, indexed as the guards' targets."""
         lim = self.limit
-        return (Mode("linear", (1.0, 0.0, 0.0), _level_guards(lim, 1, 2)),
-                Mode("upper", (0.0, 0.0, lim), (Guard((1.0, 0.0, 0.0, -lim), -1, 0),)),
-                Mode("lower", (0.0, 0.0, -lim), (Guard((1.0, 0.0, 0.0, lim), 1, 0),)))
+        return _sided_modes(lim, ("linear", (1.0, 0.0, 0.0)), ("upper", (0.0, 0.0, lim)), ("lower", (0.0, 0.0, -lim)))
 
     @property
     def threshold(self):
-        """Amplitudes at or below which N is constant (the DF's search starts above 0)."""
+        """0: a saturation passes every amplitude (N = 1 up to its limit)."""
         return 0.0
 
     def describing_function(self, amplitude):
@@ -151,17 +154,18 @@ class DeadZone(_Element):
         object.__setattr__(self, "slope", _positive("the dead zone's slope", self.slope))
 
     def symbols(self):
+        """``((symbol, value), ...)``: the element's values, for its label."""
         return (("d", self.half_width), ("s", self.slope))
 
     @functools.cached_property
     def modes(self):
+        """The element's :class:`Mode` s, indexed as the guards' targets."""
         d, s = self.half_width, self.slope
-        return (Mode("inside", (0.0, 0.0, 0.0), _level_guards(d, 1, 2)),
-                Mode("above", (s, 0.0, -s * d), (Guard((1.0, 0.0, 0.0, -d), -1, 0),)),
-                Mode("below", (s, 0.0, s * d), (Guard((1.0, 0.0, 0.0, d), 1, 0),)))
+        return _sided_modes(d, ("inside", (0.0, 0.0, 0.0)), ("above", (s, 0.0, -s * d)), ("below", (s, 0.0, s * d)))
 
     @property
     def threshold(self):
+        """Amplitudes at or below which N is zero (the DF's search starts above it)."""
         return self.half_width
 
     def describing_function(self, amplitude):
@@ -185,10 +189,12 @@ class Relay(_Element):
         object.__setattr__(self, "hysteresis", hysteresis)
 
     def symbols(self):
+        """``((symbol, value), ...)``: the element's values, for its label."""
         return (("M", self.level), ("h", self.hysteresis))
 
     @functools.cached_property
     def modes(self):
+        """The element's :class:`Mode` s, indexed as the guards' targets."""
         h, level = self.hysteresis, self.level
         return (Mode("high", (0.0, 0.0, level), (Guard((1.0, 0.0, 0.0, h), -1, 1),)),
                 Mode("low", (0.0, 0.0, -level), (Guard((1.0, 0.0, 0.0, -h), 1, 0),)))
@@ -199,6 +205,7 @@ class Relay(_Element):
 
     @property
     def threshold(self):
+        """Amplitudes at or below which N is zero (the DF's search starts above it)."""
         return self.hysteresis
 
     def describing_function(self, amplitude):
@@ -218,10 +225,12 @@ class Play(_Element):
         object.__setattr__(self, "width", _positive("the play's width", self.width))
 
     def symbols(self):
+        """``((symbol, value), ...)``: the element's values, for its label."""
         return (("b", self.width),)
 
     @functools.cached_property
     def modes(self):
+        """The element's :class:`Mode` s, indexed as the guards' targets."""
         half = 0.5 * self.width
         return (Mode("held", (0.0, 1.0, 0.0), (Guard((1.0, 0.0, -1.0, -half), 1, 1),
                                                Guard((1.0, 0.0, -1.0, half), -1, 2))),
@@ -230,6 +239,7 @@ class Play(_Element):
 
     @property
     def threshold(self):
+        """Amplitudes at or below which N is zero (the DF's search starts above it)."""
         return 0.5 * self.width
 
     def describing_function(self, amplitude):

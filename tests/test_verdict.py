@@ -633,3 +633,18 @@ def test_a_runaway_starts_at_the_smallest_unstable_cycle():
         pytest.approx(prediction.cycles[0].amplitude), "DF unstable cycle")
     outcomes = {p.disturbance.value: p.outcome for p in verdict.probes if p.role != "within reach"}
     assert outcomes[0.7] == "rest" and outcomes[1.2] == outcomes[1.5] == "diverged"
+
+
+def test_a_near_rigid_shaft_on_its_torque_limit_hunts_at_its_own_scale_not_a_thousand_gaps():
+    """k = 1e5 N m/rad, alpha = 1e-6 rad, a torque limit of 1 N m and python-control's saturation example as
+    the user's speed controller: the run settles on a cycle at 1.6e-3 rad of twist, 1600 gaps (it was called
+    diverged: the bound was 1000 gaps); the bound is 1000 times the twist the limit holds, L / k = 1e-5 rad."""
+    s = ct.tf("s")
+    rig = rig_from_dict({"plant": {"motor_inertia": 0.5, "load_inertia": 0.5, "stiffness": 1e5, "damping": 10.0,
+                                   "half_gap": 1e-6},
+                         "controller": {"kp": 1.0, "ti": 1.0, "feedback": "motor", "torque_limit": 1.0},
+                         "model": {"backlash": "dead-zone"}}).with_controller(speed=8 * s / (s**3 + 2 * s**2 + 2 * s + 1))
+    measured, run = simulated_limit_cycle(rig, t_end=20.0, max_t_end=40.0, kick=1.0)
+    assert 1e3 * rig.plant.half_gap < np.abs(run.theta_d).max() < 1e3 * 1.0 / rig.plant.stiffness
+    assert measured.verdict == "limit cycle" and measured.periodic
+    assert measured.amplitude == pytest.approx(np.abs(run.theta_d[run.time > 15.0]).max(), rel=1e-2)

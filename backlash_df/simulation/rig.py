@@ -92,6 +92,28 @@ def simulate_rig(rig, model=None, *, t_end=20.0, dt=None, speed_reference=0.0, l
     return simulate_linear(system, model, t_end, dt, inputs=inputs, z0=z0, theta_b0=theta_b0)
 
 
+def _divergence_bound(rig, model, load_torque=None):
+    """The largest ``|theta_d|`` (rad) of a run that has not diverged: 1e3 times the loop's own scale.
+
+    That scale is the larger of the gap ``alpha`` and the twist the shaft takes to carry
+    the torque limit and the load torque, ``(L + |T_l|) / k``: a near-rigid shaft with a tiny
+    gap hunts on its torque limit at thousands of gaps of twist, a cycle and not a runaway
+    (:func:`~backlash_df.simulation.measure_limit_cycle`'s default is ``1e3 alpha``).
+
+    Parameters
+    ----------
+    rig : Rig
+    model : BacklashModel
+        The law simulated (its shaft's ``k`` and ``alpha``).
+    load_torque : float, optional
+        N m, the run's constant load torque (default the rig's).
+    """
+    torque = rig.controller.torque_limit if rig.controller is not None else 0.0
+    torque += abs(rig.load.torque if load_torque is None or not np.isscalar(load_torque) else load_torque)
+    twist = torque / model.stiffness if model.stiffness > 0.0 else 0.0
+    return 1e3 * max(model.half_gap, twist)
+
+
 def simulated_limit_cycle(rig, model=None, *, t_end=20.0, max_t_end=160.0, dt=None, periods=6, rtol=1e-3, **kwargs):
     """Simulate until a steady state and measure the limit cycle.
 
@@ -120,8 +142,9 @@ def simulated_limit_cycle(rig, model=None, *, t_end=20.0, max_t_end=160.0, dt=No
     """
     measured = None
     result = simulate_rig(rig, model, t_end=t_end, dt=dt, **kwargs)
+    bound = _divergence_bound(rig, result.model, kwargs.get("load_torque"))
     while True:
-        measured = measure_limit_cycle(result, periods=periods, rtol=rtol, previous=measured)
+        measured = measure_limit_cycle(result, periods=periods, rtol=rtol, bound=bound, previous=measured)
         longest = longest_run(result.time[1] - result.time[0])
         if measured.settled or 2.0 * t_end > max_t_end or t_end >= longest:
             return measured, result
