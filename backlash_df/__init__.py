@@ -43,6 +43,7 @@ _EXPORTS = {
     "lure": ["LureLoop", "LureOrbit", "LureSimulation", "lure_loop"],
     "lure_verdict": ["LureVerdict", "judge_lure_loop"],
     "lure_continuation": ["LureBranch", "continue_lure_orbit"],
+    "lure_map": ["LureDesignMap", "lure_design_map"],
 }
 _lazy_getattr, __dir__, _ = _lazy.attach(
     __name__, submod_attrs=_EXPORTS,
@@ -129,6 +130,8 @@ __all__ = [
     "LureVerdict",
     "continue_lure_orbit",
     "LureBranch",
+    "lure_design_map",
+    "LureDesignMap",
     "Saturation",
     "DeadZone",
     "Relay",

@@ -140,6 +140,27 @@ class LureLoop:
 
     # ------------------------------------------------------------------ the modes
 
+    def with_value(self, parameter, value):
+        """This loop with ``parameter`` at ``value``: ``"gain"`` scales H (its output row ``C``, the states
+        unchanged), any other name is a value of the element (``limit``, ``width``, ``hysteresis``, ...).
+
+        Raises
+        ------
+        ValueError
+            An unknown parameter, or a value the element refuses: one line.
+        """
+        if parameter == "gain":
+            gain = float(value)
+            if not (gain > 0.0 and math.isfinite(gain)):
+                raise ValueError(f"the gain must be finite and > 0, got {value!r}")
+            return LureLoop(system=self.system * gain, element=self.element, a=self.a, b=self.b, c=self.c * gain)
+        fields = [f.name for f in dataclasses.fields(self.element)]
+        if parameter not in fields:
+            raise ValueError(f"unknown parameter {parameter!r} of a {self.element.kind} loop: 'gain' or one of "
+                             f"{', '.join(fields)}")
+        element = dataclasses.replace(self.element, **{parameter: float(value)})
+        return LureLoop(system=self.system, element=element, a=self.a, b=self.b, c=self.c)
+
     def mode_system(self, mode):
         """``(M, q, y_row, dy_row, dy_0, f_row, f_0)`` of ``mode``: ``dX/dt = M X + q``, ``y = y_row . X``,
         ``dy/dt = dy_row . X + dy_0``, ``F = f_row . X + f_0``."""

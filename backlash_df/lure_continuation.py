@@ -1,11 +1,11 @@
 """A Lur'e loop's exact orbit followed along a gain of H or a value of its element.
 
 :func:`continue_lure_orbit` steps the parameter through the values given and shoots the
-orbit at each from the orbit at the one before (or, where that fails, from a sine of its
-amplitude and frequency: the element's mode at the section may change with its value) (natural-parameter continuation, the state
-in the same coordinates: the gain scales H's output row ``C``, an element's value leaves
-``A, B, C`` alone); a step whose shooting fails is halved, up to four times, before the
-branch is declared lost there (a fold, where the orbit turns back, or a collision with a
+orbit at each from the orbit at the one before (natural-parameter continuation, the state
+in the same coordinates: :meth:`~backlash_df.lure.LureLoop.with_value`), or, where that
+fails, from a sine of its amplitude and frequency (the element's mode at the section may
+change with its value); a step whose shooting fails is halved, up to four times, before
+the branch is declared lost there (a fold, where the orbit turns back, or a collision with a
 switching surface).  At each point the describing function's nearest cycle is beside
 the orbit, and the points where the largest Floquet multiplier crosses the unit circle
 are marked: the orbit changes stability there.
@@ -17,7 +17,6 @@ import math
 import numpy as np
 
 from ._json import json_ready
-from .lure import LureLoop
 from .orbits import OrbitNotFound
 from .plotting import ResultPlot, axes_or_new, legend_beside
 
@@ -136,11 +135,7 @@ def continue_lure_orbit(loop, parameter, values, seed):
     steps = np.diff(values)
     if values.size < 2 or not np.all(np.isfinite(values)) or not (np.all(steps > 0) or np.all(steps < 0)):
         raise ValueError(f"values must be at least two finite numbers, strictly monotonic, got {values.tolist()!r}")
-    fields = [f.name for f in dataclasses.fields(loop.element)]
-    if parameter != "gain" and parameter not in fields:
-        raise ValueError(f"unknown parameter {parameter!r} of a {loop.element.kind} loop: 'gain' or one of "
-                         f"{', '.join(fields)}")
-    at = _loop_at(loop, parameter, values[0])
+    at = loop.with_value(parameter, values[0])
     orbits, reached = [at.periodic_orbit(seed)], [values[0]]
     note = ""
     for target in values[1:]:
@@ -151,7 +146,7 @@ def continue_lure_orbit(loop, parameter, values, seed):
             note = (f"shooting lost the orbit between {parameter} = {reached[-1]:.6g} and {target:.6g} "
                     "(a fold, where it turns back, or a switch it grazes)")
             break
-    df = [_nearest_df(_loop_at(loop, parameter, v), o) for v, o in zip(reached, orbits)]
+    df = [_nearest_df(loop.with_value(parameter, v), o) for v, o in zip(reached, orbits)]
     largest = np.array([o.max_multiplier for o in orbits])
     crossing = np.flatnonzero((largest[:-1] < 1.0) != (largest[1:] < 1.0))
     return LureBranch(
@@ -161,22 +156,13 @@ def continue_lure_orbit(loop, parameter, values, seed):
     )
 
 
-def _loop_at(loop, parameter, value):
-    """``loop`` with ``parameter`` at ``value``: H scaled (its output row), or the element's value replaced."""
-    if parameter == "gain":
-        return LureLoop(system=loop.system * float(value), element=loop.element, a=loop.a, b=loop.b,
-                        c=loop.c * float(value))
-    element = dataclasses.replace(loop.element, **{parameter: float(value)})
-    return LureLoop(system=loop.system, element=element, a=loop.a, b=loop.b, c=loop.c)
-
-
 def _step(loop, parameter, start, target, orbit):
     """``[(value, orbit)]`` from ``start`` to ``target``: one shot, or steps halved where a shot fails."""
     found, value, step = [], start, target - start
     for _ in range(HALVINGS + 1):
         while value != target:
             following = target if abs(target - value) <= abs(step) * (1.0 + 1e-9) else value + step
-            shot = _shoot_at(_loop_at(loop, parameter, following), orbit)
+            shot = _shoot_at(loop.with_value(parameter, following), orbit)
             if shot is None:
                 break
             orbit = shot

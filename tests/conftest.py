@@ -146,6 +146,7 @@ def results():
         "LureVerdict": (lure_verdict := bd.judge_lure_loop(bd.lure_loop(ct.tf(1, [1, 3, 2, 0]), bd.Relay(1.0, 0.2)))),
         "LureProbe": lure_verdict.probes[0],
         "LureBranch": bd.continue_lure_orbit(lure, "limit", [1.0, 1.2], (3.344, 1.4142)),
+        "LureDesignMap": bd.lure_design_map(lure, ("gain", [0.3, 1.0]), ("limit", [1.0])),
         **_caveats(),
     }
 
@@ -175,7 +176,7 @@ def _caveats():
 PLOTS = ["LimitCyclePrediction", "LoopVerdict", "LoopAnalysis", "PeriodicOrbit", "Branch", "DesignMap",
          "SimulationResult", "DescribingFunctionResult", "ValidityMap", "TorqueComparison", "TableOne", "Measurements",
          "SimulatedRecord", "Diagnosis", "Replay", "FreeRunReplay", "ResidualAnalysis", "Tuning", "LureOrbit",
-         "LureSimulation", "LureVerdict", "LureBranch"]
+         "LureSimulation", "LureVerdict", "LureBranch", "LureDesignMap"]
 
 #: Keys of ``results`` whose class writes a report (``report_html(title="", rig_text="")``).
 REPORTS = ["LimitCyclePrediction", "LoopAnalysis", "Branch", "DesignMap", "Diagnosis", "Tuning"]

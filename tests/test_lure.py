@@ -413,3 +413,48 @@ def test_bad_continuations_are_one_line(parameter, values, words):
     with pytest.raises(ValueError, match=words) as caught:
         bd.continue_lure_orbit(loop, parameter, values, (3.344, 1.414))
     assert "\n" not in str(caught.value)
+
+
+# ------------------------------------------------------------------ design maps
+
+
+@pytest.fixture(scope="module")
+def saturation_map():
+    loop = bd.lure_loop(SATURATION_H, Saturation(1.0))
+    return bd.lure_design_map(loop, ("gain", [0.3, 0.45, 1.0]), ("limit", [1.0, 2.0]))
+
+
+def test_the_saturation_map_hunts_above_three_eighths_and_scales_with_the_limit(saturation_map):
+    """H(j sqrt 2) = -8 g / 3: the loop hunts above g = 3/8 only; the loop is homogeneous in the limit, so the
+    cycle's amplitude doubles with it (to round-off of the shooting)."""
+    m = saturation_map
+    assert m.verdicts.tolist() == [["no oscillation", "limit cycle", "limit cycle"]] * 2
+    assert m.model == "saturation"
+    np.testing.assert_allclose(m.amplitudes[1, 1:], 2.0 * m.amplitudes[0, 1:], rtol=1e-9)
+    assert m.amplitudes[0, 2] == pytest.approx(3.39494, rel=1e-5)
+    assert np.isnan(m.amplitudes[:, 0]).all()
+
+
+def test_the_map_is_the_same_on_a_process_pool(saturation_map):
+    import concurrent.futures
+
+    loop = bd.lure_loop(SATURATION_H, Saturation(1.0))
+    done = []
+    with concurrent.futures.ProcessPoolExecutor(max_workers=2) as executor:
+        pooled = bd.lure_design_map(loop, ("gain", [0.3, 0.45, 1.0]), ("limit", [1.0, 2.0]), executor=executor,
+                                    progress=lambda stage, n, total: done.append((stage, n, total)))
+    assert pooled.verdicts.tolist() == saturation_map.verdicts.tolist()
+    np.testing.assert_array_equal(pooled.amplitudes, saturation_map.amplitudes)
+    assert done[-1] == ("points", 6, 6)
+
+
+@pytest.mark.parametrize(("x", "y", "words"), [
+    (("gain", [1.0]), ("gain", [2.0]), "must differ"),
+    (("gain", [1.0]), ("width", [1.0]), "unknown parameter 'width'"),
+    (("gain", [1.0]), ("limit", [-1.0]), "limit must be finite and > 0"),
+    (("gain", [np.nan]), ("limit", [1.0]), "must be finite"),
+])
+def test_bad_maps_are_one_line(x, y, words):
+    with pytest.raises(ValueError, match=words) as caught:
+        bd.lure_design_map(bd.lure_loop(SATURATION_H, Saturation(1.0)), x, y)
+    assert "\n" not in str(caught.value)

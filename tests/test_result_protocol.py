@@ -59,7 +59,7 @@ def test_every_public_result_class_is_covered(results):
                                          "Unexplained", "FewSegments", "UnphysicalInterval", "OnBound", "InitialSpeed",
                                          "Absorbed", "SideUndetermined", "Disagreement", "LureOrbit",
                                          "LureSimulation", "LureVerdict", "LureProbe",
-                                         "LureBranch"]))
+                                         "LureBranch", "LureDesignMap"]))
 def test_to_dict_is_json_and_the_repr_one_line(results, name):
     result = results[name]
     data = result.to_dict()
