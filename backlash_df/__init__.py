@@ -39,7 +39,7 @@ _EXPORTS = {
     "continuation": ["Branch", "continue_limit_cycles"],
     "reproduce": ["TableOne", "TorqueComparison", "compare_torques", "integrated_torque", "table1"],
     "identify": ["Diagnosis", "Measurements", "diagnose", "load_measurements"],
-    "elements": ["DeadZone", "Play", "Relay", "Saturation"],
+    "elements": ["DeadZone", "Play", "Relay", "Saturation", "ShaftLaw"],
     "lure": ["LureLoop", "LureOrbit", "LureSimulation", "lure_loop"],
     "lure_verdict": ["LureVerdict", "judge_lure_loop"],
     "lure_continuation": ["LureBranch", "continue_lure_orbit"],
@@ -136,4 +136,5 @@ __all__ = [
     "DeadZone",
     "Relay",
     "Play",
+    "ShaftLaw",
 ]

@@ -9,12 +9,15 @@ python-control's describing-function elements and the textbooks' (Gelb and Vande
   has fallen below ``-h`` (``control.relay_hysteresis_nonlinearity(M, h)``);
 * :class:`Play` of total width ``b``: the output stays put while the input moves within
   ``b / 2`` of it and follows at ``b / 2`` behind once pushed
-  (``control.friction_backlash_nonlinearity(b)``, friction-dominated backlash).
+  (``control.friction_backlash_nonlinearity(b)``, friction-dominated backlash);
+* :class:`ShaftLaw`: the toolbox's piecewise-affine backlash laws of an elastic shaft,
+  ``dead-zone`` (24), ``damped-dead-zone`` (26) and ``revised-dead-zone`` (27), with ``y``
+  as theta_d (:func:`element_of` maps a :func:`~backlash_df.make_model` law to one).
 
 Each is exact as a hybrid automaton whose every mode is affine in the element's input
 ``y``, its rate ``dy/dt`` and, for the play, its memory ``m`` (the held output)::
 
-    F = a_y y + a_m m + a_0,      dm/dt = rate * dy/dt,
+    F = a_y y + a_m m + a_0 + a_dy dy/dt,      dm/dt = rate * dy/dt,
 
 and whose switches are the zero crossings, in a given direction, of affine guards
 ``g = g_y y + g_dy dy/dt + g_m m + g_0``.  :mod:`backlash_df.lure` closes a linear
@@ -27,24 +30,27 @@ import dataclasses
 import functools
 import math
 
+from .describing import describing_function
 from .describing.classical import (
     dead_zone_describing_function,
     play_describing_function,
     relay_describing_function,
     saturation_describing_function,
 )
+from .models import StaticModel, make_model
 
-__all__ = ["Saturation", "DeadZone", "Relay", "Play", "Mode", "Guard", "element_of"]
+__all__ = ["Saturation", "DeadZone", "Relay", "Play", "ShaftLaw", "Mode", "Guard", "element_of"]
 
 
 @dataclasses.dataclass(frozen=True)
 class Mode:
-    """One smooth piece: ``F = a_y y + a_m m + a_0``, ``dm/dt = rate dy/dt``, left by its guards."""
+    """One smooth piece: ``F = a_y y + a_m m + a_0 + a_dy dy/dt``, ``dm/dt = rate dy/dt``, left by its guards."""
 
     name: str
     output: tuple  # (a_y, a_m, a_0)
     guards: tuple  # of Guard
     rate: float = 0.0
+    output_rate: float = 0.0  # a_dy: a damper's c
 
 
 @dataclasses.dataclass(frozen=True)
@@ -136,8 +142,8 @@ class Saturation(_Element):
         """0: a saturation passes every amplitude (N = 1 up to its limit)."""
         return 0.0
 
-    def describing_function(self, amplitude):
-        """N(A) = :func:`~backlash_df.describing.classical.saturation_describing_function`."""
+    def describing_function(self, amplitude, omega=None):
+        """N(A) = :func:`~backlash_df.describing.classical.saturation_describing_function` (``omega`` unused)."""
         return saturation_describing_function(amplitude, self.limit) + 0j
 
 
@@ -168,8 +174,8 @@ class DeadZone(_Element):
         """Amplitudes at or below which N is zero (the DF's search starts above it)."""
         return self.half_width
 
-    def describing_function(self, amplitude):
-        """N(A) = :func:`~backlash_df.describing.classical.dead_zone_describing_function`."""
+    def describing_function(self, amplitude, omega=None):
+        """N(A) = :func:`~backlash_df.describing.classical.dead_zone_describing_function` (``omega`` unused)."""
         return dead_zone_describing_function(amplitude, self.half_width, slope=self.slope) + 0j
 
 
@@ -208,8 +214,8 @@ class Relay(_Element):
         """Amplitudes at or below which N is zero (the DF's search starts above it)."""
         return self.hysteresis
 
-    def describing_function(self, amplitude):
-        """N(A) = :func:`~backlash_df.describing.classical.relay_describing_function`."""
+    def describing_function(self, amplitude, omega=None):
+        """N(A) = :func:`~backlash_df.describing.classical.relay_describing_function` (``omega`` unused)."""
         return relay_describing_function(amplitude, self.level, hysteresis=self.hysteresis)
 
 
@@ -242,9 +248,72 @@ class Play(_Element):
         """Amplitudes at or below which N is zero (the DF's search starts above it)."""
         return 0.5 * self.width
 
-    def describing_function(self, amplitude):
-        """N(A) = :func:`~backlash_df.describing.classical.play_describing_function`."""
+    def describing_function(self, amplitude, omega=None):
+        """N(A) = :func:`~backlash_df.describing.classical.play_describing_function` (``omega`` unused)."""
         return play_describing_function(amplitude, self.width)
+
+
+#: The toolbox's laws that are piecewise affine, as :class:`ShaftLaw` takes them.
+SHAFT_LAWS = ("dead-zone", "damped-dead-zone", "revised-dead-zone")
+
+
+@dataclasses.dataclass(frozen=True)
+class ShaftLaw(_Element):
+    """A piecewise-affine backlash law of :mod:`backlash_df.models` with ``y`` as theta_d: modes free, right
+    and left contact, ``F = k (y -+ alpha) + c dy/dt`` in contact (``c`` unused by the dead-zone (24)).
+
+    ``dead-zone`` and ``damped-dead-zone`` (26) are in contact while ``|y| > alpha``;
+    ``revised-dead-zone`` (27) while ``k |y| + c sign(y) dy/dt > k alpha`` (it releases where the
+    torque would pull).  A damper's torque depends on ``dy/dt``: H needs a relative degree of at
+    least 2 (:func:`~backlash_df.lure.lure_loop` says so in one line).
+    """
+
+    law: str
+    stiffness: float
+    half_gap: float
+    damping: float = 0.0
+    kind = "shaft law"
+
+    def __post_init__(self):
+        if self.law not in SHAFT_LAWS:
+            raise ValueError(f"a Lur'e loop takes the piecewise-affine laws {', '.join(SHAFT_LAWS)}, not "
+                             f"{self.law!r} (its contact is not affine in theta_d and its rate)")
+        object.__setattr__(self, "stiffness", _positive("the shaft's stiffness", self.stiffness))
+        object.__setattr__(self, "half_gap", _positive("the shaft's half gap", self.half_gap))
+        damping = float(self.damping)
+        if not (damping >= 0.0 and math.isfinite(damping)):
+            raise ValueError(f"the shaft's damping must be finite and >= 0, got {self.damping!r}")
+        object.__setattr__(self, "damping", 0.0 if self.law == "dead-zone" else damping)
+
+    @property
+    def label(self):
+        """The law and its shaft: ``"damped-dead-zone (k = 1, c = 0.2, alpha = 0.5)"``."""
+        values = f"k = {self.stiffness:.6g}, c = {self.damping:.6g}, alpha = {self.half_gap:.6g}"
+        return f"{self.law} ({values})"
+
+    @functools.cached_property
+    def modes(self):
+        """Free, right contact, left contact."""
+        k, c, alpha = self.stiffness, self.damping, self.half_gap
+        # the contact's guard: y = +-alpha, or (revised) k y + c dy = +-k alpha
+        g_dy = c / k if self.law == "revised-dead-zone" else 0.0
+        return (Mode("free", (0.0, 0.0, 0.0), (Guard((1.0, g_dy, 0.0, -alpha), 1, 1),
+                                               Guard((1.0, g_dy, 0.0, alpha), -1, 2))),
+                Mode("right contact", (k, 0.0, -k * alpha), (Guard((1.0, g_dy, 0.0, -alpha), -1, 0),), output_rate=c),
+                Mode("left contact", (k, 0.0, k * alpha), (Guard((1.0, g_dy, 0.0, alpha), 1, 0),), output_rate=c))
+
+    @property
+    def threshold(self):
+        """alpha: below it the shaft never touches (N = 0)."""
+        return self.half_gap
+
+    def model(self):
+        """The law as :func:`~backlash_df.make_model` builds it."""
+        return make_model(self.law, stiffness=self.stiffness, damping=self.damping, half_gap=self.half_gap)
+
+    def describing_function(self, amplitude, omega=None):
+        """N(A, w) = :func:`~backlash_df.describing_function` of the law (N m/rad; rate-dependent with a damper)."""
+        return describing_function(self.model(), amplitude, 0.0 if omega is None else omega)
 
 
 def element_of(nonlinearity):
@@ -252,7 +321,9 @@ def element_of(nonlinearity):
 
     ``control.saturation_nonlinearity(ub)`` (symmetric) is :class:`Saturation` ``(ub)``,
     ``control.friction_backlash_nonlinearity(b)`` is :class:`Play` ``(b)``,
-    ``control.relay_hysteresis_nonlinearity(b, c)`` is :class:`Relay` ``(b, c)``.
+    ``control.relay_hysteresis_nonlinearity(b, c)`` is :class:`Relay` ``(b, c)``; a
+    ``dead-zone``, ``damped-dead-zone`` or ``revised-dead-zone`` law of
+    :func:`~backlash_df.make_model` is a :class:`ShaftLaw` with its shaft.
 
     Raises
     ------
@@ -265,8 +336,11 @@ def element_of(nonlinearity):
     >>> element_of(ct.friction_backlash_nonlinearity(1.0)).label
     'play (b = 1)'
     """
-    if isinstance(nonlinearity, (Saturation, DeadZone, Relay, Play)):
+    if isinstance(nonlinearity, (Saturation, DeadZone, Relay, Play, ShaftLaw)):
         return nonlinearity
+    if isinstance(nonlinearity, StaticModel):
+        k, c, alpha, _ = nonlinearity.params
+        return ShaftLaw(nonlinearity.name, k, alpha, c)
     import control
 
     if isinstance(nonlinearity, control.saturation_nonlinearity):
@@ -279,5 +353,6 @@ def element_of(nonlinearity):
     if isinstance(nonlinearity, control.relay_hysteresis_nonlinearity):
         return Relay(nonlinearity.b, nonlinearity.c)
     raise ValueError(f"no element for a {type(nonlinearity).__qualname__} object: a Lur'e loop takes "
-                     "backlash_df.elements' Saturation, DeadZone, Relay and Play, or python-control's "
-                     "saturation_nonlinearity, friction_backlash_nonlinearity and relay_hysteresis_nonlinearity")
+                     "backlash_df.elements' Saturation, DeadZone, Relay, Play and ShaftLaw, a piecewise-affine law "
+                     "of make_model, or python-control's saturation_nonlinearity, friction_backlash_nonlinearity "
+                     "and relay_hysteresis_nonlinearity")

@@ -109,7 +109,12 @@ def lure_loop(system, nonlinearity):
                          "through the element")
     if a.shape[0] == 0:
         raise ValueError("H has no state: a static gain closes an algebraic loop through the element")
-    return LureLoop(system=system, element=element_of(nonlinearity), a=a, b=b[:, 0], c=c[0])
+    element = element_of(nonlinearity)
+    scale = max(float(np.abs(c).max() * np.abs(b).max()), 1e-300)
+    if any(m.output_rate for m in element.modes) and abs(float(c[0] @ b[:, 0])) > 1e-12 * scale:
+        raise ValueError(f"the {element.label} depends on dy/dt: H needs a relative degree of at least 2 (its "
+                         "dy/dt a function of its state), this one has 1")
+    return LureLoop(system=system, element=element, a=a, b=b[:, 0], c=c[0])
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -207,7 +212,7 @@ class LureLoop:
                            else tuple(amplitude_range))
 
         def n_of(amplitude, omega):
-            return self.element.describing_function(amplitude) + 0.0 * omega
+            return self.element.describing_function(amplitude, omega) + 0.0 * omega
 
         threshold = self.element.threshold
         cycles, near = solve_harmonic_balance(functools.partial(frequency_response_of, self.system), n_of, threshold, amplitude_range, omega_range, grid=grid,
@@ -370,7 +375,11 @@ _SEED_LADDER = ((1.0, 1.0), (1.1, 1.0), (1.25, 1.0), (0.9, 1.0), (1.0, 1.1), (1.
 
 
 def _mode_system(loop, mode):
-    """The affine field of ``mode`` over the augmented state (:meth:`LureLoop.mode_system`)."""
+    """The affine field of ``mode`` over the augmented state (:meth:`LureLoop.mode_system`).
+
+    A damper's term ``a_dy dy/dt`` enters as ``a_dy C A x``: H's relative degree is at least 2
+    there (:func:`lure_loop` refuses less), so ``dy/dt`` is a state output.
+    """
     spec = loop.element.modes[mode]
     a_y, a_m, a_0 = spec.output
     a, b, c = loop.a, loop.b, loop.c
@@ -381,6 +390,7 @@ def _mode_system(loop, mode):
     y_row = np.zeros(size)
     y_row[:n] = c
     f_row = a_y * y_row
+    f_row[:n] += spec.output_rate * (c @ a)
     if memory:
         f_row[n] = a_m
     big_m = np.zeros((size, size))
@@ -539,7 +549,7 @@ def _harmonic_seed(loop, amplitude, omega):
     element = loop.element
     level = _section_level(element, amplitude)
     phase = math.asin(level / amplitude)
-    n = complex(np.asarray(element.describing_function(amplitude)).reshape(-1)[0])
+    n = complex(np.asarray(element.describing_function(amplitude, omega)).reshape(-1)[0])
     resolvent = np.linalg.solve(1j * omega * np.eye(loop.a.shape[0]) - loop.a, loop.b)
     x = np.imag(resolvent * (-n * amplitude) * np.exp(1j * phase))
     mode, m = _on_sine(element, amplitude, phase)

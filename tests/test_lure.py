@@ -20,7 +20,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, root
 
 import backlash_df as bd
-from backlash_df.elements import DeadZone, Play, Relay, Saturation
+from backlash_df.elements import DeadZone, Play, Relay, Saturation, ShaftLaw
 from backlash_df.orbits import OrbitNotFound
 
 #: python-control's describing-function examples (doc/descfcn.rst, examples/describing_functions.ipynb).
@@ -69,11 +69,18 @@ class Reference:
             return e.level * side
         return m if side == 0 else y - side * e.width / 2
 
+    def shaft_torque(self, side, x):
+        """A shaft law's torque in contact ``side``: k (y -+ alpha) + c dy/dt, dy/dt = C A x (C B = 0)."""
+        e = self.element
+        return e.stiffness * (self.c @ x - side * e.half_gap) + e.damping * (self.c @ self.a @ x) if side else 0.0
+
     def rhs(self, side):
         def f(t, state):
             x = state[: self.a.shape[0]]
             y = self.c @ x
-            dx = self.a @ x - self.b * self.output(side, y, state[-1] if self.memory else 0.0)
+            force = (self.shaft_torque(side, x) if isinstance(self.element, ShaftLaw)
+                     else self.output(side, y, state[-1] if self.memory else 0.0))
+            dx = self.a @ x - self.b * force
             if not self.memory:
                 return dx
             return np.append(dx, (self.c @ dx) if side else 0.0)
@@ -93,6 +100,15 @@ class Reference:
             return [(y_minus(side * level), -side, 0)]
         if isinstance(e, Relay):
             return [(y_minus(-side * e.hysteresis), -side, -side)]
+        if isinstance(e, ShaftLaw):  # contact while y beyond alpha; revised: while k y + c dy/dt beyond k alpha
+            lag = e.damping / e.stiffness if e.law == "revised-dead-zone" else 0.0
+
+            def edge(level):
+                return lambda t, s: self.c @ s[:n] + lag * (self.c @ self.a @ s[:n]) - level
+
+            if side == 0:
+                return [(edge(e.half_gap), 1, 1), (edge(-e.half_gap), -1, -1)]
+            return [(edge(side * e.half_gap), -side, 0)]
         if side == 0:
             return [(lambda t, s: self.c @ s[:n] - s[-1] - e.width / 2, 1, 1),
                     (lambda t, s: self.c @ s[:n] - s[-1] + e.width / 2, -1, -1)]
@@ -148,8 +164,8 @@ class Reference:
 
 def side_of(orbit):
     """The reference's discrete state for the mode an orbit starts in."""
-    names = {"linear": 0, "inside": 0, "held": 0, "upper": 1, "above": 1, "pushed up": 1, "high": 1,
-             "lower": -1, "below": -1, "pushed down": -1, "low": -1}
+    names = {"linear": 0, "inside": 0, "held": 0, "free": 0, "upper": 1, "above": 1, "pushed up": 1, "high": 1,
+             "right contact": 1, "lower": -1, "below": -1, "pushed down": -1, "low": -1, "left contact": -1}
     return names[orbit.loop.element.modes[orbit.mode].name]
 
 
@@ -257,6 +273,40 @@ def test_other_elements_orbits_agree_with_the_reference(element):
         assert orbit.amplitude == pytest.approx(amplitude, rel=1e-6)
         assert orbit.stable is (largest < 1) is cycle.stable
         assert orbit.output_amplitude > 0
+
+
+#: A third-order lag around a shaft (k = 2 N m/rad, c = 0.3 N m s/rad, alpha = 0.1 rad): one unstable cycle.
+SHAFT_H = ct.tf(3, [1, 1.2, 1.5, 0.4])
+
+
+@pytest.mark.parametrize("law", ["damped-dead-zone", "revised-dead-zone"])
+def test_the_toolbox_s_shaft_laws_in_a_lure_loop(law):
+    """A law of make_model closes the loop with y as theta_d: the DF's cycles are predict_limit_cycles' for the
+    same G, and the exact orbit agrees with the reference (its own damper and release written here)."""
+    rig = bd.rig_from_dict({"plant": {"motor_inertia": 1.0, "load_inertia": 1.0, "stiffness": 2.0, "damping": 0.3,
+                                      "half_gap": 0.1}, "controller": {"kp": 1.0, "ti": 1.0}})
+    model = rig.make_model(law)
+    loop = bd.lure_loop(SHAFT_H, model)
+    prediction = loop.predict(amplitude_range=(0.1001, 10.0), omega_range=(0.05, 20.0))
+    toolbox = bd.predict_limit_cycles(rig, law, linear=SHAFT_H, amplitude_range=(0.1001, 10.0),
+                                      omega_range=(0.05, 20.0))
+    assert [(c.amplitude, c.omega, c.stable) for c in prediction.cycles] == [
+        (pytest.approx(c.amplitude, rel=1e-9), pytest.approx(c.omega, rel=1e-9), c.stable) for c in toolbox.cycles]
+    (cycle, orbit), = loop.exact_orbits(prediction)
+    period, amplitude, largest = Reference(SHAFT_H, loop.element).shoot(reference_state(orbit), side_of(orbit),
+                                                                         orbit.period)
+    assert orbit.period == pytest.approx(period, rel=1e-7)
+    assert orbit.amplitude == pytest.approx(amplitude, rel=1e-6)
+    assert orbit.max_multiplier == pytest.approx(largest, rel=1e-4)
+
+
+def test_a_damper_needs_relative_degree_two():
+    model = bd.make_model("damped-dead-zone", stiffness=2.0, damping=0.3, half_gap=0.1)
+    with pytest.raises(ValueError, match="depends on dy/dt: H needs a relative degree of at least 2"):
+        bd.lure_loop(ct.tf([1, 1], [1, 2, 2]), model)
+    assert bd.lure_loop(ct.tf([1, 1], [1, 2, 2]), bd.make_model("dead-zone", stiffness=2.0, half_gap=0.1))
+    with pytest.raises(ValueError, match="piecewise-affine laws"):
+        bd.lure_loop(SHAFT_H, bd.make_model("phase-plane", stiffness=2.0, damping=0.3, half_gap=0.1))
 
 
 def tsypkin_output(theta, level):
