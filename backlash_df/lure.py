@@ -51,6 +51,8 @@ __all__ = ["LureLoop", "LureOrbit", "LureSimulation", "lure_loop"]
 _STEPS_PER_PERIOD = 256
 #: A state beyond this has overflowed for any purpose of the analysis (the loop runs away).
 _OVERFLOW = 1e100
+#: Switches within one call of the flow beyond which the element chatters (a sliding mode).
+_MAX_SWITCHES = 10000
 #: Gauss-Legendre nodes per piece of a segment in the orbit's first-harmonic integrals.
 _NODES, _WEIGHTS = np.polynomial.legendre.leggauss(12)
 
@@ -111,9 +113,13 @@ def lure_loop(system, nonlinearity):
         raise ValueError("H has no state: a static gain closes an algebraic loop through the element")
     element = element_of(nonlinearity)
     scale = max(float(np.abs(c).max() * np.abs(b).max()), 1e-300)
-    if any(m.output_rate for m in element.modes) and abs(float(c[0] @ b[:, 0])) > 1e-12 * scale:
+    first_degree = abs(float(c[0] @ b[:, 0])) > 1e-12 * scale
+    if any(m.output_rate for m in element.modes) and first_degree:
         raise ValueError(f"the {element.label} depends on dy/dt: H needs a relative degree of at least 2 (its "
                          "dy/dt a function of its state), this one has 1")
+    if getattr(element, "hysteresis", None) == 0.0 and first_degree:
+        raise ValueError(f"an ideal {element.label} on H of relative degree 1 slides on y = 0 (a Filippov sliding "
+                         "mode, not modelled here): give the relay a hysteresis or H a relative degree of 2")
     return LureLoop(system=system, element=element, a=a, b=b[:, 0], c=c[0])
 
 
@@ -264,10 +270,10 @@ class LureLoop:
         times = np.arange(int(round(t_end / dt)) + 1) * dt
         states, modes = np.empty((times.size, self.size)), np.empty(times.size, dtype=int)
         states[0], modes[0] = state, mode
-        diverged = False
+        diverged, events = False, []
         for i in range(1, times.size):
             try:
-                mode, state, _ = flow.advance(mode, state, dt)
+                mode, state, _ = flow.advance(mode, state, dt, events)
             except _Overflow:
                 diverged = True
             diverged = diverged or abs(self.c @ state[: self.c.size]) > bound
@@ -279,7 +285,7 @@ class LureLoop:
         for k in np.unique(modes):
             at = modes == k
             y[at], _, _, output[at] = self.signals(int(k), states[at])
-        return LureSimulation(self.label, times, y, output, states, modes, diverged)
+        return LureSimulation(self.label, times, y, output, states, modes, diverged, len(events))
 
     def start(self, x0=None, y0=None, m0=None, branch=1):
         """``(state, mode)``: the augmented initial state and the element's mode there (arguments of :meth:`simulate`)."""
@@ -410,6 +416,10 @@ class _Overflow(ArithmeticError):
     """The flow ran away past :data:`_OVERFLOW`; ``args[0]`` is the time elapsed in the call (s)."""
 
 
+class _Chattering(ValueError):
+    """The element switches without end at one place (a Filippov sliding mode); the message says so."""
+
+
 class _Flow:
     """The loop's exact flow: per mode the exponentials, the guards as affine rows, event location."""
 
@@ -458,7 +468,7 @@ class _Flow:
         ``events`` (a list) collects ``(time, before, after)``; ``monodromy`` (a matrix) is
         carried along the flow, saltation included.
         """
-        elapsed = 0.0
+        elapsed, switches = 0.0, 0
         while elapsed < duration:
             step = min(self.step, duration - elapsed)
             if duration - elapsed - step < 1e-12 * duration:
@@ -479,7 +489,10 @@ class _Flow:
                 monodromy = self._saltation(mode, target, state, row) @ (phi @ monodromy)
             if events is not None:
                 events.append((elapsed + tau, mode, target))
-            mode, elapsed = target, elapsed + tau
+            mode, elapsed, switches = target, elapsed + tau, switches + 1
+            if switches > _MAX_SWITCHES:
+                raise _Chattering(f"the {self.loop.label} switched {switches} times in {duration:.3g} s: it chatters on "
+                                  "a switching surface (a sliding mode), which the exact flow does not model")
         return mode, state, monodromy
 
     def _first_crossing(self, mode, before, after, step):
@@ -609,6 +622,8 @@ class LureSimulation:
         The element's mode at each sample (index into the element's ``modes``).
     diverged : bool
         The run grew past 1e100 and stopped there (the samples end before ``t_end``).
+    switches : int
+        The element's switches over the run (located exactly, between the samples).
     """
 
     model: str
@@ -618,6 +633,7 @@ class LureSimulation:
     states: np.ndarray = dataclasses.field(repr=False)
     modes: np.ndarray = dataclasses.field(repr=False)
     diverged: bool = False
+    switches: int = 0
 
     def __repr__(self):
         ran = f"diverged at {self.time[-1]:.4g} s" if self.diverged else f"{self.time[-1]:.4g} s"
@@ -625,8 +641,8 @@ class LureSimulation:
 
     def to_dict(self):
         """JSON-ready: the model, whether it diverged and the sampled signals."""
-        return json_ready({"model": self.model, "diverged": self.diverged, "time": self.time, "y": self.y,
-                           "output": self.output})
+        return json_ready({"model": self.model, "diverged": self.diverged, "switches": self.switches,
+                           "time": self.time, "y": self.y, "output": self.output})
 
     def plot(self, ax=None):
         """y and the element's output F against time, one panel each."""
@@ -772,7 +788,7 @@ def _shoot(loop, state, mode, period, level, tol, max_iter):
             return None
         try:
             end, end_mode, mono, _ = _period_map(flow, trial, mode, trial_period)
-        except (OrbitNotFound, _Overflow):
+        except (OrbitNotFound, _Overflow, _Chattering):
             return None
         residual = np.append(end - trial, y_row @ trial - level)
         jacobian = np.zeros((size + 1, size + 1))
@@ -838,7 +854,8 @@ def _orbit(loop, flow, state, mode, period, level):
 
 def _harmonics(loop, flow, state, mode, period, events, pieces=64):
     """First harmonics of y and F, y's mean and its half swing ``(max y - min y) / 2``, by Gauss-Legendre on
-    every smooth piece; the extremes refined from the nodes (bounded Brent on the exact flow)."""
+    every smooth piece; the extremes from the nodes and the switches (a cusp's), refined by bounded Brent on
+    the exact flow."""
     omega = 2.0 * math.pi / period
     bounds = sorted({0.0, period, *(t for t, _, _ in events)})
     start = (mode, state)
@@ -846,6 +863,8 @@ def _harmonics(loop, flow, state, mode, period, events, pieces=64):
     mean = 0.0
     times, values = [], []
     for t0, t1 in zip(bounds[:-1], bounds[1:]):
+        times.append(t0)  # the switch itself: a cusp's extreme sits there
+        values.append(float(loop.signals(mode, state)[0]))
         edges = np.linspace(t0, t1, max(2, int(math.ceil(pieces * (t1 - t0) / period)) + 1))
         for a, b in zip(edges[:-1], edges[1:]):
             nodes = 0.5 * (a + b) + 0.5 * (b - a) * _NODES

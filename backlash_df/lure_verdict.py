@@ -10,10 +10,12 @@ and **probes**, exact simulations (:meth:`~backlash_df.lure.LureLoop.simulate`) 
 * 3 % inside and outside every unstable exact orbit (its state scaled about the origin),
   1 % off every stable one;
 
-each run until it decides: **rest** (half the swing of ``y``, ``(max y - min y) / 2`` over
+each run until it decides (a run that switches faster than it is sampled is run again over
+400 switches, 40 samples each): **rest** (half the swing of ``y``, ``(max y - min y) / 2`` over
 the last half period or more, below 1e-6 of the scale), **cycle** (the swing holds over
-the last two such stretches and is a stable exact orbit's :attr:`~backlash_df.LureOrbit.peak`,
-both to 1e-3; a run whose swing holds at no known orbit's is shot from, and the stable
+the last two such stretches, to 1 %, and is a stable exact orbit's
+:attr:`~backlash_df.LureOrbit.peak` to 1e-3, each also to the run's sampling resolution (half
+its largest step between samples: a cusp's sampled extreme is that close at worst); a run whose swing holds at no known orbit's is shot from, and the stable
 orbit found joins the verdict's ``simulated_orbits``), **diverged**
 (``|y|`` past 1e8 times the scale), else run again from where it stopped, up to four
 times; then **diverged** if the last run's largest ``|y|`` is 100 times the start, the scale
@@ -59,8 +61,12 @@ AROUND_UNSTABLE, OFF_STABLE = 0.03, 0.01
 _RUNAWAY = 1e8
 #: Samples per period of the slowest cycle (a sampled extreme within 1.2e-4 of the true one).
 _SAMPLES = 200
-#: A swing that holds, and the orbit's: within this of each other (relative).
+#: A run switching more than this per sample is run again with this many samples per switch, over 400 switches.
+_SWITCHES_PER_SAMPLE, _SAMPLES_PER_SWITCH = 0.05, 40
+#: A swing and an orbit's peak: the same within this (relative).
 _SAME = 1e-3
+#: A swing that holds over the last two stretches: within this (a sampled cusp wanders by a few 1e-3).
+_STEADY = 1e-2
 #: An unsettled run whose largest |y| is this many times its start, the scale and every orbit's peak ran away.
 _GROWN = 100.0
 #: Runs of ``t_end`` a probe gets before it is unsettled.
@@ -88,7 +94,10 @@ class LureProbe:
     run : LureSimulation
         The last run, for plots.
     steady : bool
-        The swing held over the last two stretches (to 1e-3).
+        The swing held over the last two stretches (to 1 % and the sampling's resolution).
+    resolution : float
+        Half the largest change of ``y`` between two samples of the last stretch: how far a sampled
+        extreme may be from the true one (a cusp's, where the element switches).
     """
 
     start: str
@@ -99,6 +108,7 @@ class LureProbe:
     duration: float = 0.0
     run: object = dataclasses.field(repr=False, default=None)
     steady: bool = False
+    resolution: float = 0.0
 
     def to_dict(self):
         """JSON-ready: start, outcome, swing, duration."""
@@ -240,13 +250,13 @@ def _shot_from_runs(loop, probes, exact):
     for probe in probes:
         if probe.outcome != "unsettled" or not probe.steady:
             continue
-        if any(abs(probe.swing / o.peak - 1.0) < _SAME for o in exact + found):
+        if any(_matches(probe.swing, probe.resolution, o) for o in exact + found):
             continue
         try:
             orbit = loop.periodic_orbit(probe.run)
         except OrbitNotFound:
             continue
-        if orbit.stable and abs(probe.swing / orbit.peak - 1.0) < _SAME:
+        if orbit.stable and _matches(probe.swing, probe.resolution, orbit):
             found.append(orbit)
     return found
 
@@ -254,7 +264,7 @@ def _shot_from_runs(loop, probes, exact):
 def _on(probe, orbits):
     """An unsettled probe whose steady swing is a stable orbit's, as a ``cycle`` on it."""
     for orbit in orbits:
-        if probe.outcome == "unsettled" and probe.steady and abs(probe.swing / orbit.peak - 1.0) < _SAME:
+        if probe.outcome == "unsettled" and probe.steady and _matches(probe.swing, probe.resolution, orbit):
             return dataclasses.replace(probe, outcome="cycle", orbit=orbit)
     return probe
 
@@ -292,24 +302,38 @@ def _probe(loop, start, size, state, mode, t_end, slowest, scale, orbits):
     dt = min(t_end / 4000.0, 2.0 * math.pi / slowest / _SAMPLES)
     window = min(max(2.0 * math.pi / slowest * 1.5, 0.1 * t_end), 0.5 * t_end)
     duration, swings = 0.0, []
+    start_state, start_mode = state, mode
     for _ in range(RUNS):
         run = loop.run(state, mode, t_end, dt, bound=_RUNAWAY * scale)
+        if run.switches > _SWITCHES_PER_SAMPLE * run.time.size:  # faster than the samples: again, finer
+            per_switch = run.time[-1] / run.switches
+            dt, t_end = per_switch / _SAMPLES_PER_SWITCH, min(t_end, 400.0 * per_switch)
+            window = 0.25 * t_end  # a hundred switches: a cusp's sampled extreme within 1e-3
+            state, mode, duration = start_state, start_mode, 0.0
+            run = loop.run(state, mode, t_end, dt, bound=_RUNAWAY * scale)
         duration += run.time[-1]
         if run.diverged:
             return LureProbe(start, size, "diverged", math.inf, None, duration, run)
+        last = run.time >= run.time[-1] - window
         early, late = (_half_swing(run.y[(run.time >= run.time[-1] - window * f) & (run.time < run.time[-1] - window * g)])
                        for f, g in ((1.0, 0.5), (0.5, -1.0)))
         if late < 1e-6 * scale:
             return LureProbe(start, size, "rest", late, None, duration, run)
-        steady = abs(early / late - 1.0) < _SAME
+        resolution = 0.5 * float(np.abs(np.diff(run.y[last])).max())  # a sampled extreme is this close at worst
+        steady = abs(early - late) <= _STEADY * late + resolution
         for orbit in (o for o in orbits if o.stable):
-            if steady and abs(late / orbit.peak - 1.0) < _SAME:
-                return LureProbe(start, size, "cycle", late, orbit, duration, run, True)
+            if steady and _matches(late, resolution, orbit):
+                return LureProbe(start, size, "cycle", late, orbit, duration, run, True, resolution)
         swings.append(float(np.abs(run.y).max()))
         state, mode = run.states[-1], int(run.modes[-1])
     if swings[-1] > _GROWN * max(size, scale, *(o.peak for o in orbits)):
         return LureProbe(start, size, "diverged", late, None, duration, run)  # a polynomial runaway (integrators)
-    return LureProbe(start, size, "unsettled", late, None, duration, run, steady)
+    return LureProbe(start, size, "unsettled", late, None, duration, run, steady, resolution)
+
+
+def _matches(swing, resolution, orbit):
+    """Whether a sampled swing is ``orbit``'s peak: to 1e-3, and to the sampling's ``resolution``."""
+    return abs(swing - orbit.peak) <= _SAME * orbit.peak + resolution
 
 
 def _half_swing(y):

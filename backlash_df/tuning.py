@@ -29,7 +29,9 @@ certified in order of decreasing bandwidth, the first certified is the answer,
 and where a faster candidate fails its certificate the boundary between the two is
 bisected with certificates.  The **margin** is the factor by which the varied
 values can move toward the nearest hunting tuning found; the **front** is the
-best bandwidth for each tolerance from 0 up to the largest cycle in range.  Where
+best bandwidth for each tolerance from 0 up to the largest cycle in range, each point's
+hunting amplitude that of the stable exact orbit (:mod:`backlash_df.orbits`) on the cycle
+its simulation settles to, where shooting converges, else the simulation's.  Where
 no tuning in range is certified the answer says so and gives the tuning of the
 smallest hunting amplitude.
 
@@ -58,6 +60,7 @@ from .equilibria import linear_stability
 from .limit_cycles import predict_limit_cycles, verify_limit_cycles
 from .loops import drive_loop
 from .models import BacklashModel
+from .orbits import exact_orbits
 from .plotting import ResultPlot, axes_or_new, cell_edges, legend_under, log_scale
 from .render.tuning import tuning_report, tuning_sentences, tuning_tables
 from .system import closed_loop_response
@@ -823,11 +826,25 @@ def _achieved(search, best, met):
 
 
 def _simulated_amplitude(settings, values):
-    """The hunting amplitude a simulation from the DF's largest stable cycle settles to (the DF's if it finds none)."""
+    """The hunting amplitude a simulation from the DF's largest stable cycle settles to: the stable exact orbit's
+    on that cycle (1 % in amplitude) where shooting converges, else the simulation's (the DF's if it finds none)."""
     tuned = _tuned(settings.rig, settings.names, values)
     prediction = verify_limit_cycles(tuned, predict_limit_cycles(tuned, settings.model, grid=_DF_GRID))
     found = [c.simulated.amplitude for c in prediction.stable_cycles if c.simulated is not None and c.simulated.found]
-    return max(found) if found else max(c.amplitude for c in prediction.stable_cycles)
+    if not found:
+        return max(c.amplitude for c in prediction.stable_cycles)
+    return _exact_amplitude(tuned, prediction, max(found))
+
+
+def _exact_amplitude(rig, prediction, simulated):
+    """The amplitude of the stable exact orbit within 1 % of ``simulated`` (rad), else ``simulated`` (shooting
+    failed, or the loop has dry friction, which the orbits do not model)."""
+    try:
+        orbits = exact_orbits(rig, prediction)
+    except ValueError:
+        return simulated
+    on = [o.amplitude for o in orbits if o.stable and abs(o.amplitude / simulated - 1.0) <= 0.01]
+    return min(on, key=lambda a: abs(a - simulated)) if on else simulated
 
 
 def tune(rig, vary, *, tolerance=0.0, gain_margin=1.25, uncertainty=None, model=None, executor=None, progress=None,

@@ -508,3 +508,17 @@ def test_bad_maps_are_one_line(x, y, words):
     with pytest.raises(ValueError, match=words) as caught:
         bd.lure_design_map(bd.lure_loop(SATURATION_H, Saturation(1.0)), x, y)
     assert "\n" not in str(caught.value)
+
+
+def test_a_relay_cycle_the_describing_function_cannot_see_is_found_by_the_runs():
+    """A relay with hysteresis around 1/(s + 1): H never reaches the third quadrant, so the DF has no cycle,
+    yet the loop switches for ever with the half period ln((M + h)/(M - h)) (y climbs from -h to h along
+    M - (M + h) e^-t).  The runs settle on a swing no DF cycle has, the orbit is shot from them, and the
+    verdict says the DF is unreliable."""
+    loop = bd.lure_loop(ct.tf(1, [1, 1]), Relay(1.0, 0.1))
+    verdict = bd.judge_lure_loop(loop, t_end=20.0)
+    assert not verdict.prediction.cycles
+    assert verdict.verdict == "limit cycle" and not verdict.df_agrees and "DF UNRELIABLE" in verdict.reason
+    (orbit,) = verdict.simulated_orbits
+    assert orbit.period == pytest.approx(2 * math.log(1.1 / 0.9), rel=1e-12)
+    assert orbit.peak == pytest.approx(0.1, rel=1e-12)

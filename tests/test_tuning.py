@@ -418,3 +418,24 @@ def test_a_tune_interrupted_in_its_gain_margin_stage_resumes_to_the_same_answer(
     first, second = uninterrupted.to_dict(), resumed.to_dict()
     first.pop("seconds"), second.pop("seconds")
     assert second == first
+
+
+def test_the_front_s_amplitudes_are_the_exact_orbits_where_shooting_converges():
+    """Each hunting front point's amplitude is the stable exact orbit the test shoots at that tuning, from the
+    simulation the test runs there (the orbit within 1 % of the simulated cycle)."""
+    rig = example_rig("motor_lag_feedback")
+    tuning = bd.tune(rig, {"kp": (20.0, 400.0)}, gain_margin=1)
+    hunting = [p for p in tuning.front if p.amplitude > 0.0]
+    assert hunting
+    exact = 0
+    for point in hunting:
+        tuned = rig.with_values(kp=point.values[0])
+        prediction = bd.verify_limit_cycles(tuned, bd.predict_limit_cycles(tuned))
+        simulated = max(c.simulated.amplitude for c in prediction.stable_cycles if c.simulated.found)
+        orbits = [o for o in bd.exact_orbits(tuned, prediction) if o.stable]
+        matching = [o.amplitude for o in orbits if abs(o.amplitude / simulated - 1) <= 0.01]
+        if matching:
+            exact += 1
+            assert point.amplitude == pytest.approx(matching[0], rel=1e-6)
+        assert point.amplitude == pytest.approx(simulated, rel=0.01)
+    assert exact >= 1
