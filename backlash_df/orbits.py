@@ -635,7 +635,11 @@ class PeriodicOrbit:
         is the trivial one (1 for an autonomous orbit; its distance from 1 is an
         accuracy check), the others by decreasing modulus.
     stable : bool
-        All non-trivial multipliers inside the unit circle.
+        All non-trivial multipliers inside the unit circle, the neutral ones apart.
+    neutral : int
+        Non-trivial multipliers within 1e-8 of 1: neutral modes of the loop (a pole-zero
+        cancellation at s = 0, a free integrator), along which the orbits form a family;
+        shooting takes the member nearest its seed.
     state : ndarray
         State on the section ``dtheta_d = 0`` (a maximum or minimum of theta_d),
         ordered as :func:`orbit_state_names`.
@@ -679,6 +683,7 @@ class PeriodicOrbit:
     residual: float
     events: tuple
     model: str
+    neutral: int = 0
     state_names: tuple = ()
     pade_order: int = 0
     time: np.ndarray = dataclasses.field(default=None, compare=False)
@@ -699,11 +704,11 @@ class PeriodicOrbit:
 
     @property
     def max_multiplier(self):
-        """Largest modulus of the non-trivial Floquet multipliers (< 1: stable)."""
+        """Largest modulus of the non-trivial Floquet multipliers (< 1: stable; 1 with a neutral mode)."""
         return float(np.abs(self.multipliers[1:]).max()) if self.multipliers.size > 1 else 0.0
 
     def __repr__(self):
-        kind = "stable" if self.stable else "unstable"
+        kind = ("stable" if self.stable else "unstable") + (f" ({self.neutral} neutral)" if self.neutral else "")
         return (f"PeriodicOrbit({self.model}: A={self.amplitude:.6g} rad, peak={self.peak:.6g} rad, "
                 f"omega={self.omega:.6g} rad/s, bias={bias_text(self.bias, self.amplitude, 3)} rad, {kind}, "
                 f"|mu|max={self.max_multiplier:.4g}{self._command_text()})")
@@ -729,6 +734,7 @@ class PeriodicOrbit:
             "period": float(self.period),
             "bias": float(self.bias),
             "stable": bool(self.stable),
+            "neutral_modes": int(self.neutral),
             "max_multiplier": self.max_multiplier,
             "multipliers": [[float(mu.real), float(mu.imag)] for mu in self.multipliers],
             "residual": float(self.residual),
@@ -909,6 +915,19 @@ def _scales(loop, track, period):
     return np.append(scale, period)
 
 
+def _newton_step(jacobian, residual, scale):
+    """Newton's step, solved in the unknowns' scales by least squares.
+
+    A direction the scaled Jacobian does not see (a singular value below 1e-10 of the
+    largest) is a neutral mode: a pole-zero cancellation at s = 0 or a free integrator,
+    along which the orbits form a family (a multiplier 1 besides the flow's).  It is left
+    out: the step is the least-norm one, toward the family's member nearest the iterate,
+    where an exact solve would step along the family without bound.
+    """
+    scaled = jacobian * scale[None, :] / scale[:, None]
+    return np.linalg.lstsq(scaled, -residual / scale, rcond=1e-10)[0] * scale
+
+
 def _newton(loop, unknowns, tol, max_iter):
     """Damped Newton on the scaled shooting residual; returns (unknowns, scaled residual, monodromy, events, segments).
 
@@ -941,7 +960,7 @@ def _newton(loop, unknowns, tol, max_iter):
             return unknowns, norm, monodromy, events, segments
         polished = norm <= tol  # one more step once converged: its residual is near round-off
         try:
-            step = np.linalg.solve(jacobian, -residual)
+            step = _newton_step(jacobian, residual, scale)
         except np.linalg.LinAlgError:
             raise OrbitNotFound(f"singular shooting Jacobian with {len(_contacts(events))} contact events per period "
                                 "(Newton heading for rest, or a degenerate orbit)") from None
@@ -1089,7 +1108,7 @@ def _orbit(loop, unknowns, norm, monodromy, events):
     return PeriodicOrbit(
         period=period, omega=omega, amplitude=float(abs(first[0])), peak=_peak(loop, track, period, mean[0]),
         bias=float(mean[0]),
-        multipliers=multipliers, stable=bool(np.all(np.abs(multipliers[1:]) < 1.0)), state=q0.copy(),
+        multipliers=multipliers, stable=_stable(multipliers), neutral=_neutral(multipliers), state=q0.copy(),
         residual=float(norm), events=tuple((float(t), int(a[0]), int(b[0])) for t, a, b in _contacts(events)),
         model=loop.model.name, state_names=loop.names, pade_order=loop.pade_order,
         time=time, theta_d=states @ loop.c_x, dtheta_d=states @ loop.c_v, torque=torque, **command,
@@ -1099,6 +1118,22 @@ def _orbit(loop, unknowns, norm, monodromy, events):
 def _contacts(events):
     """The contacts and releases among events of ``(time, mode, mode)`` (the backlash mode changes)."""
     return [event for event in events if event[1][0] != event[2][0]]
+
+
+#: A non-trivial multiplier this close to 1 is a neutral mode (a pole-zero cancellation at s = 0, a free integrator).
+_NEUTRAL = 1e-8
+
+
+def _neutral(multipliers):
+    """How many non-trivial multipliers are neutral (within :data:`_NEUTRAL` of 1)."""
+    return int(np.sum(np.abs(multipliers[1:] - 1.0) < _NEUTRAL))
+
+
+def _stable(multipliers):
+    """All non-trivial, non-neutral multipliers inside the unit circle: a neutral one is 1 to round-off, and its
+    side of the circle is round-off's, not the orbit's."""
+    others = multipliers[1:]
+    return bool(np.all(np.abs(others[np.abs(others - 1.0) >= _NEUTRAL]) < 1.0))
 
 
 def _sorted_multipliers(monodromy, rate, scale):

@@ -548,3 +548,27 @@ def test_a_solve_that_outgrows_its_sample_budget_gives_up_in_one_line(monkeypatc
     with pytest.raises(orbits.OrbitNotFound, match="shooting gave up: 1 period maps") as error:
         orbits.periodic_orbit(rig, "phase-plane", seed=(0.166, 98.7))
     assert "\n" not in str(error.value)
+
+
+def test_a_pole_zero_cancellation_at_zero_is_a_neutral_mode_that_shooting_reduces():
+    """A near-rigid shaft (k = 1e4 N m/rad, alpha = 1e-4 rad) on a torque limit of 1 N m under the user's speed
+    controller 8 s / (s^3 + 2 s^2 + 2 s + 1), which cancels the drive's integrator: python-control's saturation
+    example with a stiff shaft in it.  The mean speed is a neutral mode (a multiplier 1 besides the flow's), the
+    shooting Jacobian singular to round-off; the least-norm step leaves it out and the orbit converges (an exact
+    solve stepped along it until the budget ran out).  The orbit is the Lur'e loop's exact saturation orbit up
+    to the shaft's compliance and gap: frequency to 1e-4, the command's first harmonic to 1e-3."""
+    import control as ct
+
+    s = ct.tf("s")
+    rig = bd.rig_from_dict({"plant": {"motor_inertia": 0.5, "load_inertia": 0.5, "stiffness": 1e4, "damping": 20.0,
+                                   "half_gap": 1e-4},
+                         "controller": {"kp": 1.0, "ti": 1.0, "feedback": "motor", "torque_limit": 1.0},
+                         "model": {"backlash": "phase-plane"}}).with_controller(speed=8 * s / (s**3 + 2 * s**2 + 2 * s + 1))
+    measured, run = bd.simulated_limit_cycle(rig, t_end=40.0, max_t_end=160.0, kick=3.0)
+    assert measured.periodic and measured.saturation > 0.5
+    orbit = periodic_orbit(rig, "phase-plane", run)
+    assert orbit.neutral == 1 and orbit.stable and orbit.residual < 1e-10
+    lure = bd.lure_loop(ct.tf(8, [1, 2, 2, 1]), bd.Saturation(1.0)).periodic_orbit((3.344, 1.4142))
+    assert orbit.omega == pytest.approx(lure.omega, rel=1e-4)
+    assert orbit.command_amplitude == pytest.approx(lure.output_amplitude, rel=1e-3)
+    assert orbit.to_dict()["neutral_modes"] == 1
