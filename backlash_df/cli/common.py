@@ -8,7 +8,6 @@ import time
 from pathlib import Path
 
 import click
-from tqdm import tqdm
 
 from .._jit import on_first_compile
 from ..models import MODEL_NAMES
@@ -116,6 +115,8 @@ def progress_bar(desc, total=None, unit="it"):
         settable ``total``, take ``set_postfix_str``, ``close()`` and ``with``.
     """
     if stderr_is_terminal():
+        from tqdm import tqdm  # only a terminal draws bars: a log or a pipe does not pay tqdm's import
+
         return tqdm(desc=desc, total=total, unit=unit, file=sys.stderr, leave=False)
     return StageLine(desc, total, unit)
 
