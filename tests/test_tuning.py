@@ -36,18 +36,19 @@ CASES = {"motor_feedback": (example_rig("motor_feedback"), {"kp": (1.0, 1000.0)}
 def blocks_bandwidth(rig):
     """omega_b from python-control blocks: the loop with the shaft k + c s, reference to load speed (or angle).
 
-    Speed loop: J_m s w_m = T_m - T, J_l s w_l = T, T = (k + c s) (w_m - w_l) / s,
-    T_m = lag * PI (w_ref - F y); a cascade: w_ref = kv (r - p), the output the load angle.
+    Speed loop: J_m s w_m = T_m - T - d_m w_m, J_l s w_l = T - d_l w_l, T = (k + c s) (w_m - w_l) / s,
+    T_m = lag * PI (w_ref - F y); a cascade: w_ref = kv (r - p), the output the load angle.  The
+    viscous frictions d_m, d_l are the rig's; its dry friction is not in the bandwidth (the contract).
     """
-    plant, ctl = rig.plant, rig.controller
+    plant, ctl, friction = rig.plant, rig.controller, rig.friction
     law = rig.make_model()
     s = ct.tf("s")
     pi = ctl.kp * (1 + 1 / (ctl.ti * s))
     speed_filter = 1 / (ctl.speed_filter * s + 1)
     torque_lag = 1 / (ctl.torque_lag * s + 1)
     shaft = (law.stiffness + law.damping * s) / s
-    load_over_motor = shaft / (plant.load_inertia * s + shaft)  # w_l / w_m
-    motor = 1 / (plant.motor_inertia * s + shaft * (1 - load_over_motor))  # w_m / T_m
+    load_over_motor = shaft / (plant.load_inertia * s + friction.viscous_load + shaft)  # w_l / w_m
+    motor = 1 / (plant.motor_inertia * s + friction.viscous_motor + shaft * (1 - load_over_motor))  # w_m / T_m
     measured = 1 if ctl.feedback == "motor" else load_over_motor
     speed_loop = ct.feedback(torque_lag * pi * motor, speed_filter * measured)  # w_ref -> w_m
     if ctl.cascade:
@@ -61,9 +62,13 @@ def blocks_bandwidth(rig):
     return float(omega[np.argmax(np.abs(closed(1j * omega)) <= 1 / math.sqrt(2))])
 
 
-@pytest.mark.parametrize("name", ["motor_feedback", "load_feedback", "motor_lag_feedback", "cascade"])
+#: load_feedback with viscous friction on both sides and Coulomb friction on the load (not in the bandwidth).
+RUBBING = example_rig("load_feedback").with_values(viscous_motor=0.5, viscous_load=2.0, coulomb_load=100.0)
+
+
+@pytest.mark.parametrize("name", ["motor_feedback", "load_feedback", "motor_lag_feedback", "cascade", "friction"])
 def test_bandwidth_is_the_contact_loops_minus_3_db_on_the_load(name):
-    rig = CASCADE if name == "cascade" else example_rig(name)
+    rig = {"cascade": CASCADE, "friction": RUBBING}.get(name) or example_rig(name)
     assert contact_bandwidth(rig) == pytest.approx(blocks_bandwidth(rig), rel=1e-4)
 
 
