@@ -902,7 +902,8 @@ class FrictionSlaving:
         its :meth:`_channels`."""
         theta_z, theta_y, side_z, side_y = channels
         spread = 1.0 + damping * side_y
-        return -(theta_z - damping * side_z * theta_y / spread), side_z / (theta_z * spread - damping * side_z * theta_y)
+        theta = theta_z - damping * side_z * theta_y / spread
+        return -theta, side_z / (theta * spread)
 
     def _excess(self, amplitude, channels, damping):
         """``N_f(A_w(d)) - d``, N m s/rad: positive below the fixed point."""

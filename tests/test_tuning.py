@@ -138,7 +138,8 @@ def motion(rig, disturbance, t_end):
     relative = np.abs(run.states[:, names.index("motor_speed")] - run.states[:, names.index("load_speed")])
     earlier, later = (run.time > 0.25 * t_end) & (run.time <= 0.5 * t_end), run.time > 0.5 * t_end
     contact = np.abs(run.states[later, names.index("theta_d")]) >= rig.plant.half_gap
-    stuck = np.zeros((int(np.sum(later)), 0), dtype=bool) if run.friction_mode is None else run.friction_mode[later] == 0
+    modes = np.zeros((int(np.sum(later)), 0)) if run.friction_mode is None else run.friction_mode[later]
+    stuck = modes == 0
     return (float(np.max(relative[earlier])), float(np.max(relative[later])), int(np.sum(contact[1:] & ~contact[:-1])),
             int(np.sum(stuck[:-1] & ~stuck[1:])), float(np.mean(np.all(stuck, axis=1))) if stuck.shape[1] else 0.0)
 
