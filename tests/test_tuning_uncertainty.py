@@ -20,12 +20,19 @@ import backlash_df.tuning as tuning_module
 from backlash_df.checkpoint import Checkpoint
 from backlash_df.cli import main
 from backlash_df.tuning import uncertainty_design
-from conftest import EXAMPLES
+from conftest import EXAMPLES, example_rig
 from test_tuning import LAG, blocks_bandwidth, settles
 
 VARY = {"kp": (20.0, 400.0)}
 #: The drive's inertia and shaft stiffness off by up to 11 % and 19 %: a stiffer shaft hunts at a smaller kp.
 BOX = {"load_inertia": (5.0, 6.5), "stiffness": (5500.0, 7000.0)}
+#: PI on the load speed (load_feedback, which hunts at every gain without friction) with Coulomb friction of 200 N m
+#: and viscous friction of 2 N m s/rad on the load: the friction quenches the backlash cycle, in the standard set's
+#: simulations up to kp = 47, in the DF's screen up to 46.6; the less friction, the sooner the loop hunts.
+FRICTION = example_rig("load_feedback").with_values(coulomb_load=200.0, viscous_load=2.0)
+#: The Coulomb friction 30 % off either way, the load inertia 11 % lighter or 16 % heavier.
+FRICTION_BOX = {"coulomb_load": (140.0, 260.0), "load_inertia": (5.0, 6.5)}
+FRICTION_VARY = {"kp": (2.0, 100.0)}
 
 
 def corners(box):
@@ -77,6 +84,19 @@ def test_the_binding_point_is_a_vertex_where_the_next_faster_tuning_hunts(tuning
                     f"{robust.uncertainty['worst_bandwidth']:.4g} rad/s; the next faster tuning hunts at {at}"]
     box = robust.to_dict()["uncertainty"]
     assert box["box"] == {name: list(ends) for name, ends in BOX.items()} and box["binding"] == binding
+
+
+def test_a_cell_that_hunts_only_off_the_nominal_rig_has_a_nominal_front_amplitude_of_0():
+    """Over a box the screen keeps a cell's largest DF cycle at any of its rigs, the front and the least hunting
+    tuning simulate the nominal rig's: where the nominal rig's DF has no stable cycle its amplitude is 0 (the
+    robust tune of the friction rig failed on an empty ``max`` there)."""
+    rig = tuning_module._boxed(FRICTION, FRICTION_BOX)
+    settings = tuning_module._Settings(rig, ("kp",), "phase-plane", 0.0, 1.0,
+                                       tuple(tuple(point.items()) for point in uncertainty_design(rig, FRICTION_VARY)))
+    cell = tuning_module._screen_cell(settings, (41.5,))
+    assert cell.hunts and cell.amplitude > 0.3
+    assert not tuning_module._screen_one(settings, rig, (41.5,)).hunts
+    assert tuning_module._simulated_amplitude(settings, (41.5,)) == 0.0
 
 
 @pytest.mark.xdist_group("tune-robust")
