@@ -860,12 +860,15 @@ class FrictionSlaving:
     amplitude ``A_w``, and for ``theta_d = A sin(w t)`` that amplitude is
     ``A |z_i / theta_d|`` of the loop with the damper ``N_f`` on the side (Gelb and
     Vander Velde's multiple-nonlinearity method, as :class:`CommandSlaving` does for a
-    torque limit).  :meth:`gain` solves ``d = N_f(A_w(d))`` by bisection: ``d -
+    torque limit).  :meth:`gain` solves ``d = N_f(A_w(d))``: with Coulomb friction
+    alone in closed form (:meth:`_level_root`: the damper changes the loop by a rank
+    one, :meth:`_channels`), with a breakaway friction by bisection: ``d -
     N_f(A_w(d))`` is negative at ``d = 0`` and positive beyond the root, found by
-    doubling.  Where no root lies below ``2^50`` times the first guess the friction
-    holds the side through the cycle (the driving torque's amplitude is below the
-    friction's): the side **sticks**, the damper is that bound (the side locked), and
-    :meth:`sticks` says so: the describing function of a sliding side does not hold.
+    doubling.  Where there is no root (with a breakaway friction: none below ``2^50``
+    times the first guess) the friction holds the side through the cycle (the driving
+    torque's amplitude is below the friction's): the side **sticks**, the damper is
+    ``2^51`` times the friction's at ``d = 0`` (the side locked), and :meth:`sticks`
+    says so: the describing function of a sliding side does not hold.
 
     Attributes
     ----------
@@ -878,44 +881,88 @@ class FrictionSlaving:
     _BISECTIONS = 60
     _DOUBLINGS = 50
 
-    def _responses(self, omega, damping):
-        """(G, z_i / theta_d) of the loop with the side's dry friction as the viscous ``damping``, broadcast."""
+    def _channels(self, omega):
+        """The loop's responses without the damper, from which those with any damper follow, broadcast.
+
+        The damper ``d`` on the side's speed ``z_i`` adds ``d column e_i^T`` to ``jw I - A``
+        (the dead time exact): a rank-one change.  From ``z = M^-1 b`` and ``y = M^-1 column``
+        of the loop without it, the Sherman-Morrison formula gives ``z_i(d) = z_i / (1 + d y_i)``
+        and ``theta_d(d) = c z - d z_i (c y) / (1 + d y_i)``: every damper's responses from
+        the four numbers ``(c z, c y, z_i, y_i)``, one solve a frequency (:meth:`_responses`).
+        """
         part, sticking = self.part, self.part.sticking
-        i = sticking.index[0]
-        w, d = np.broadcast_arrays(np.asarray(omega, dtype=float), np.asarray(damping, dtype=float))
-        jw = 1j * w.reshape(-1)[:, None, None]
+        omega = np.asarray(omega, dtype=float)
+        jw = 1j * omega.reshape(-1)[:, None, None]
         n = part.n_states
-        mats = jw * np.eye(n) - part.A + d.reshape(-1)[:, None, None] * np.outer(sticking.column[0], np.eye(n)[i])
+        mats = jw * np.eye(n) - part.A
         if part.e_d.shape[1]:
             mats = mats - np.exp(-jw * part.delay) * (part.e_d @ part.d)
-        z = np.linalg.solve(mats, np.broadcast_to(part.b.astype(complex)[:, None], (jw.shape[0], n, 1)))[:, :, 0]
-        theta = z @ part.c_x
-        return (-theta).reshape(w.shape), (z[:, i] / theta).reshape(w.shape)
+        sources = np.broadcast_to(np.column_stack([part.b, sticking.column[0]]), (jw.shape[0], n, 2))
+        response = np.linalg.solve(mats, sources.astype(complex))  # (points, n, 2): from T and from the damper
+        theta = np.einsum("j,pjs->ps", part.c_x, response)
+        side = response[:, sticking.index[0], :]
+        return tuple(values.reshape(omega.shape) for values in (theta[:, 0], theta[:, 1], side[:, 0], side[:, 1]))
 
-    def _excess(self, amplitude, omega, damping):
+    @staticmethod
+    def _responses(channels, damping):
+        """(G, z_i / theta_d) of the loop with the side's dry friction as the viscous ``damping``, broadcast, from
+        its :meth:`_channels`."""
+        theta_z, theta_y, side_z, side_y = channels
+        spread = 1.0 + damping * side_y
+        theta = theta_z - damping * side_z * theta_y / spread
+        return -theta, side_z / (theta * spread)
+
+    def _excess(self, amplitude, channels, damping):
         """``N_f(A_w(d)) - d``, N m s/rad: positive below the fixed point."""
         sticking = self.part.sticking
-        speed = amplitude * np.abs(self._responses(omega, damping)[1])
+        speed = amplitude * np.abs(self._responses(channels, damping)[1])
         gain = friction_describing_function(np.maximum(speed, 1e-300), sticking.coulomb[0], sticking.breakaway[0],
                                             sticking.stribeck_speed[0])
         return gain - damping
 
+    @staticmethod
+    def _level_root(amplitude, channels, coulomb):
+        """The fixed point of Coulomb friction ``coulomb`` (N m) alone, broadcast; NaN where there is none.
+
+        With ``a = c z`` and ``g = a y_i - z_i c y`` (:meth:`_channels`) the side's speed
+        amplitude is ``A_w = A |z_i| / |a + d g|``, so ``d = N_f(A_w) = K |a + d g|``,
+        ``K = 4 F_c / (pi A |z_i|)``: the smallest root ``d >= 0`` of
+        ``(1 - K^2 |g|^2) d^2 - 2 K^2 Re(a g*) d - K^2 |a|^2 = 0``, written so that
+        neither root cancels.
+        """
+        theta_z, theta_y, side_z, side_y = channels
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):  # a side at rest: K = inf, no root
+            gain = 4.0 * coulomb / (np.pi * np.maximum(amplitude * np.abs(side_z), 1e-300))
+            slope = theta_z * side_y - side_z * theta_y
+            alpha = 1.0 - (gain * np.abs(slope)) ** 2
+            beta = gain ** 2 * (theta_z * np.conj(slope)).real
+            gamma = (gain * np.abs(theta_z)) ** 2
+            disc = beta ** 2 + alpha * gamma
+            root = np.sqrt(np.maximum(disc, 0.0))
+            found = (disc >= 0.0) & np.where(beta > 0.0, alpha > 0.0, root > beta)
+            return np.where(found, np.where(beta > 0.0, (beta + root) / alpha, gamma / (root - beta)), np.nan)
+
     def _solve(self, amplitude, omega):
-        """(d, sticks): the fixed point, and where there is none below the bound, the bound and True."""
+        """(d, sticks, channels): the fixed point, and where there is none, the locked side's damper and True; the
+        loop's :meth:`_channels` at the broadcast frequencies."""
         a, w = np.broadcast_arrays(np.asarray(amplitude, dtype=float), np.asarray(omega, dtype=float))
-        hi = 2.0 * self._excess(a, w, np.zeros(a.shape))
+        channels = self._channels(w)
+        hi = 2.0 * self._excess(a, channels, np.zeros(a.shape))  # twice the friction's damper at d = 0
+        if self.part.sticking.breakaway[0] == 0.0:
+            d = self._level_root(a, channels, self.part.sticking.coulomb[0])
+            return np.where(np.isnan(d), 2.0 ** self._DOUBLINGS * hi, d), np.isnan(d), channels
         for _ in range(self._DOUBLINGS):
-            above = self._excess(a, w, hi) > 0.0
+            above = self._excess(a, channels, hi) > 0.0
             if not above.any():
                 break
             hi = np.where(above, 2.0 * hi, hi)
-        sticks = self._excess(a, w, hi) > 0.0
+        sticks = self._excess(a, channels, hi) > 0.0
         lo = np.zeros(a.shape)
         for _ in range(self._BISECTIONS):
             mid = 0.5 * (lo + hi)
-            below = self._excess(a, w, mid) > 0.0
+            below = self._excess(a, channels, mid) > 0.0
             lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
-        return np.where(sticks, hi, 0.5 * (lo + hi)), sticks
+        return np.where(sticks, hi, 0.5 * (lo + hi)), sticks, channels
 
     def gain(self, amplitude, omega):
         """The friction's equivalent damping N_f at (A, w), N m s/rad, broadcast."""
@@ -927,12 +974,15 @@ class FrictionSlaving:
 
     def speed_amplitude(self, amplitude, omega):
         """A_w, rad/s: the first-harmonic amplitude of the rubbing side's speed at (A, w)."""
-        return np.asarray(amplitude) * np.abs(self._responses(omega, self.gain(amplitude, omega))[1])
+        damping, _, channels = self._solve(amplitude, omega)
+        return np.asarray(amplitude) * np.abs(self._responses(channels, damping)[1])
 
     def __call__(self, omega, amplitude=None):
         """G(jw) with the friction's damper at A (without ``amplitude``: the loop without its dry friction)."""
-        damping = 0.0 if amplitude is None else self.gain(amplitude, omega)
-        return self._responses(omega, damping)[0]
+        if amplitude is None:
+            return -self._channels(omega)[0]
+        damping, _, channels = self._solve(amplitude, omega)
+        return self._responses(channels, damping)[0]
 
 
 def _friction_companions(part, balanced):

@@ -414,7 +414,8 @@ class FrontPoint:
         rad/s.
     amplitude : float
         The hunting amplitude of that tuning, rad: simulated where the simulation
-        reached a cycle, the DF's otherwise; 0 for the certified tuning.
+        reached a cycle, the DF's otherwise; 0 for the certified tuning (over an
+        uncertainty box: the nominal rig's, 0 where its DF finds no stable cycle).
     """
 
     tolerance: float
@@ -826,13 +827,15 @@ def _achieved(search, best, met):
 
 
 def _simulated_amplitude(settings, values):
-    """The hunting amplitude a simulation from the DF's largest stable cycle settles to: the stable exact orbit's
-    on that cycle (1 % in amplitude) where shooting converges, else the simulation's (the DF's if it finds none)."""
+    """The nominal rig's hunting amplitude: where a simulation from the DF's largest stable cycle settles to, the
+    stable exact orbit's on that cycle (1 % in amplitude) where shooting converges, else the simulation's (the DF's
+    if it finds none); 0 where the DF finds no stable cycle (over an uncertainty box the screen's cycle may be
+    another rig's)."""
     tuned = _tuned(settings.rig, settings.names, values)
     prediction = verify_limit_cycles(tuned, predict_limit_cycles(tuned, settings.model, grid=_DF_GRID))
     found = [c.simulated.amplitude for c in prediction.stable_cycles if c.simulated is not None and c.simulated.found]
     if not found:
-        return max(c.amplitude for c in prediction.stable_cycles)
+        return max((c.amplitude for c in prediction.stable_cycles), default=0.0)
     return _exact_amplitude(tuned, prediction, max(found))
 
 

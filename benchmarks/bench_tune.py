@@ -15,9 +15,11 @@
    ``examples/motor_lag_feedback.toml`` over a box of three uncertain values (load
    inertia +-10 %, stiffness +-10 %, damping +-30 %: 9 rigs) on a 2-worker process pool
    (target: under 120 s), the share of each stage; and the bandwidth given up for
-   robustness (robust against nominal, ``kp`` alone, gain margin 1) on three rigs: the
+   robustness (robust against nominal, ``kp`` alone, gain margin 1) on four rigs: the
    example and two of this file's (a stiffer, more damped shaft; a heavier load behind a
-   slower integral action).
+   slower integral action), and ``examples/load_feedback.toml`` with Coulomb friction of
+   200 N m and viscous friction of 2 N m s/rad on the load, its Coulomb friction +-30 % in
+   the box in place of the damping (the friction rig of ``tests/test_tuning_uncertainty.py``).
 
 Run: ``python benchmarks/bench_tune.py [--only time|speedup|grid|robust] [--grid 12]``.
 """
@@ -107,12 +109,14 @@ def section_grid(count):
 
 #: Three uncertain values, each around the rig's own: load inertia and stiffness +-10 %, damping +-30 %.
 SPREAD = {"load_inertia": 0.1, "stiffness": 0.1, "damping": 0.3}
+#: On the rig with dry friction, its Coulomb friction +-30 % in place of the damping.
+FRICTION_SPREAD = {"load_inertia": 0.1, "stiffness": 0.1, "coulomb_load": 0.3}
 
 
-def box(rig):
-    """The box :data:`SPREAD` around ``rig``'s values."""
-    return {name: (getattr(rig.plant, name) * (1 - share), getattr(rig.plant, name) * (1 + share))
-            for name, share in SPREAD.items()}
+def box(rig, spread=SPREAD):
+    """The box ``spread`` around ``rig``'s values (of its ``[plant]`` or ``[friction]``)."""
+    values = {name: getattr(rig.plant if hasattr(rig.plant, name) else rig.friction, name) for name in spread}
+    return {name: (values[name] * (1 - share), values[name] * (1 + share)) for name, share in spread.items()}
 
 
 def section_robust():
@@ -132,14 +136,17 @@ def section_robust():
     for stage, seconds in tuning.seconds.items():
         print(f"  {stage:14s} {seconds:7.1f} s  {100 * seconds / total:5.1f} %")
     print("\n== the bandwidth given up for robustness: kp alone, gain margin 1, robust against nominal ==")
-    rigs = {"motor_lag_feedback (examples)": lag,
-            "stiff, damped (k 8000, c 20)": lag.with_values(stiffness=8000.0, damping=20.0),
-            "heavy load, slow ti (J_l 8, ti 0.5)": lag.with_values(load_inertia=8.0, ti=0.5)}
-    for label, rig in rigs.items():
+    rubbing = bd.load_rig(ROOT / "examples" / "load_feedback.toml").with_values(coulomb_load=200.0, viscous_load=2.0)
+    lag_kp = {"kp": (20.0, 400.0)}
+    rigs = {"motor_lag_feedback (examples)": (lag, lag_kp, SPREAD),
+            "stiff, damped (k 8000, c 20)": (lag.with_values(stiffness=8000.0, damping=20.0), lag_kp, SPREAD),
+            "heavy load, slow ti (J_l 8, ti 0.5)": (lag.with_values(load_inertia=8.0, ti=0.5), lag_kp, SPREAD),
+            "load_feedback, F_c 200 on the load": (rubbing, {"kp": (2.0, 100.0)}, FRICTION_SPREAD)}
+    for label, (rig, vary, spread) in rigs.items():
         start = time.perf_counter()
-        nominal = bd.tune(rig, {"kp": (20.0, 400.0)}, gain_margin=1)
+        nominal = bd.tune(rig, vary, gain_margin=1)
         middle = time.perf_counter()
-        robust = bd.tune(rig, {"kp": (20.0, 400.0)}, gain_margin=1, uncertainty=box(rig))
+        robust = bd.tune(rig, vary, gain_margin=1, uncertainty=box(rig, spread))
         end = time.perf_counter()
         given = 1.0 - robust.best.bandwidth / nominal.best.bandwidth
         print(f"  {label:36s} nominal kp {nominal.best.values[0]:7.4g}, {nominal.best.bandwidth:6.4g} rad/s "

@@ -208,24 +208,35 @@ def _lag_rig(**friction):
     return bd.load_rig(EXAMPLE).with_values(**friction)
 
 
-def test_the_slaved_friction_damper_is_its_own_describing_function():
-    """Substituted back: the damper d at (A, w) is N_f of the side's speed amplitude in the loop with d."""
+@pytest.mark.parametrize("friction", [{"coulomb_load": 50.0},
+                                      {"coulomb_motor": 30.0, "breakaway_motor": 20.0, "stribeck_speed": 2.0}],
+                         ids=["coulomb on the load", "breakaway on the motor"])
+def test_the_slaved_friction_damper_is_its_own_describing_function(friction):
+    """Substituted back: the damper d at (A, w) is N_f of the side's speed amplitude in the loop with d, the loop
+    written out here (Coulomb friction's damper is a closed form, a breakaway's bisected)."""
     from backlash_df.describing import friction_describing_function
     from backlash_df.limit_cycles import FrictionSlaving
 
-    part = bd.drive_loop(_lag_rig(coulomb_load=50.0), dry_friction=True).linear_part()
+    rig = _lag_rig(**friction)
+    part = bd.drive_loop(rig, dry_friction=True).linear_part()
     slaving = FrictionSlaving(part)
     amplitude, omega = np.array([0.06, 0.15, 0.4]), np.array([200.0, 256.0, 300.0])
     damping = slaving.gain(amplitude, omega)
     speed = slaving.speed_amplitude(amplitude, omega)
-    np.testing.assert_allclose(damping, friction_describing_function(speed, 50.0), rtol=1e-12)
-    # the side's speed amplitude from the loop written out: z = (jw I - A')^-1 b, A' with the damper on w_l
-    i = part.state_names.index("load_speed")
-    for a, w, d, s in zip(amplitude, omega, damping, speed):
+    f = rig.friction
+    side = "load" if f.coulomb_load else "motor"
+    assert not slaving.sticks(amplitude, omega).any()
+    np.testing.assert_allclose(damping, friction_describing_function(
+        speed, getattr(f, f"coulomb_{side}"), getattr(f, f"breakaway_{side}"), f.stribeck_speed or 1.0), rtol=1e-12)
+    # the side's speed amplitude and G from the loop written out: z = (jw I - A')^-1 b, A' with the damper d / J
+    i = part.state_names.index(f"{side}_speed")
+    inertia = getattr(rig.plant, f"{side}_inertia")
+    for a, w, d, s, g in zip(amplitude, omega, damping, speed, slaving(omega, amplitude)):
         a_mat = part.A.copy()
-        a_mat[i, i] -= d / bd.load_rig(EXAMPLE).plant.load_inertia
+        a_mat[i, i] -= d / inertia
         z = np.linalg.solve(1j * w * np.eye(part.n_states) - a_mat, part.b)
         assert s == pytest.approx(a * abs(z[i] / (part.c_x @ z)), rel=1e-12)
+        assert g == pytest.approx(-(part.c_x @ z), rel=1e-12)
 
 
 def test_coulomb_friction_shrinks_the_backlash_cycle_as_the_simulation_does():
