@@ -23,7 +23,7 @@ from backlash_df.checkpoint import Checkpoint
 from backlash_df.cli import main
 from backlash_df.tuning import uncertainty_design
 from conftest import EXAMPLES, example_rig
-from test_tuning import LAG, blocks_bandwidth, settles
+from test_tuning import DAMPED, LAG, blocks_bandwidth, settles
 
 VARY = {"kp": (20.0, 400.0)}
 #: The drive's inertia and shaft stiffness off by up to 11 % and 19 %: a stiffer shaft hunts at a smaller kp.
@@ -274,3 +274,23 @@ def test_with_dry_friction_the_robust_answer_is_within_5_percent_of_a_brute_forc
     for point in corners(FRICTION_BOX):
         if point != robust.uncertainty["binding"]:
             assert settles(FRICTION.with_values(kp=1.04 * kp, **point)), point
+
+
+#: The third rig: a stiffer-damped shaft behind a slower torque loop (test_tuning's own), three values uncertain.
+DAMPED_BOX = {"load_inertia": (5.0, 6.5), "stiffness": (5500.0, 7000.0), "damping": (20.0, 40.0)}
+
+
+@pytest.mark.slow
+@pytest.mark.xdist_group("tune-robust-damped")
+def test_with_three_uncertain_values_the_robust_answer_is_within_5_percent_of_a_brute_force_grid():
+    """test_tuning's damped rig over three uncertain values (8 vertices and the centre): the answer's bandwidth
+    >= 95 % of the brute-force grid's best, and it settles at the vertices, the centre and 16 seeded interior rigs."""
+    with concurrent.futures.ProcessPoolExecutor(max_workers=2) as executor:
+        robust = bd.tune(DAMPED, VARY, gain_margin=1, uncertainty=DAMPED_BOX, executor=executor)
+    assert robust.feasible and robust.best.certified
+    reference, at = brute_force(DAMPED, DAMPED_BOX, 100.0, 400.0)
+    assert 100.0 < at < 400.0
+    assert robust.best.bandwidth >= 0.95 * reference
+    kp = robust.best.values[0]
+    for point in corners(DAMPED_BOX) + interior(DAMPED_BOX):
+        assert settles(DAMPED.with_values(kp=kp, **point)), point
