@@ -107,7 +107,7 @@ def test_the_binding_point_is_a_vertex_where_the_next_faster_tuning_hunts(tuning
     line = [line for line in robust.sentences() if line.startswith("uncertainty:")]
     at = ", ".join(f"{name} = {value:.4g}" for name, value in binding.items())
     assert line == [f"uncertainty: certified over the box of 2 values (5 rigs), worst bandwidth "
-                    f"{robust.uncertainty['worst_bandwidth']:.4g} rad/s; the next faster tuning hunts at {at}"]
+                    f"{robust.uncertainty['worst_bandwidth']:.4g} rad/s; the next faster tuning is not certified at {at}"]
     box = robust.to_dict()["uncertainty"]
     assert box["box"] == {name: list(ends) for name, ends in BOX.items()} and box["binding"] == binding
 

@@ -67,8 +67,8 @@ def friction_text(tuning):
 
 
 def uncertainty_text(tuning):
-    """Over an uncertainty box: how many values and rigs, the worst bandwidth, where the next faster tuning
-    hunts; "" without a box."""
+    """Over an uncertainty box: how many values and rigs, the worst bandwidth, where the next faster tuning's
+    certificate fails (it hunts there, or its describing function predicts a cycle); "" without a box."""
     box = tuning.uncertainty
     if not box:
         return ""
@@ -78,7 +78,7 @@ def uncertainty_text(tuning):
             f"worst bandwidth {box['worst_bandwidth']:.4g} rad/s")
     if box["binding"] is not None:
         at = ", ".join(f"{name} = {value:.4g}" for name, value in box["binding"].items())
-        line += f"; the next faster tuning hunts at {at}"
+        line += f"; the next faster tuning is not certified at {at}"
     elif tuning.feasible:
         line += "; no faster tuning found hunting"
     return line
