@@ -113,7 +113,7 @@ def lure_design_map(loop, x, y, *, executor=None, progress=None, checkpoint=None
     executor : concurrent.futures.Executor, optional
         Runs the points (default: one after the other here).
     progress : callable, optional
-        ``progress("points", done, total)``.
+        ``progress(stage, done, total)``, the package's protocol; the stage is ``"points"``.
     checkpoint : Checkpoint, optional
         Opened for the run: the points it holds are not judged again.
     t_end : float, optional

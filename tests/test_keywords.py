@@ -49,6 +49,10 @@ DATA = {
     "table1": ("setups",),
     "load_measurements": ("path",),
     "diagnose": ("measurements", "rig"),
+    "lure_loop": ("system", "nonlinearity"),
+    "judge_lure_loop": ("loop", "prediction"),
+    "continue_lure_orbit": ("loop", "parameter", "values", "seed"),
+    "lure_design_map": ("loop", "x", "y"),
 }
 
 
