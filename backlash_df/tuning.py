@@ -729,8 +729,9 @@ def _margin(names, best, hunting_points):
 
 
 def _front(settings, screen, best, feasible, executor, kept, progress=None, simulated=None):
-    """Best bandwidth per tolerance: 0 (the certified tuning), then the DF amplitudes of hunting cells
-    (``simulated``: amplitudes already simulated, by values)."""
+    """Best bandwidth per tolerance: 0 (the certified tuning), then the hunting cells' amplitudes, simulated
+    (``simulated``: amplitudes already simulated, by values) and taken from the exact orbit where shooting
+    converges (stage ``front orbits``)."""
     stable = [c for c in screen if math.isfinite(c.bandwidth) and c.amplitude > 0.0]
     levels = sorted({c.amplitude for c in stable})
     if len(levels) > 6:
@@ -748,6 +749,10 @@ def _front(settings, screen, best, feasible, executor, kept, progress=None, simu
                                      checkpoint=kept, keys=[("front", *values) for values in todo],
                                      progress=progress, stage="front")))
     simulated = [known[c.values] if c.values in known else found[c.values] for _, c in chosen]
+    points = [(c.values, amplitude) for (_, c), amplitude in zip(chosen, simulated)]
+    simulated = run_cells(functools.partial(_orbit_amplitude, settings), points, executor=executor, checkpoint=kept,
+                          keys=[("front orbit", *values) for values, _ in points], progress=progress,
+                          stage="front orbits")
     front = [FrontPoint(0.0, best.values, best.bandwidth, 0.0)] if feasible else []
     for (level, candidate), amplitude in zip(chosen, simulated):
         front.append(FrontPoint(float(max(level, amplitude)), candidate.values, candidate.bandwidth, float(amplitude)))
@@ -827,16 +832,23 @@ def _achieved(search, best, met):
 
 
 def _simulated_amplitude(settings, values):
-    """The nominal rig's hunting amplitude: where a simulation from the DF's largest stable cycle settles to, the
-    stable exact orbit's on that cycle (1 % in amplitude) where shooting converges, else the simulation's (the DF's
-    if it finds none); 0 where the DF finds no stable cycle (over an uncertainty box the screen's cycle may be
-    another rig's)."""
+    """The nominal rig's hunting amplitude: where a simulation from the DF's largest stable cycle settles to (the
+    DF's if it finds none); 0 where the DF finds no stable cycle (over an uncertainty box the screen's cycle may
+    be another rig's)."""
     tuned = _tuned(settings.rig, settings.names, values)
     prediction = verify_limit_cycles(tuned, predict_limit_cycles(tuned, settings.model, grid=_DF_GRID))
     found = [c.simulated.amplitude for c in prediction.stable_cycles if c.simulated is not None and c.simulated.found]
-    if not found:
-        return max((c.amplitude for c in prediction.stable_cycles), default=0.0)
-    return _exact_amplitude(tuned, prediction, max(found))
+    return max(found) if found else max((c.amplitude for c in prediction.stable_cycles), default=0.0)
+
+
+def _orbit_amplitude(settings, point):
+    """A front point's amplitude: ``point = (values, simulated)``, the stable exact orbit's on the simulated cycle
+    where shooting converges (:func:`_exact_amplitude`), else the simulated amplitude."""
+    values, simulated = point
+    if not simulated > 0.0:
+        return simulated
+    tuned = _tuned(settings.rig, settings.names, values)
+    return _exact_amplitude(tuned, predict_limit_cycles(tuned, settings.model, grid=_DF_GRID), simulated)
 
 
 def _exact_amplitude(rig, prediction, simulated):
@@ -882,12 +894,12 @@ def tune(rig, vary, *, tolerance=0.0, gain_margin=1.25, uncertainty=None, model=
     model : str, optional
         Torque law (default the rig's).
     executor : concurrent.futures.Executor, optional
-        Runs the screened cells, the boundary bisections and the front's simulations.
+        Runs the screened cells, the boundary bisections, the front's simulations and its exact orbits.
     progress : callable, optional
         ``progress(stage, done, total)`` (the package's one protocol) as the stages
         ``screening``, ``refinement``, ``certification``, ``plateau``, ``least hunting``
         (none certified), ``gain margin``, ``binding`` (a box: certificates of the nearest
-        faster tuning) and ``front`` advance.
+        faster tuning), ``front`` (its simulations) and ``front orbits`` (the exact orbits on them) advance.
     checkpoint : str, Path or Checkpoint, optional
         Keep every screened cell, boundary bisection, certificate and front point
         as it finishes (:class:`~backlash_df.checkpoint.Checkpoint`; a path: a new

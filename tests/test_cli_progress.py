@@ -102,7 +102,7 @@ def test_tune_off_a_terminal_writes_one_line_per_stage_in_order(tmp_path, monkey
     assert result.exit_code == 0, result.output
     assert "\r" not in result.stderr
     stages = [line.split(":")[0] for line in result.stderr.splitlines()]
-    expected = ["screening", "refinement", "certification", "least hunting", "front"]  # none certified
+    expected = ["screening", "refinement", "certification", "least hunting", "front", "front orbits"]  # none certified
     assert stages == expected, result.stderr  # one line a stage
 
 
