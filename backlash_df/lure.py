@@ -423,13 +423,13 @@ class _Chattering(ValueError):
 class _Flow:
     """The loop's exact flow: per mode the exponentials, the guards as affine rows, event location."""
 
-    def __init__(self, loop, step=None):
+    def __init__(self, loop):
         self.loop = loop
         self.systems = loop._mode_systems
         self.guards = [[self._guard_row(k, guard) for guard in spec.guards]
                        for k, spec in enumerate(loop.element.modes)]
         fastest = max(np.abs(np.linalg.eigvals(system[0])).max() for system in self.systems)
-        self.step = 0.25 / max(fastest, 1e-12) if step is None else step
+        self.step = 0.25 / max(fastest, 1e-12)
         self._exponentials = {}
 
     def _guard_row(self, mode, guard):
@@ -764,10 +764,10 @@ class LureOrbit:
         return ResultPlot(figure, axes)
 
 
-def _period_map(flow, state, mode, period, monodromy=True):
+def _period_map(flow, state, mode, period):
     """``(X(T), mode at T, monodromy, switches)`` from ``state`` in ``mode`` over ``period``."""
     events = []
-    end_mode, end, mono = flow.advance(mode, state, period, events, np.eye(state.size) if monodromy else None)
+    end_mode, end, mono = flow.advance(mode, state, period, events, np.eye(state.size))
     return end, end_mode, mono, events
 
 
