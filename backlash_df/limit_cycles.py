@@ -70,6 +70,10 @@ _FD_STEP = 1e-6
 # Relative difference of |1 + G N| below which two values count as equal: a flat of the
 # residual (the gear in contact, N independent of A) varies by round-off only, ~1e-13.
 _FLAT_TOL = 1e-9
+# Around a dip of a saturated branch (_dips): its frequency sampled this many times finer than the scan, and the
+# scans either side of it reaching this close to it, relative.
+_DIP_REFINE = 16
+_DIP_NEAREST = 1e-9
 
 
 @dataclasses.dataclass(frozen=True)
@@ -329,14 +333,25 @@ class _Problem:
     of the call; :class:`BiasedDescribing` solves each point's DC balance on its own),
     and every point asked for brings the four neighbours of its finite-difference
     Jacobian along.
+
+    With a ``centre`` w_0 (rad/s) the frequency is ``w = w_0 + side e^q`` instead (``side``
+    +1 or -1): the variables of a scan around a frequency where a branch of the slaved
+    saturation gain lives in a sliver that narrows with A (:func:`_dips`).  F may be NaN
+    where a slaved gain's branch does not exist: such points are neither cycles' cells nor
+    minima, and Newton stops on them.
     """
 
-    def __init__(self, g_of_w, n_of, half_gap, amplitude_dependent=False):
+    def __init__(self, g_of_w, n_of, half_gap, amplitude_dependent=False, centre=0.0, side=1.0):
         self.g_of_w, self.n_of, self.half_gap = g_of_w, n_of, half_gap
         self.amplitude_dependent = amplitude_dependent
+        self.centre, self.side = centre, side
 
     def to_aw(self, p, q):
-        return self.half_gap + np.exp(p), np.exp(q)
+        return self.half_gap + np.exp(p), self.centre + self.side * np.exp(q)
+
+    def dw_dq(self, q):
+        """dw/dq, rad/s: ``e^q`` (times ``side`` around a ``centre``)."""
+        return self.side * math.exp(q)
 
     def residual(self, p, q):
         amplitude, omega = self.to_aw(np.asarray(p, dtype=float), np.asarray(q, dtype=float))
@@ -369,6 +384,8 @@ class _Problem:
         is sent their values; returns (p, q) of a root in ``box`` or None."""
         f, jac = self.answer((yield [self.request(p, q)])[0])
         for _ in range(iterations):
+            if not (np.isfinite(f) and np.isfinite(jac).all()):  # off a slaved gain's branch
+                return None
             if abs(f) < _NEWTON_TOL:
                 return p, q
             try:
@@ -470,8 +487,9 @@ def _winding_cells(values):
     """Cells (i, j) of a complex grid around which the values wind (degree != 0)."""
     corners = [values[:-1, :-1], values[1:, :-1], values[1:, 1:], values[:-1, 1:], values[:-1, :-1]]
     total = np.zeros(corners[0].shape)
-    for a, b in zip(corners[:-1], corners[1:]):
-        total += np.angle(b / a)
+    with np.errstate(divide="ignore", invalid="ignore"):  # NaN corners (off a branch) wind nowhere
+        for a, b in zip(corners[:-1], corners[1:]):
+            total += np.angle(b / a)
     return np.argwhere(np.abs(np.round(total / (2 * math.pi))) >= 1)
 
 
@@ -557,6 +575,12 @@ def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range,
     >>> [(round(c.omega, 6), c.stable) for c in cycles]  # dead zone: amplitude grows past it
     [(1.0, False)]
     """
+    box = _log_box(half_gap, amplitude_range, omega_range)
+    return _solve(_Problem(g_of_w, n_of, half_gap, amplitude_dependent), box, grid, near_miss_cutoff)
+
+
+def _log_box(half_gap, amplitude_range, omega_range):
+    """The search box in (log(A - alpha), log w), checked."""
     lo_a, hi_a = amplitude_range
     lo_w, hi_w = omega_range
     if not (half_gap < lo_a < hi_a and 0.0 < lo_w < hi_w and math.isfinite(hi_a * hi_w)):
@@ -564,8 +588,11 @@ def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range,
             f"search box must have half_gap = {half_gap!r} < A_min < A_max and 0 < w_min < w_max; "
             f"got A in {amplitude_range!r}, w in {omega_range!r}"
         )
-    problem = _Problem(g_of_w, n_of, half_gap, amplitude_dependent)
-    box = ((math.log(lo_a - half_gap), math.log(hi_a - half_gap)), (math.log(lo_w), math.log(hi_w)))
+    return (math.log(lo_a - half_gap), math.log(hi_a - half_gap)), (math.log(lo_w), math.log(hi_w))
+
+
+def _solve(problem, box, grid, near_miss_cutoff):
+    """:func:`solve_harmonic_balance` of a :class:`_Problem` in its box of (p, q): cycles and near misses."""
     ps = np.linspace(*box[0], grid[0])
     qs = np.linspace(*box[1], grid[1])
     values = problem.residual(ps[:, None], qs[None, :])
@@ -654,8 +681,8 @@ def _flat_top(problem, p, q, distance, top):
 def _cycle(problem, p, q):
     amplitude, omega = problem.to_aw(p, q)
     f, jac = problem.at(p, q)
-    # d/dA = d/dp / (A - alpha), d/dw = d/dq / w: positive factors, same sign
-    loeb = np.linalg.det(jac) / ((amplitude - problem.half_gap) * omega)
+    # d/dA = d/dp / (A - alpha), d/dw = d/dq / (dw/dq): without a centre positive factors, same sign
+    loeb = np.linalg.det(jac) / ((amplitude - problem.half_gap) * problem.dw_dq(q))
     return LimitCycle(float(amplitude), float(omega), bool(loeb > 0.0), float(loeb), abs(f))
 
 
@@ -764,7 +791,12 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
         )
     if limited:
         g_of_w = CommandSlaving(part)
-    elif rubbing:
+        cycles, near = _slaved_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range, grid, near_miss_cutoff)
+        return LimitCyclePrediction(
+            model=label, cycles=tuple(cycles), near_misses=tuple(near), amplitude_range=amplitude_range,
+            omega_range=omega_range, linear=g_of_w, describing=n_of, half_gap=half_gap, **carried,
+        )
+    if rubbing:
         g_of_w = FrictionSlaving(part)
     elif part is not None:
         g_of_w = functools.partial(frequency_response, part)  # the loop built once, not at every residual
@@ -772,13 +804,10 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
         g_of_w = functools.partial(frequency_response_of, linear)
     cycles, near = solve_harmonic_balance(
         g_of_w, n_of, half_gap, amplitude_range, omega_range, grid=grid, near_miss_cutoff=near_miss_cutoff,
-        amplitude_dependent=limited or rubbing,
+        amplitude_dependent=rubbing,
     )
     if balanced:
         cycles = [dataclasses.replace(c, bias=float(n_of.bias(c.amplitude, c.omega))) for c in cycles]
-    if limited:
-        cycles = [dataclasses.replace(c, command_amplitude=u, saturated=bool(u > part.command.limit))
-                  for c, u in ((c, float(g_of_w.command_amplitude(c.amplitude, c.omega))) for c in cycles)]
     void = ()
     if rubbing:
         cycles = [dataclasses.replace(c, friction_amplitude=float(g_of_w.speed_amplitude(c.amplitude, c.omega)))
@@ -787,68 +816,278 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
         cycles = [c for c in cycles if c not in void]
     return LimitCyclePrediction(
         model=label, cycles=tuple(cycles), near_misses=tuple(near), amplitude_range=amplitude_range,
-        omega_range=omega_range, linear=g_of_w if limited or rubbing else linear, describing=n_of, half_gap=half_gap,
+        omega_range=omega_range, linear=g_of_w if rubbing else linear, describing=n_of, half_gap=half_gap,
         void_cycles=void, **carried,
     )
+
+
+def _slaved_balance(slaving, n_of, half_gap, amplitude_range, omega_range, grid, near_miss_cutoff):
+    """The harmonic balance of a torque-limited loop on every branch of its slaved saturation gain.
+
+    Each branch of :class:`CommandSlaving` that exists at a scan point is solved as a
+    balance of its own (:func:`solve_harmonic_balance`'s scan, Newton and near misses),
+    first on the searched box, then around every frequency where a saturated branch
+    reaches into the box at its narrowest (:func:`_dips`), on a box of ``(log(A - alpha),
+    log|w - w_0|)`` either side of it, where the branch's sliver of the (A, w) plane is as
+    wide as the scan.  The cycles carry their branch's command amplitude U; a cycle (or a
+    near miss) found again, within 1e-6 relative in A and w, counts once (the first: the
+    box before the dips, the lower branch first).
+
+    Returns
+    -------
+    cycles : list of LimitCycle
+        By increasing amplitude.
+    near_misses : list of NearMiss
+        By increasing distance.
+    """
+    (lo_w, hi_w), hi_a = omega_range, amplitude_range[1]
+    span, band = _log_box(half_gap, amplitude_range, omega_range)
+    boxes = [(0.0, 1.0, (span, band))]
+    for centre in _dips(slaving, omega_range, hi_a, (grid[1] - 1) * _DIP_REFINE + 1):
+        for side, room in ((-1.0, centre - lo_w), (1.0, hi_w - centre)):
+            far = min(room, 0.5 * centre)
+            if far > _DIP_NEAREST * centre:
+                boxes.append((centre, side, (span, (math.log(_DIP_NEAREST * centre), math.log(far)))))
+    cycles, near = [], []
+    for centre, side, box in boxes:
+        ps, qs = np.linspace(*box[0], grid[0]), np.linspace(*box[1], grid[1])
+        amplitudes = half_gap + np.exp(ps)[:, None]
+        roots = slaving.roots(amplitudes, centre + side * np.exp(qs)[None, :])
+        for branch in range(roots.shape[-1]):
+            if not np.isfinite(roots[..., branch]).any():
+                continue
+            problem = _Problem(functools.partial(slaving, branch=branch), n_of, half_gap, True, centre, side)
+            found, missed = _solve(problem, box, grid, near_miss_cutoff)
+            for cycle in found:
+                if not any(_same(cycle, other) for other in cycles):
+                    cycles.append(_slaved_cycle(slaving, branch, cycle, half_gap))
+            near += [miss for miss in missed if not any(_same(miss, other) for other in near + cycles)]
+    return sorted(cycles, key=lambda c: (c.amplitude, c.omega)), sorted(near, key=lambda m: m.distance)
+
+
+def _slaved_cycle(slaving, branch, cycle, half_gap):
+    """A cycle on a branch of the slaving with its command amplitude U and, if saturated, Loeb's criterion in U.
+
+    On a saturated branch Loeb's criterion is taken with the command's amplitude U as the
+    amplitude, as in the Lur'e loop of the saturation alone: its sign is that of ``loeb /
+    (dU/dA)``, dU/dA along the branch at the cycle's w (central differences, step 1e-6 (A -
+    alpha)), and ``loeb`` (in A's units) is multiplied by the sign of dU/dA.  Where the
+    slaving's root falls as U rises (``N_s - N_sat(U(N_s))`` decreases through it: on a
+    near-rigid shaft, the root above the peak of U), U falls as A grows along the branch, and
+    the criterion in A would call the Lur'e loop's own stable cycle unstable; elsewhere U grows
+    with A and nothing changes.  A saturated cycle where dU/dA is not a nonzero number keeps the
+    criterion in A.
+    """
+    amplitude, omega = cycle.amplitude, cycle.omega
+    u = float(slaving.command_amplitude(amplitude, omega, branch))
+    saturated = bool(u > slaving.part.command.limit)
+    loeb = cycle.loeb
+    if saturated:
+        step = 1e-6 * (amplitude - half_gap)
+        ends = slaving.command_amplitude(np.array([amplitude + step, amplitude - step]), omega, branch)
+        slope = float(ends[0] - ends[1]) / (2.0 * step)
+        if math.isfinite(slope) and slope != 0.0:
+            loeb = math.copysign(1.0, slope) * cycle.loeb
+    return dataclasses.replace(cycle, command_amplitude=u, saturated=saturated, loeb=loeb, stable=bool(loeb > 0.0))
+
+
+def _same(one, other, tol=1e-6):
+    """Whether two cycles or near misses are one: A and w within ``tol`` relative."""
+    return abs(one.amplitude / other.amplitude - 1.0) <= tol and abs(one.omega / other.omega - 1.0) <= tol
+
+
+def _dips(slaving, omega_range, largest, samples):
+    """The frequencies (rad/s) at which a saturated branch of ``slaving`` reaches down to its least amplitude,
+    where that amplitude is below ``largest`` (rad).
+
+    A saturated root of the slaving exists at (A, w) where the peak of ``U`` over the gain
+    exceeds the limit: ``A > L mu(w)``, ``mu = min_N |theta(N)| / |c|``
+    (:class:`CommandSlaving`'s notes), and ``mu`` dips towards 0 where the loop with a rigid
+    gear has a saturation cycle of its own: the branch is a sliver of the (A, w) plane
+    there, narrowing with A.  ``mu`` is sampled at ``samples`` frequencies (log-spaced),
+    every interior sample no neighbour undercuts by more than ``_FLAT_TOL`` relative is
+    refined by a bounded scalar minimisation over its two neighbours' interval (to
+    ``1e-12`` relative), and dips closer than 1e-9 relative count once.
+    """
+    from scipy import optimize  # lazy, as in _Problem.closest
+
+    omegas = np.geomspace(*omega_range, samples)
+    least = slaving.least_amplitude(omegas)
+    core = least[1:-1]
+    lows = np.flatnonzero((core <= least[:-2] * (1.0 + _FLAT_TOL)) & (core <= least[2:] * (1.0 + _FLAT_TOL))) + 1
+    dips = []
+    for k in lows:
+        if not least[k] < largest:
+            continue
+        found = optimize.minimize_scalar(lambda w: float(slaving.least_amplitude(w)), method="bounded",
+                                         bounds=(omegas[k - 1], omegas[k + 1]),
+                                         options={"xatol": 1e-12 * omegas[k]})
+        centre = float(found.x)
+        if float(slaving.least_amplitude(centre)) < largest and all(abs(centre / d - 1.0) > 1e-9 for d in dips):
+            dips.append(centre)
+    return dips
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class CommandSlaving:
     """A torque-limited loop's linear part with the saturation by its describing function, slaved to A.
 
-    For ``theta_d = A sin(w t)`` the command's first harmonic is
-    ``U = A |u / theta_d|`` of the loop whose command gain is the saturation's
-    describing function ``N_s(U)`` (:func:`~backlash_df.describing.saturation_describing_function`);
-    :meth:`gain` solves that fixed point (bisection on ``N_s`` in (0, 1]: ``N_s -
-    N_sat(U(N_s))`` is negative as ``N_s -> 0`` and >= 0 at 1), and calling the
-    object gives ``G(jw)`` of the loop with that gain, from the loop's responses with
-    the command cut (:func:`~backlash_df.system.command_channels`: linear-fractional in
-    the gain).
+    For ``theta_d = A sin(w t)`` the command's first harmonic is ``U(N_s) = A |u / theta_d|``
+    (N m) of the loop whose command gain is the saturation's describing function ``N_s``
+    (:func:`~backlash_df.describing.saturation_describing_function`), and the gain must be
+    the saturation's at that amplitude: ``N_s = N_sat(U(N_s))`` (Gelb and Vander Velde's
+    multiple-nonlinearity method).  That fixed point can have several roots in (0, 1]:
+    the unsaturated ``N_s = 1`` where ``U(1)`` is inside the limit, and saturated ones
+    (``U`` beyond the limit) where ``U`` grows as ``N_s`` falls: on a near-rigid shaft
+    ``theta_d`` nearly vanishes at the gain of the rigid loop's own saturation cycle, and
+    ``U`` peaks there.  :meth:`roots` finds them all.  Each is a *branch*, numbered from the
+    top (branch 0 the largest ``N_s``; where the command stays inside the limit, the only
+    one, ``N_s = 1``); calling the object with ``branch=k`` gives ``G(jw)`` of the loop with
+    the k-th root's gain, NaN where (A, w) has fewer roots.  All of it follows from the
+    loop's responses with the command cut (:func:`~backlash_df.system.command_channels`:
+    linear-fractional in the gain), one solve per frequency.
 
     Attributes
     ----------
     part : LinearPart
         The loop, with its :class:`~backlash_df.system.Command`.
+
+    Notes
+    -----
+    With ``theta(N) = a (1 - d N) + b c N = a + e N`` (``e = b c - a d``; ``theta_d`` per
+    unit shaft torque), ``U(N) = A |c| / |theta(N)|`` and ``|theta|^2`` is a quadratic in N:
+    ``U`` rises to one peak at ``N* = -Re(a e*) / |e|^2`` and falls beyond it, so that
+    ``h(N) = N - N_sat(U(N))`` increases below the peak (at most one root there).  The
+    roots are sought on a grid fixed in ``log U``: ``_ROOT_GRID`` levels from the limit to
+    the peak (at most ``_U_SPAN`` times the limit), each mapped to the N on either side of
+    the peak that gives it, with 0, ``N*`` (clipped to [0, 1]) and 1 added: the grid
+    resolves the peak however narrow it is.  Neighbours on which ``h > 0`` against
+    ``h <= 0`` differ are bisected ``_BISECTIONS`` times in N, ``h`` evaluated directly, so
+    each root substitutes back to round-off.  Two roots above the peak closer than the
+    grid's step (a factor ``_U_SPAN ** (1 / (_ROOT_GRID - 1))``, 1.8, in ``U``) pass unseen,
+    as do roots below ``N_s = 4 / (pi _U_SPAN)``; roots within ``_ROOT_TOL`` of each other
+    count as one.
     """
 
     part: object
 
     _BISECTIONS = 60
+    _ROOT_GRID = 48
+    _U_SPAN = 1e12
+    _ROOT_TOL = 1e-12
 
-    def _closed(self, omega, gain):
-        """(G, u / theta_d) of the loop with the command through ``gain``."""
-        a, b, c, d = command_channels(self.part, omega)
+    @staticmethod
+    def _closed(channels, gain):
+        """(G, u / theta_d) of the loop with the command through ``gain``, from its ``command_channels``."""
+        a, b, c, d = channels
         theta = a * (1.0 - d * gain) + b * c * gain
-        return -theta / (1.0 - d * gain), c / theta
+        with np.errstate(divide="ignore", invalid="ignore"):  # NaN off a branch
+            return -theta / (1.0 - d * gain), c / theta
 
-    def gain(self, amplitude, omega):
-        """N_s at (A, w), broadcast: 1 where the command stays inside the limit."""
-        a, w = np.broadcast_arrays(np.asarray(amplitude, dtype=float), np.asarray(omega, dtype=float))
-        channels = command_channels(self.part, w)
+    def _roots(self, amplitude, channels):
+        """The roots of ``N_s = N_sat(U(N_s))`` by decreasing N_s, NaN-padded on a last axis of at least one
+        entry, at the amplitudes and channels broadcast together (class notes)."""
+        amplitude, a, b, c, d = np.broadcast_arrays(np.asarray(amplitude, dtype=float), *channels)
         limit = self.part.command.limit
+        e = b * c - a * d
+        scale = amplitude * np.abs(c)  # U(N) = scale / |a + e N|
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            star = -(a * np.conj(e)).real / np.abs(e) ** 2
+            peak = np.where(np.isfinite(star), np.clip(star, 0.0, 1.0), 0.0)
+            top = scale / np.abs(a + e * peak)  # the largest U on [0, 1]
+            unsaturated = scale / np.abs(a + e) <= limit
+        shape = amplitude.shape
+        busy = np.flatnonzero(top.reshape(-1) > limit)  # elsewhere N_sat(U) = 1 on [0, 1]: N_s = 1 alone
+        if not busy.size:
+            return np.where(unsaturated, 1.0, np.nan)[..., None]
+        a, e, scale, star, peak = (x.reshape(-1)[busy] for x in (a, e, scale, star, peak))
+        top = np.minimum(top.reshape(-1)[busy], self._U_SPAN * limit)
 
-        def command(gain):
-            theta = channels[0] * (1.0 - channels[3] * gain) + channels[1] * channels[2] * gain
-            return a * np.abs(channels[2] / theta)
+        def excess(rows, n):
+            """h(N) at the busy points ``rows``, broadcast against ``n``."""
+            with np.errstate(divide="ignore"):
+                u = scale[rows] / np.abs(a[rows] + e[rows] * n)
+            return n - saturation_describing_function(u, limit)
 
-        inside = command(1.0) <= limit
-        if np.all(inside):
-            return np.ones(a.shape)
-        lo, hi = np.zeros(a.shape), np.ones(a.shape)
+        every = np.arange(busy.size)[:, None]
+        levels = limit * (top / limit)[:, None] ** np.linspace(0.0, 1.0, self._ROOT_GRID)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            floor = np.abs(a + e * star) ** 2  # the least |a + e N|^2
+            offset = np.sqrt(np.maximum((scale[:, None] / levels) ** 2 - floor[:, None], 0.0)) / np.abs(e)[:, None]
+            grid = np.concatenate([np.clip(star[:, None] - offset, 0.0, peak[:, None]),
+                                   np.clip(star[:, None] + offset, peak[:, None], 1.0),
+                                   np.stack([np.zeros(busy.size), peak, np.ones(busy.size)], axis=1)], axis=1)
+        grid = np.sort(np.where(np.isfinite(grid), grid, 0.0), axis=1)
+        positive = excess(every, grid) > 0.0
+        row, col = np.nonzero(positive[:, 1:] != positive[:, :-1])
+        lo, hi, rising = grid[row, col], grid[row, col + 1], positive[row, col + 1]
         for _ in range(self._BISECTIONS):
             mid = 0.5 * (lo + hi)
-            below = mid < saturation_describing_function(command(mid), limit)
-            lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
-        return np.where(inside, 1.0, 0.5 * (lo + hi))
+            upper = (excess(row, mid) > 0.0) == rising  # mid on the upper end's side
+            lo, hi = np.where(upper, lo, mid), np.where(upper, mid, hi)
+        flat_unsaturated = np.flatnonzero(unsaturated.reshape(-1))
+        points = np.concatenate([busy[row], flat_unsaturated])
+        values = np.concatenate([0.5 * (lo + hi), np.ones(flat_unsaturated.size)])
+        order = np.lexsort((-values, points))
+        points, values = points[order], values[order]
+        keep = np.ones(points.size, dtype=bool)  # a root within _ROOT_TOL of the one above it is that one
+        keep[1:] = (points[1:] != points[:-1]) | (values[:-1] - values[1:] > self._ROOT_TOL)
+        points, values = points[keep], values[keep]
+        first = np.searchsorted(points, points)  # the index of each point's first root
+        rank = np.arange(points.size) - first
+        roots = np.full((amplitude.size, max(1, int(rank.max(initial=0)) + 1)), np.nan)
+        roots[points, rank] = values
+        return roots.reshape(shape + (roots.shape[1],))
 
-    def command_amplitude(self, amplitude, omega):
-        """U, N m: the first-harmonic amplitude of the command u at (A, w)."""
-        return np.asarray(amplitude) * np.abs(self._closed(omega, self.gain(amplitude, omega))[1])
+    def roots(self, amplitude, omega):
+        """Every root of ``N_s = N_sat(U(N_s))`` in (0, 1] at (A, w), broadcast.
 
-    def __call__(self, omega, amplitude=None):
-        """G(jw) with the saturation's gain at A (the command unsaturated without ``amplitude``)."""
-        gain = 1.0 if amplitude is None else self.gain(amplitude, omega)
-        return self._closed(omega, gain)[0]
+        Parameters
+        ----------
+        amplitude : array_like
+            A, rad.
+        omega : array_like
+            w, rad/s.
+
+        Returns
+        -------
+        ndarray
+            The broadcast shape of A and w with a last axis of at least one entry: the roots by
+            decreasing N_s (the branches), NaN beyond the roots of each (A, w).
+        """
+        return self._roots(amplitude, command_channels(self.part, omega))
+
+    def gain(self, amplitude, omega, branch=0):
+        """N_s of branch ``branch`` at (A, w), broadcast: 1 where the command stays inside the limit, NaN where
+        (A, w) has no such root."""
+        return self._branch(self.roots(amplitude, omega), branch)
+
+    @staticmethod
+    def _branch(roots, branch):
+        return roots[..., branch] if branch < roots.shape[-1] else np.full(roots.shape[:-1], np.nan)
+
+    def least_amplitude(self, omega):
+        """A, rad: the amplitude above which a saturated root exists at w (the peak of ``U`` over the gain
+        reaches the limit: ``L min |theta(N)| / |c|``, N in [0, 1]), broadcast."""
+        a, b, c, d = command_channels(self.part, omega)
+        e = b * c - a * d
+        with np.errstate(divide="ignore", invalid="ignore"):
+            star = -(a * np.conj(e)).real / np.abs(e) ** 2
+        peak = np.where(np.isfinite(star), np.clip(star, 0.0, 1.0), 0.0)
+        return self.part.command.limit * np.abs(a + e * peak) / np.abs(c)
+
+    def command_amplitude(self, amplitude, omega, branch=0):
+        """U, N m: the first-harmonic amplitude of the command u at (A, w) on branch ``branch``."""
+        channels = command_channels(self.part, omega)
+        gain = self._branch(self._roots(amplitude, channels), branch)
+        return np.asarray(amplitude) * np.abs(self._closed(channels, gain)[1])
+
+    def __call__(self, omega, amplitude=None, branch=0):
+        """G(jw), rad/(N m), with the saturation's gain at A on branch ``branch`` (the command unsaturated without
+        ``amplitude``), broadcast."""
+        channels = command_channels(self.part, omega)
+        gain = 1.0 if amplitude is None else self._branch(self._roots(amplitude, channels), branch)
+        return self._closed(channels, gain)[0]
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
