@@ -43,8 +43,7 @@ import math
 import numpy as np
 
 from ._json import json_ready
-from .describing import (BiasedDescribing, describing_function, friction_describing_function,
-                         saturation_describing_function)
+from .describing import BiasedDescribing, describing_function, friction_describing_function
 from .loops import DriveLoop, drive_loop, frequency_response_of
 from .models import BacklashModel
 from .plotting import ResultPlot, adaptive_curve, axes_or_new, legend_below, legend_under, scaled_ticks
@@ -355,8 +354,12 @@ class _Problem:
 
     def residual(self, p, q):
         amplitude, omega = self.to_aw(np.asarray(p, dtype=float), np.asarray(q, dtype=float))
+        outside = omega <= 0.0  # below a centre, a step may reach past w = 0: F is NaN there
+        if np.any(outside):
+            omega = np.where(outside, self.centre, omega)
         g = self.g_of_w(omega, amplitude) if self.amplitude_dependent else self.g_of_w(omega)
-        return 1.0 + g * self.n_of(amplitude, omega)
+        value = 1.0 + g * self.n_of(amplitude, omega)
+        return np.where(outside, np.nan, value) if np.any(outside) else value
 
     def values(self, groups):
         """F at each group ``(p, q)`` of 1-D arrays: a list of complex arrays, one per group."""
@@ -591,11 +594,12 @@ def _log_box(half_gap, amplitude_range, omega_range):
     return (math.log(lo_a - half_gap), math.log(hi_a - half_gap)), (math.log(lo_w), math.log(hi_w))
 
 
-def _solve(problem, box, grid, near_miss_cutoff):
-    """:func:`solve_harmonic_balance` of a :class:`_Problem` in its box of (p, q): cycles and near misses."""
+def _solve(problem, box, grid, near_miss_cutoff, values=None):
+    """:func:`solve_harmonic_balance` of a :class:`_Problem` in its box of (p, q): cycles and near misses
+    (``values``: F on the scan grid, if known)."""
     ps = np.linspace(*box[0], grid[0])
     qs = np.linspace(*box[1], grid[1])
-    values = problem.residual(ps[:, None], qs[None, :])
+    values = problem.residual(ps[:, None], qs[None, :]) if values is None else values
     magnitude = np.abs(values)
     seeds = [(0.5 * (ps[i] + ps[i + 1]), 0.5 * (qs[j] + qs[j + 1])) for i, j in _winding_cells(values)]
     lowest = _local_minima(magnitude)
@@ -850,14 +854,18 @@ def _slaved_balance(slaving, n_of, half_gap, amplitude_range, omega_range, grid,
                 boxes.append((centre, side, (span, (math.log(_DIP_NEAREST * centre), math.log(far)))))
     cycles, near = [], []
     for centre, side, box in boxes:
-        ps, qs = np.linspace(*box[0], grid[0]), np.linspace(*box[1], grid[1])
-        amplitudes = half_gap + np.exp(ps)[:, None]
-        roots = slaving.roots(amplitudes, centre + side * np.exp(qs)[None, :])
+        # the scan's values of every branch from one evaluation of the channels, the roots and N
+        problem = _Problem(None, n_of, half_gap, True, centre, side)
+        amplitudes, omegas = problem.to_aw(np.linspace(*box[0], grid[0])[:, None], np.linspace(*box[1], grid[1]))
+        channels = command_channels(slaving.part, omegas)
+        roots = slaving.branch_roots(amplitudes, channels)
+        n = n_of(amplitudes, omegas)
         for branch in range(roots.shape[-1]):
             if not np.isfinite(roots[..., branch]).any():
                 continue
-            problem = _Problem(functools.partial(slaving, branch=branch), n_of, half_gap, True, centre, side)
-            found, missed = _solve(problem, box, grid, near_miss_cutoff)
+            problem.g_of_w = functools.partial(slaving, branch=branch)
+            values = 1.0 + slaving.closed(channels, roots[..., branch])[0] * n
+            found, missed = _solve(problem, box, grid, near_miss_cutoff, values)
             for cycle in found:
                 if not any(_same(cycle, other) for other in cycles):
                     cycles.append(_slaved_cycle(slaving, branch, cycle, half_gap))
@@ -977,16 +985,29 @@ class CommandSlaving:
     _ROOT_TOL = 1e-12
 
     @staticmethod
-    def _closed(channels, gain):
-        """(G, u / theta_d) of the loop with the command through ``gain``, from its ``command_channels``."""
+    def closed(channels, gain):
+        """(G, u / theta_d) of the loop with the command through ``gain``, from its
+        :func:`~backlash_df.system.command_channels`: rad/(N m) and N m/rad, broadcast."""
         a, b, c, d = channels
         theta = a * (1.0 - d * gain) + b * c * gain
         with np.errstate(divide="ignore", invalid="ignore"):  # NaN off a branch
             return -theta / (1.0 - d * gain), c / theta
 
-    def _roots(self, amplitude, channels):
-        """The roots of ``N_s = N_sat(U(N_s))`` by decreasing N_s, NaN-padded on a last axis of at least one
-        entry, at the amplitudes and channels broadcast together (class notes)."""
+    def branch_roots(self, amplitude, channels):
+        """:meth:`roots` from the loop's :func:`~backlash_df.system.command_channels` (class notes).
+
+        Parameters
+        ----------
+        amplitude : array_like
+            A, rad.
+        channels : tuple of ndarray
+            ``(a, b, c, d)`` at the frequencies, broadcast against ``amplitude``.
+
+        Returns
+        -------
+        ndarray
+            The roots by decreasing N_s on a last axis of at least one entry, NaN-padded.
+        """
         amplitude, a, b, c, d = np.broadcast_arrays(np.asarray(amplitude, dtype=float), *channels)
         limit = self.part.command.limit
         e = b * c - a * d
@@ -1003,13 +1024,15 @@ class CommandSlaving:
         a, e, scale, star, peak = (x.reshape(-1)[busy] for x in (a, e, scale, star, peak))
         top = np.minimum(top.reshape(-1)[busy], self._U_SPAN * limit)
 
-        def excess(rows, n):
-            """h(N) at the busy points ``rows``, broadcast against ``n``."""
-            with np.errstate(divide="ignore"):
-                u = scale[rows] / np.abs(a[rows] + e[rows] * n)
-            return n - saturation_describing_function(u, limit)
+        def excess(fixed, n):
+            """h(N) = N - N_sat(U(N)) (:func:`saturation_describing_function` written out: the bisection's kernel),
+            ``fixed`` the ``(Re a, Im a, Re e, Im e, scale / limit)`` broadcast against ``n``."""
+            a_re, a_im, e_re, e_im, reach = fixed
+            r = np.minimum(np.hypot(a_re + e_re * n, a_im + e_im * n) / reach, 1.0)  # limit / U
+            return n - 2.0 / np.pi * (np.arcsin(r) + r * np.sqrt(1.0 - r * r))
 
-        every = np.arange(busy.size)[:, None]
+        columns = (a.real, a.imag, e.real, e.imag, scale / limit)
+        every = tuple(x[:, None] for x in columns)
         levels = limit * (top / limit)[:, None] ** np.linspace(0.0, 1.0, self._ROOT_GRID)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             floor = np.abs(a + e * star) ** 2  # the least |a + e N|^2
@@ -1018,13 +1041,18 @@ class CommandSlaving:
                                    np.clip(star[:, None] + offset, peak[:, None], 1.0),
                                    np.stack([np.zeros(busy.size), peak, np.ones(busy.size)], axis=1)], axis=1)
         grid = np.sort(np.where(np.isfinite(grid), grid, 0.0), axis=1)
-        positive = excess(every, grid) > 0.0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            positive = excess(every, grid) > 0.0
         row, col = np.nonzero(positive[:, 1:] != positive[:, :-1])
         lo, hi, rising = grid[row, col], grid[row, col + 1], positive[row, col + 1]
-        for _ in range(self._BISECTIONS):
-            mid = 0.5 * (lo + hi)
-            upper = (excess(row, mid) > 0.0) == rising  # mid on the upper end's side
-            lo, hi = np.where(upper, lo, mid), np.where(upper, mid, hi)
+        brackets = tuple(x[row] for x in columns)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for _ in range(self._BISECTIONS):
+                mid = 0.5 * (lo + hi)
+                if not ((mid > lo) & (mid < hi)).any():  # every bracket down to neighbouring floats
+                    break
+                upper = (excess(brackets, mid) > 0.0) == rising  # mid on the upper end's side
+                lo, hi = np.where(upper, lo, mid), np.where(upper, mid, hi)
         flat_unsaturated = np.flatnonzero(unsaturated.reshape(-1))
         points = np.concatenate([busy[row], flat_unsaturated])
         values = np.concatenate([0.5 * (lo + hi), np.ones(flat_unsaturated.size)])
@@ -1055,7 +1083,7 @@ class CommandSlaving:
             The broadcast shape of A and w with a last axis of at least one entry: the roots by
             decreasing N_s (the branches), NaN beyond the roots of each (A, w).
         """
-        return self._roots(amplitude, command_channels(self.part, omega))
+        return self.branch_roots(amplitude, command_channels(self.part, omega))
 
     def gain(self, amplitude, omega, branch=0):
         """N_s of branch ``branch`` at (A, w), broadcast: 1 where the command stays inside the limit, NaN where
@@ -1079,15 +1107,15 @@ class CommandSlaving:
     def command_amplitude(self, amplitude, omega, branch=0):
         """U, N m: the first-harmonic amplitude of the command u at (A, w) on branch ``branch``."""
         channels = command_channels(self.part, omega)
-        gain = self._branch(self._roots(amplitude, channels), branch)
-        return np.asarray(amplitude) * np.abs(self._closed(channels, gain)[1])
+        gain = self._branch(self.branch_roots(amplitude, channels), branch)
+        return np.asarray(amplitude) * np.abs(self.closed(channels, gain)[1])
 
     def __call__(self, omega, amplitude=None, branch=0):
         """G(jw), rad/(N m), with the saturation's gain at A on branch ``branch`` (the command unsaturated without
         ``amplitude``), broadcast."""
         channels = command_channels(self.part, omega)
-        gain = 1.0 if amplitude is None else self._branch(self._roots(amplitude, channels), branch)
-        return self._closed(channels, gain)[0]
+        gain = 1.0 if amplitude is None else self._branch(self.branch_roots(amplitude, channels), branch)
+        return self.closed(channels, gain)[0]
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
