@@ -88,7 +88,10 @@ class LimitCycle:
     stable : bool
         Loeb's criterion (module docs).
     loeb : float
-        ``dU/dA dV/dw - dU/dw dV/dA`` in (1/rad)(s/rad); its sign decides ``stable``.
+        ``dU/dA dV/dw - dU/dw dV/dA`` in (1/rad)(s/rad); its sign decides ``stable``.  On a
+        saturated cycle of a torque-limited loop, times the sign of the command amplitude's
+        slope along the slaved gain's branch: the criterion taken in the command's amplitude
+        (:func:`_slaved_cycle`).
     residual : float
         ``|1 + G(jw) N(A, w)|`` at the solution.
     simulated : MeasuredCycle or None
@@ -753,8 +756,13 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
     their describing functions (Gelb and Vander Velde's multiple-nonlinearity
     method): the saturation's real gain ``N_s(U)`` of the command's first harmonic
     ``U`` is slaved to the amplitude (:class:`CommandSlaving`), and each cycle
-    reports ``U`` and whether it exceeds the limit.  Under a load torque the
-    saturation's DC balance is not solved: the prediction says so in ``note``.
+    reports ``U`` and whether it exceeds the limit.  The slaved gain can have several
+    values at one (A, w) (the unsaturated 1 and saturated ones): the balance is solved on
+    each of them, on the box and, where a saturated one lives in a sliver of the (A, w)
+    plane (a near-rigid shaft: the rigid loop's own saturation cycle), in scans around that
+    sliver, and the cycles and near misses of all are merged; a saturated cycle's stability
+    is Loeb's criterion taken in ``U``.  Under a load torque the saturation's DC balance is
+    not solved: the prediction says so in ``note``.
     """
     named = model is not None
     if not isinstance(model, BacklashModel):
