@@ -822,7 +822,7 @@ def _achieved(search, best, met):
                 factor = 1.5 * lower if upper is None else math.sqrt(lower * upper)
                 scaled = [tuple(v * (f if i == index else 1.0) for i, v in enumerate(best.values))
                           for f in (factor, 1.0 / factor)]
-                if all(search.certify(values, "gain margin").certified for values in scaled):
+                if search.all_certified([tuple(v) for v in scaled], "gain margin"):
                     lower = factor
                 else:
                     upper = factor
@@ -1050,12 +1050,13 @@ def _search(settings, ranges, executor, progress, kept):
         if holds:
             best = certificate
             break
-        rejected.append(certificate)
+        rejected.append((candidate, certificate))
     met = best is not None
-    if met:
-        best = _tighten(search, best, rejected)
+    if met:  # toward the faster candidates a certificate refused (not those the margin's DF screen refused)
+        best = _tighten(search, best, [c for c, certificate in rejected if certificate is not None])
     else:  # none holds the gain margin: the fastest certified one, if any, its margin short of the request
-        best = max((c for c in rejected if c.certified), key=lambda c: c.bandwidth, default=None)
+        certified = (search.certify(c.values, "certification") for c, _ in rejected)
+        best = next((c for c in certified if c.certified), None)
     search.finish("certification")  # the stage ends: its total is now known
     seconds["certification"] = time.perf_counter() - start
 
@@ -1126,6 +1127,8 @@ class _Certifier:
         self.settings, self.kept, self.report, self.executor = settings, kept, report, executor
         self.tried, self.hunting, self._done, self.counts = [], [], {}, collections.Counter()
         self._failing = []  # box point indices (from 1) where certificates failed, the latest first
+        self._screened = {}  # values -> the DF screen says it hunts (the gain margin's scaled tunings)
+        self._screen_failing = []  # box rig indices (0 the nominal) where screens hunted, the latest first
 
     def certify(self, values, stage):
         """The certificate of ``values`` (a new one is reported to ``stage``, unless None, and kept in
@@ -1149,37 +1152,85 @@ class _Certifier:
         """Report ``stage`` done: its certificates counted, its total now known."""
         self.report(stage, self.counts[stage], self.counts[stage])
 
-    def holds(self, values, stage, margin=None):
-        """``(certificate, holds)``: ``values`` certified, and every tuning of its values scaled by a factor
-        in ``{1/g, 1, g}`` each (``g`` the gain margin, or ``margin``), checked until one fails."""
+    def holds(self, values, stage, most=False):
+        """``(certificate, holds)``: ``values`` certified, and every tuning of its values scaled by a factor in
+        ``{1/g, 1, g}`` each (``g`` the gain margin; with ``most`` only the most aggressive one), checked until
+        one fails; the scaled tunings are all screened first, and where the DF says one hunts ``values`` is not
+        certified (``certificate`` None)."""
+        values = tuple(float(v) for v in values)
+        scaled = [tuple(v * f for v, f in zip(values, factors))
+                  for factors in _scalings(self.settings.names, self.settings.gain_margin)]
+        if not self.clear(scaled):
+            return None, False
         certificate = self.certify(values, stage)
-        if not certificate.certified:
-            return certificate, False
-        g = self.settings.gain_margin if margin is None else margin
-        for factors in _scalings(len(values), g):
-            if not self.certify(tuple(v * f for v, f in zip(values, factors)), stage).certified:
-                return certificate, False
-        return certificate, True
+        return certificate, certificate.certified and self.all_certified(scaled[:1] if most else scaled, stage)
+
+    def all_certified(self, tunings, stage):
+        """Every tuning of ``tunings`` certified: none the DF screen says hunts (:meth:`clear`), then each
+        certified in turn until one fails."""
+        return self.clear(tunings) and all(self.certify(values, stage).certified for values in tunings)
+
+    def clear(self, tunings):
+        """No tuning of ``tunings`` hunts by the DF screen (:func:`_screen_hunts`): the first alone (the most
+        aggressive of a gain margin's), then the others together on the executor (a certificate costs tens of
+        screens); those that hunt join :attr:`hunting`."""
+        if any(self._screened.get(values, False) for values in tunings):
+            return False
+        todo = [values for values in tunings if values not in self._screened]
+        for batch in (todo[:1], todo[1:]):
+            found = run_cells(functools.partial(_screen_hunts, self.settings, first=tuple(self._screen_failing)),
+                              batch, executor=self.executor if len(batch) > 1 else None, checkpoint=self.kept,
+                              keys=[("margin screen", *values) for values in batch])
+            for values, index in zip(batch, found):
+                self._screened[values] = index is not None
+                if index is not None:
+                    self.hunting.append((values, "DF screen"))
+                    self._screen_failing = [index] + [i for i in self._screen_failing if i != index]
+            if any(self._screened[values] for values in batch):
+                return False
+        return not any(self._screened[values] for values in tunings)
 
 
-def _scalings(count, margin):
-    """The factors ``(f_1, ...)``, each in ``{1/g, 1, g}``, not all 1; none where ``g`` is 1."""
+def _screen_hunts(settings, values, first=()):
+    """The index of the first rig of the box (0 the nominal, then the points ``first``, then the others) at which
+    the DF screen says ``values`` hunts (:func:`_screen_one`); None where it hunts at none."""
+    rigs = _box_rigs(settings)
+    for index in dict.fromkeys([0, *first, *range(1, len(rigs))]):
+        if _screen_one(settings, rigs[index], values).hunts:
+            return index
+    return None
+
+
+def _scalings(names, margin):
+    """The factors ``(f_1, ...)`` of the varied values ``names``, each in ``{1/g, 1, g}``, not all 1, the most
+    aggressive first (the most values scaled away from :data:`_GENTLER`: the likeliest to fail); none where
+    ``g`` is 1."""
     if margin == 1.0:
         return []
-    return [factors for factors in itertools.product((1.0 / margin, 1.0, margin), repeat=count)
-            if any(f != 1.0 for f in factors)]
+    factors = [f for f in itertools.product((1.0 / margin, 1.0, margin), repeat=len(names)) if any(x != 1.0 for x in f)]
+    return sorted(factors, key=lambda f: sum(_GENTLER[n] * math.log(x) for n, x in zip(names, f)) / math.log(margin))
 
 
 def _tighten(search, best, rejected):
-    """Bisect, with certificates (and the gain margin), toward every faster candidate that failed them."""
+    """Bisect, with certificates, toward every faster candidate in ``rejected`` (those a certificate refused).
+
+    With a gain margin the bisection certifies each midpoint and its most aggressive scaled tuning (all its
+    scaled tunings screened), and the fastest midpoint found must then hold the whole margin (else the next
+    fastest, and so on): a full margin per midpoint would cost eight certificates over the box each.
+    """
     for fast in [c for c in rejected if c.bandwidth > best.bandwidth]:
-        lo, hi = best, fast
+        lo, hi, held = best, fast.values, []
         for _ in range(_CERTIFIED_BISECTIONS):
-            middle, holds = search.holds(tuple(math.sqrt(a * b) for a, b in zip(lo.values, hi.values)),
-                                         "certification")
-            lo, hi = (middle, hi) if holds else (lo, middle)
-        if lo.bandwidth > best.bandwidth:
-            best = lo
+            values = tuple(math.sqrt(a * b) for a, b in zip(lo.values, hi))
+            middle, holds = search.holds(values, "certification", most=True)
+            lo, hi = (middle, hi) if holds else (lo, values)
+            held += [middle] if holds else []
+        for middle in sorted(held, key=lambda c: -c.bandwidth):
+            if middle.bandwidth <= best.bandwidth:
+                break
+            if search.holds(middle.values, "certification")[1]:
+                best = middle
+                break
     return best
 
 
@@ -1220,16 +1271,16 @@ def _plateaus(search, ranges, best):
         for _ in range(_KNEE_BISECTIONS if outside is not None else 0):
             middle = math.sqrt(inside * outside)
             inside, outside = (middle, outside) if within(middle) else (inside, middle)
-        held, failed = best, None  # the knee's tuning, or the gentlest holding one on the way back to the answer
+        held = best  # the knee's tuning, or the gentlest holding one on the way back to the answer
         knee, holds = search.holds(moved(inside), "plateau")
         if holds:
             held = knee
         else:
-            failed = knee
+            failed = moved(inside)
             for _ in range(_CERTIFIED_BISECTIONS):
-                middle, holds = search.holds(tuple(math.sqrt(a * b) for a, b in zip(held.values, failed.values)),
-                                             "plateau")
-                held, failed = (middle, failed) if holds else (held, middle)
+                values = tuple(math.sqrt(a * b) for a, b in zip(held.values, failed))
+                middle, holds = search.holds(values, "plateau")
+                held, failed = (middle, failed) if holds else (held, values)
         if held is not best:
             plateau[name] = {"bandwidth": top, "reached_at": held.values[index]}
             best = held

@@ -7,6 +7,7 @@ disturbance set); bad input is one line.
 """
 
 import dataclasses
+import itertools
 import math
 
 import control as ct
@@ -470,3 +471,14 @@ def test_the_front_s_amplitudes_are_the_exact_orbits_where_shooting_converges():
             assert point.amplitude == pytest.approx(matching[0], rel=1e-6)
         assert point.amplitude == pytest.approx(simulated, rel=0.01)
     assert exact >= 1
+
+
+def test_the_gain_margin_checks_the_most_aggressive_scaled_tuning_first():
+    """The scaled tunings of a margin g, the gains up and the integral time down first (the likeliest to hunt), the
+    gentlest last; every combination of {1/g, 1, g} but the tuning itself, once each."""
+    import backlash_df.tuning as tuning_module
+
+    factors = tuning_module._scalings(("kp", "ti"), 1.25)
+    assert factors[0] == (1.25, 0.8) and factors[-1] == (0.8, 1.25)
+    assert sorted(factors) == sorted(f for f in itertools.product((0.8, 1.0, 1.25), repeat=2) if f != (1.0, 1.0))
+    assert tuning_module._scalings(("kp", "ti"), 1.0) == []
