@@ -36,6 +36,7 @@ left half plane.  It is a local, first-harmonic statement; the time simulation
 (:func:`verify_limit_cycles`) is the check.
 """
 
+import cmath
 import dataclasses
 import functools
 import math
@@ -349,7 +350,8 @@ class _Problem:
         self.centre, self.side = centre, side
 
     def to_aw(self, p, q):
-        return self.half_gap + np.exp(p), self.centre + self.side * np.exp(q)
+        omega = np.exp(q)
+        return self.half_gap + np.exp(p), omega if self.centre == 0.0 else self.centre + self.side * omega
 
     def dw_dq(self, q):
         """dw/dq, rad/s: ``e^q`` (times ``side`` around a ``centre``)."""
@@ -357,12 +359,14 @@ class _Problem:
 
     def residual(self, p, q):
         amplitude, omega = self.to_aw(np.asarray(p, dtype=float), np.asarray(q, dtype=float))
-        outside = omega <= 0.0  # below a centre, a step may reach past w = 0: F is NaN there
-        if np.any(outside):
-            omega = np.where(outside, self.centre, omega)
+        if not self.centre:
+            return self._balance(amplitude, omega)
+        outside = omega <= 0.0  # below a centre, a step may pass w = 0: F is NaN there
+        return np.where(outside, np.nan, self._balance(amplitude, np.where(outside, self.centre, omega)))
+
+    def _balance(self, amplitude, omega):
         g = self.g_of_w(omega, amplitude) if self.amplitude_dependent else self.g_of_w(omega)
-        value = 1.0 + g * self.n_of(amplitude, omega)
-        return np.where(outside, np.nan, value) if np.any(outside) else value
+        return 1.0 + g * self.n_of(amplitude, omega)
 
     def values(self, groups):
         """F at each group ``(p, q)`` of 1-D arrays: a list of complex arrays, one per group."""
@@ -390,7 +394,7 @@ class _Problem:
         is sent their values; returns (p, q) of a root in ``box`` or None."""
         f, jac = self.answer((yield [self.request(p, q)])[0])
         for _ in range(iterations):
-            if not (np.isfinite(f) and np.isfinite(jac).all()):  # off a slaved gain's branch
+            if not (cmath.isfinite(f) and all(map(math.isfinite, jac.flat))):  # off a slaved gain's branch
                 return None
             if abs(f) < _NEWTON_TOL:
                 return p, q
