@@ -227,10 +227,33 @@ def _screen_cell(settings, values):
     """The DF's view of one tuning, the worst over the box: the nominal bandwidth, the largest stable cycle and
     the closest near miss at any of its rigs; it hunts if it hunts at any."""
     cells = [_screen_one(settings, rig, values) for rig in _box_rigs(settings)]
-    if len(cells) == 1:
-        return cells[0]
+    return _worst(settings, values, cells, cells[0])
+
+
+def _screen_until(settings, values, first=()):
+    """The DF's view of one tuning over the box, its rigs screened one by one until one hunts (the rigs ``first``
+    first, then the nominal, then the others; 0 the nominal, the box's points from 1): ``(cell, index)``, ``index``
+    the rig where it hunts, None where it hunts at none (``cell`` then :func:`_screen_cell`'s).  A hunting cell's
+    figures are those of the rigs screened: a bisection or a margin's screen uses its values alone."""
+    rigs = _box_rigs(settings)
+    cells, index = {}, None
+    for at in dict.fromkeys([*first, 0, *range(1, len(rigs))]):
+        cells[at] = _screen_one(settings, rigs[at], values)
+        if cells[at].hunts:
+            index = at
+            break
+    return _worst(settings, values, list(cells.values()), cells.get(0)), index
+
+
+def _worst(settings, values, cells, nominal=None):
+    """The worst of one tuning's screened rigs ``cells``, with the bandwidth of ``nominal``, the nominal rig's
+    cell (computed where the nominal rig was not screened)."""
+    if len(cells) == 1 and nominal is not None:
+        return nominal
     misses = [c.near_miss for c in cells if math.isfinite(c.near_miss)]
-    return Candidate(cells[0].values, cells[0].bandwidth, max(c.amplitude for c in cells),
+    bandwidth = (nominal.bandwidth if nominal is not None
+                 else contact_bandwidth(_tuned(settings.rig, settings.names, values), settings.model))
+    return Candidate(tuple(float(v) for v in values), bandwidth, max(c.amplitude for c in cells),
                      min(misses, default=math.nan), any(c.hunts for c in cells))
 
 
@@ -247,10 +270,14 @@ def _screen_one(settings, rig, values):
 
 
 def _bisect_boundary(settings, pair):
-    """The last DF-clear point on the log segment from a clear tuning to a hunting one (``_BISECTIONS`` halvings)."""
+    """The last DF-clear point on the log segment from a clear tuning to a hunting one (``_BISECTIONS`` halvings);
+    a middle is screened until a rig hunts, the rig where the last middle hunted first (:func:`_screen_until`)."""
     clear, hunting = pair
+    first = ()
     for _ in range(_BISECTIONS):
-        middle = _screen_cell(settings, tuple(math.sqrt(a * b) for a, b in zip(clear.values, hunting.values)))
+        middle, index = _screen_until(settings, tuple(math.sqrt(a * b) for a, b in zip(clear.values, hunting.values)),
+                                      first)
+        first = first if index is None else (index,)
         clear, hunting = (clear, middle) if middle.hunts else (middle, hunting)
     return clear, hunting
 
@@ -1192,13 +1219,9 @@ class _Certifier:
 
 
 def _screen_hunts(settings, values, first=()):
-    """The index of the first rig of the box (0 the nominal, then the points ``first``, then the others) at which
-    the DF screen says ``values`` hunts (:func:`_screen_one`); None where it hunts at none."""
-    rigs = _box_rigs(settings)
-    for index in dict.fromkeys([0, *first, *range(1, len(rigs))]):
-        if _screen_one(settings, rigs[index], values).hunts:
-            return index
-    return None
+    """The index of the first rig of the box (the points ``first`` first, then the nominal 0, then the others) at
+    which the DF screen says ``values`` hunts (:func:`_screen_until`); None where it hunts at none."""
+    return _screen_until(settings, values, first)[1]
 
 
 def _scalings(names, margin):
