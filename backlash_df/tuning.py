@@ -849,7 +849,7 @@ def _achieved(search, best, met):
                 factor = 1.5 * lower if upper is None else math.sqrt(lower * upper)
                 scaled = [tuple(v * (f if i == index else 1.0) for i, v in enumerate(best.values))
                           for f in (factor, 1.0 / factor)]
-                if search.all_certified([tuple(v) for v in scaled], "gain margin"):
+                if search.all_certified(scaled, "gain margin"):
                     lower = factor
                 else:
                     upper = factor
@@ -1215,7 +1215,7 @@ class _Certifier:
                     self._screen_failing = [index] + [i for i in self._screen_failing if i != index]
             if any(self._screened[values] for values in batch):
                 return False
-        return not any(self._screened[values] for values in tunings)
+        return True
 
 
 def _screen_hunts(settings, values, first=()):
