@@ -425,8 +425,9 @@ class Rig:
             True for the time simulation, which models Coulomb and breakaway friction
             with stiction, the describing-function prediction, which takes it as a slaved
             damper (:class:`~backlash_df.limit_cycles.FrictionSlaving`), and the verdict,
-            whose probes simulate it (so the tuning's certificates); False for the
-            analyses that do not model it yet (the exact orbits, the sweeps).
+            whose probes simulate it (so the tuning's certificates and the design
+            maps' cells); False for the analyses that do not model it yet (the exact
+            orbits, continuation).
 
         Raises
         ------
@@ -440,8 +441,8 @@ class Rig:
         dry = self.friction.dry
         if dry and not dry_friction:
             raise RigError(f"{self.source}: [friction] {dry[0]} = {getattr(self.friction, dry[0]):g}: the exact "
-                           f"orbits, continue and map do not model dry friction yet (it would be left out); "
-                           f"`simulate`, `predict` (its describing function and verdict) and `tune` do, and viscous "
+                           f"orbits and continue do not model dry friction yet (it would be left out); `simulate`, "
+                           f"`predict` (its describing function and verdict), `map` and `tune` do, and viscous "
                            f"friction every analysis does")
 
     def to_dict(self):

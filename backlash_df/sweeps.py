@@ -26,7 +26,15 @@ Every cell gets a verdict per model, the classes of ``predict``:
     the loop with the shaft in contact (``T = k theta_d + c dtheta_d``) is
     unstable and no stable cycle caps the growth, or the simulated amplitude grows;
 ``undetermined``
-    the DF finds only unstable cycles, or the simulation does not settle.
+    the DF finds only unstable cycles or cannot be applied to the cell's loop (its
+    prediction's ``note``), or the simulation does not settle.
+
+With dry friction (``[friction]`` Coulomb or breakaway values, or a swept one) the DF
+takes the friction as a damper slaved to the sliding side's speed and the simulation
+models stick and slip.  The DF cannot see stick-slip hunting (a breakaway excess over
+Coulomb friction under integral action), and it is not applied with a torque limit, a
+load torque or friction on both sides: the map's ``notes`` say so, and the simulation's
+cells are the ones to read there.
 """
 
 import dataclasses
@@ -65,13 +73,17 @@ def prediction_verdict(rig, prediction):
     str
         One of :data:`~backlash_df.verdict.VERDICTS`.
     """
+    if prediction.note:  # the describing function was not applied to this loop: it says nothing
+        return "undetermined"
     stable = prediction.stable_cycles
     if stable:
         lowest = stable[0].amplitude
         below = any(not cycle.stable and cycle.amplitude < lowest for cycle in prediction.cycles)
         return "bistable" if below else "limit cycle"
     rig, model, _ = prediction.loop(rig)
-    if linear_stability(drive_loop(rig).linear_part(), model.stiffness, model.damping).status == "unstable":
+    # dry friction aside (bounded, it cannot hold a growth the loop in contact has)
+    part = drive_loop(rig, dry_friction=True).linear_part()
+    if linear_stability(part, model.stiffness, model.damping).status == "unstable":
         return "unstable"
     return "undetermined" if prediction.cycles else "no oscillation"
 
@@ -108,6 +120,8 @@ class DesignMap:
         NaN where there is none.
     df_bias, sim_bias : dict
         Model name -> float array: mean of theta_d (rad) of those cycles.
+    notes : tuple of str
+        What the map's verdicts cannot see on this grid (module docs: dry friction), in words.
     """
 
     x_name: str
@@ -120,6 +134,7 @@ class DesignMap:
     sim_verdict: dict
     sim_amplitude: dict
     sim_bias: dict
+    notes: tuple = ()
 
     @property
     def models(self):
@@ -169,6 +184,7 @@ class DesignMap:
             "x": {"parameter": self.x_name, "values": self.x.tolist()},
             "y": {"parameter": self.y_name, "values": self.y.tolist()},
             "verdicts": list(VERDICTS),
+            "notes": list(self.notes),
             "models": [
                 {"model": name,
                  "df": {"verdict": table(self.df_verdict[name]), "amplitude": table(self.df_amplitude[name]),
@@ -349,7 +365,7 @@ def design_map(rig, x_values, y_values, *, x="kp", y="ti", models=None, simulate
         exists without ``resume`` or that belongs to another map (one line naming
         the inputs that differ).
     """
-    rig.require_modelled()  # a map's verdicts do not model dry friction yet
+    rig.require_modelled(dry_friction=True)
     x_values = np.atleast_1d(np.asarray(x_values, dtype=float))
     y_values = np.atleast_1d(np.asarray(y_values, dtype=float))
     models = tuple(models) if models is not None else (rig.model,)
@@ -370,4 +386,18 @@ def design_map(rig, x_values, y_values, *, x="kp", y="ti", models=None, simulate
     for k in (0, 3):
         for name in fields[k]:
             fields[k][name] = fields[k][name].astype(str)
-    return DesignMap(x, x_values, y, y_values, fields[0], fields[1], fields[2], fields[3], fields[4], fields[5])
+    return DesignMap(x, x_values, y, y_values, fields[0], fields[1], fields[2], fields[3], fields[4], fields[5],
+                     notes=_notes(settings.rig.with_values(**{x: x_values.max(), y: y_values.max()})))
+
+
+#: :attr:`DesignMap.notes` of a grid with dry friction in its cells (module docs).
+DRY_FRICTION_NOTE = ("dry friction: the DF takes it as a damper of the sliding side and cannot see stick-slip "
+                     "hunting (a breakaway excess over Coulomb friction under integral action), nor is it applied "
+                     "with a torque limit, a load torque or friction on both sides (those cells: undetermined); "
+                     "the simulation models stick and slip")
+
+
+def _notes(corner):
+    """The map's notes from the rig at its largest values: a friction value is never negative, so a cell has
+    dry friction where that corner has."""
+    return (DRY_FRICTION_NOTE,) if corner.friction.dry else ()

@@ -334,3 +334,58 @@ def test_the_verdict_reports_the_dead_band_against_its_closed_form():
     assert verdict.to_dict()["rest_band"]["theta_d"] == list(verdict.rest_band["theta_d"])
     plain = _rig({}, ti=math.inf)
     assert bd.judge_loop(plain, bd.predict_limit_cycles(plain)).rest_band == {}
+
+
+# --------------------------------------------------------------------------- design maps with dry friction
+
+def _first_harmonic(at, start, end, samples=4000):
+    """A1 of theta_d (rad) and w (rad/s) of the reference's run over one period ``[start, end]``."""
+    times = np.linspace(start, end, samples + 1)[:-1]
+    states = at(times)
+    theta_d, omega = states[:, 0] - states[:, 2], 2.0 * math.pi / (end - start)
+    return 2.0 * math.hypot(np.mean(theta_d * np.sin(omega * times)), np.mean(theta_d * np.cos(omega * times))), omega
+
+
+def test_a_map_over_the_breakaway_friction_finds_the_stick_slip_cycle_of_the_reference():
+    """Each cell's simulation starts, as ``verify_limit_cycles`` documents, from theta_d = 0 and the kick
+    dtheta_d = 2 alpha w_hi / 3 (the motor and load speeds at +-kick/2, the rest zero; w_hi the scan's top): from
+    there the reference hunts with a breakaway excess and creeps to rest without one (Olsson and Astrom).  The
+    hunting cell's cycle is the reference's, its first harmonic over the last period, to 1e-4; the DF cannot see
+    stick-slip, and the map's note says so."""
+    from backlash_df.limit_cycles import default_ranges
+
+    rig = _rig(STICK_SLIP)
+    dmap = bd.design_map(rig, [0.0, STICK_SLIP["breakaway_load"]], [0.2], x="breakaway_load", y="ti")
+    kick = 2.0 * PLANT["half_gap"] * default_ranges(rig)[1][1] / 3.0
+    start = [0.0, kick / 2.0, 0.0, -kick / 2.0, 0.0]
+    at, breakaways = reference_run(rig, start, 20.0)
+    amplitude, _ = _first_harmonic(at, breakaways[-5], breakaways[-3])  # two break-aways a period
+    _, creeping = reference_run(rig.with_values(breakaway_load=0.0), start, 20.0)
+    assert creeping.size <= 2 and breakaways.size > 20
+    assert dmap.sim_verdict["dead-zone"].tolist() == [["no oscillation"], ["limit cycle"]]
+    assert dmap.sim_amplitude["dead-zone"][1, 0] == pytest.approx(amplitude, rel=1e-4)
+    assert dmap.df_verdict["dead-zone"].tolist() == [["no oscillation"], ["no oscillation"]]
+    assert dmap.notes and "cannot see stick-slip" in dmap.notes[0] and dmap.to_dict()["notes"] == list(dmap.notes)
+    assert any(line.startswith("note: dry friction") for line in dmap.sentences())
+
+
+def test_a_map_cell_the_friction_df_does_not_solve_is_undetermined_not_quiet(tmp_path):
+    """With a torque limit the friction DF is not applied (the prediction's note): its map cell says so, where a
+    prediction with no cycles would have read "no oscillation"; without dry friction there is no note."""
+    rig = _lag_rig(coulomb_load=5.0)
+    dmap = bd.design_map(rig, [0.0, 300.0], [rig.controller.ti], x="torque_limit", y="ti", simulate=False)
+    assert dmap.df_verdict[rig.model].tolist() == [["limit cycle"], ["undetermined"]]
+    assert np.isfinite(dmap.df_amplitude[rig.model][0, 0]) and np.isnan(dmap.df_amplitude[rig.model][1, 0])
+    plain = bd.design_map(_lag_rig(), [0.0], [rig.controller.ti], x="coulomb_load", y="ti", simulate=False)
+    assert plain.notes == () and plain.to_dict()["notes"] == []
+    swept = bd.design_map(_lag_rig(), [0.0, 5.0], [rig.controller.ti], x="coulomb_load", y="ti", simulate=False)
+    assert swept.notes == dmap.notes != ()  # a swept friction value gives the cells that have it the note
+    from click.testing import CliRunner
+    from backlash_df.cli import main
+
+    rig_file = tmp_path / "rubbing.toml"
+    rig_file.write_text(rig.to_toml())
+    result = CliRunner().invoke(main, ["map", str(rig_file), "--x", "torque_limit", "0,300", "--y", "ti",
+                                       str(rig.controller.ti), "--no-simulate"])
+    assert result.exit_code == 0, result.output
+    assert "note: dry friction" in result.output

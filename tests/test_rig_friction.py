@@ -217,7 +217,7 @@ DRY = [key for key in FRICTION if key.startswith(("coulomb", "breakaway"))]
 @pytest.mark.parametrize("key", DRY)
 def test_the_df_analyses_refuse_dry_friction_the_simulation_takes_it(key):
     rig = _rig(friction={key: 2.0, "stribeck_speed": 0.1})
-    with pytest.raises(RigError, match=rf"^rig.toml: \[friction\] {key} = 2: the exact orbits, continue and map"):
+    with pytest.raises(RigError, match=rf"^rig.toml: \[friction\] {key} = 2: the exact orbits and continue do not"):
         bd.drive_loop(rig)
     side = key.split("_")[1]
     assert bd.drive_loop(rig, dry_friction=True).linear_part().sticking.names == (side,)
@@ -279,8 +279,8 @@ OFFSET = ("load", "torque_offset = -3.0", "models a torque offset")
 
 @pytest.mark.parametrize("args, table, extra, words",
                          [(COMMANDS[name], *OFFSET) for name in COMMANDS]
-                         + [(COMMANDS[name], *DRY_FRICTION) for name in ("map", "continue")],  # predict, tune take it
-                         ids=[f"{name}-offset" for name in COMMANDS] + ["map-dry", "continue-dry"])
+                         + [(COMMANDS["continue"], *DRY_FRICTION)],  # predict, tune and map take it
+                         ids=[f"{name}-offset" for name in COMMANDS] + ["continue-dry"])
 def test_commands_refuse_friction_with_exit_code_2_and_write_nothing(tmp_path, monkeypatch, args, table, extra, words):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "rig.toml").write_text(RIG_TOML + f"\n[{table}]\n{extra}\n")

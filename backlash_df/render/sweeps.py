@@ -87,7 +87,7 @@ def map_sentences(dmap):
         agree = (f"; agrees with simulation on {100 * dmap.agreement(name):.1f} %" if name in dmap.sim_verdict
                  else "")
         lines.append(f"{name}: DF {counts}{agree}")
-    return lines
+    return lines + [f"note: {note}" for note in dmap.notes]
 
 
 def map_report(dmap, figure, title="", rig_text=""):
@@ -114,7 +114,8 @@ def map_report(dmap, figure, title="", rig_text=""):
         rows.append([name, *counts, agree])
     sections = [("", '<div class="summary"><p>Each cell: the describing-function verdict (left) and the '
                      "closed-loop simulation with the same law (right); contours: amplitude A (rad, first "
-                     "harmonic of theta_d) of the stable cycle.</p></div>"),
+                     "harmonic of theta_d) of the stable cycle.</p>"
+                     + "".join(f"<p>Note: {html.escape(note)}.</p>" for note in dmap.notes) + "</div>"),
                 *rig_sections(rig_text),
                 ("Map", figure_html(figure, f"{dmap.x_name} x {dmap.y_name}")),
                 ("DF verdicts (cells) and agreement with simulation",
