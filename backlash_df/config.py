@@ -404,11 +404,37 @@ class Rig:
             named[table, key] = parameter
             data[table][key] = value
         changed = rig_from_dict(data, source=f"{self.source} with " + ", ".join(
-            f"{table}.{key} = {changes[parameter]!r}" for (table, key), parameter in named.items()))
+            f"{table}.{key} = {_value_text(changes[parameter])}" for (table, key), parameter in named.items()))
         if self.controller is None:
             return changed
         users = {name: getattr(self.controller, name) for name in _PYTHON_ONLY}
         return dataclasses.replace(changed, controller=dataclasses.replace(changed.controller, **users))
+
+    def without_uncertainty(self, *parameters):
+        """A copy whose ``[uncertainty]`` holds no box for these values: a sweep's own axes.
+
+        Parameters
+        ----------
+        *parameters : str
+            Keys of :meth:`with_values` (``"coulomb_load"``, ``"friction.coulomb_load"``).
+
+        Returns
+        -------
+        Rig
+            The rig itself where none of them has a box.
+
+        Examples
+        --------
+        >>> rig = rig_from_dict({"plant": {"motor_inertia": 0.4, "load_inertia": 5.6, "stiffness": 5895.0,
+        ...     "half_gap": 0.05}, "uncertainty": {"stiffness": [5000.0, 7000.0], "half_gap": [0.04, 0.06]}})
+        >>> dict(rig.without_uncertainty("plant.stiffness").uncertainty)
+        {'half_gap': (0.04, 0.06)}
+        """
+        swept = {_table_of(self, parameter)[1] for parameter in parameters}
+        if not swept & set(self.uncertainty):
+            return self
+        kept = {name: box for name, box in self.uncertainty.items() if name not in swept}
+        return dataclasses.replace(self, uncertainty=Uncertainty(kept))
 
     def require_controller(self):
         """The controller, or a :class:`RigError` saying the rig has none."""
@@ -549,6 +575,12 @@ _UNCERTAIN_TABLES = ("plant", "friction", "load")
 _CHOICES = {"feedback": ("motor", "load"), "position_feedback": ("motor", "load"), "structure": ("speed", "cascade")}
 #: Fields of a table that no rig file sets (a user's LTI controllers, set by Rig.with_controller).
 _PYTHON_ONLY = {"speed_controller", "position_controller"}
+
+
+def _value_text(value):
+    """A value as a rig's source names it: a real number as Python's float repr (``0.5``, not ``np.float64(0.5)``)."""
+    real = isinstance(value, (int, float, np.floating, np.integer)) and not isinstance(value, bool)
+    return repr(float(value)) if real else repr(value)
 
 
 def _table_of(rig, parameter):

@@ -634,6 +634,7 @@ def continue_limit_cycles(rig, parameter, values_or_range, model=None, *, seed=N
     OrbitNotFound
         No orbit to start from anywhere in the range.
     """
+    rig = rig.without_uncertainty(parameter)  # the branch explores its value, boxed or not
     rig.require_modelled()  # the orbits of a branch do not model dry friction yet
     values = np.atleast_1d(np.asarray(values_or_range, dtype=float))
     if values.size < 2 or values[0] == values[-1] or not np.all(np.isfinite(values)):

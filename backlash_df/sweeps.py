@@ -365,6 +365,7 @@ def design_map(rig, x_values, y_values, *, x="kp", y="ti", models=None, simulate
         exists without ``resume`` or that belongs to another map (one line naming
         the inputs that differ).
     """
+    rig = rig.without_uncertainty(x, y)  # the grid explores its two values, boxed or not
     rig.require_modelled(dry_friction=True)
     x_values = np.atleast_1d(np.asarray(x_values, dtype=float))
     y_values = np.atleast_1d(np.asarray(y_values, dtype=float))

@@ -356,3 +356,23 @@ def test_ctrl_c_keeps_the_cells_done_beside_the_output_and_resume_finishes_the_m
     assert counting.calls == 4
     assert json.loads((tmp_path / "m.json").read_text())["models"] == json.loads(_json(reference))["models"]
     assert not (tmp_path / "m.json.checkpoint").exists()
+
+
+def test_a_map_explores_a_boxed_value_beyond_its_box_and_names_its_cells_plainly(tmp_path):
+    """The ``[uncertainty]`` box of a swept value does not bound the grid (the map explores it); a box of another value
+    is kept; a cell's rig names the values as numbers (``0.5``, not numpy's repr)."""
+    rig = bd.load_rig(EXAMPLES / "load_feedback.toml")
+    boxed = bd.rig_from_dict({**rig.to_dict(), "uncertainty": {"stiffness": [5800.0, 6000.0], "load_inertia": [5.0, 6.0]}})
+    plain = design_map(rig, [3000.0, 5895.0], [30.0], x="stiffness", y="kp", simulate=False)
+    swept = design_map(boxed, [3000.0, 5895.0], [30.0], x="stiffness", y="kp", simulate=False)
+    assert swept.to_dict() == plain.to_dict()
+    assert dict(boxed.without_uncertainty("plant.stiffness").uncertainty) == {"load_inertia": (5.0, 6.0)}
+    assert boxed.without_uncertainty("ti") is boxed
+    with pytest.raises(ValueError, match="parameter 'stifness': not a numeric value"):
+        boxed.without_uncertainty("stifness")
+    assert "controller.kp = 0.5" in rig.with_values(kp=np.float64(0.5)).source
+    rig_file = tmp_path / "boxed.toml"
+    rig_file.write_text(boxed.to_toml())
+    result = CliRunner().invoke(main, ["map", str(rig_file), "--x", "stiffness", "3000,5895", "--y", "kp", "30",
+                                       "--no-simulate"])
+    assert result.exit_code == 0, result.output

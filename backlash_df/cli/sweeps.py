@@ -86,6 +86,7 @@ def map_command(rig_file, x_spec, y_spec, models, no_simulate, workers, dask, sc
     for name in models:
         rig.make_model(name)  # a law the rig cannot describe (rubber without beta) stops here
     x_values, y_values = parse_values("--x", x_spec[1]), parse_values("--y", y_spec[1])
+    rig = rig.without_uncertainty(x_spec[0], y_spec[0])  # the grid explores its values, boxed or not
     rig.with_values(**{x_spec[0]: x_values[0], y_spec[0]: y_values[0]})  # names checked before any work
     checkpoint = checkpoint_for(outputs, "map", checkpoint_path, resume)
     with stopped_note(checkpoint, "cells", x_values.size * y_values.size), \

@@ -84,8 +84,10 @@ def map_sentences(dmap):
     lines = ["  ".join(f"{code} {verdict}" for verdict, code in VERDICT_CODES.items())]
     for name in dmap.models:
         counts = ", ".join(f"{v} {int((dmap.df_verdict[name] == v).sum())}" for v in dmap.verdicts)
-        agree = (f"; agrees with simulation on {100 * dmap.agreement(name):.1f} %" if name in dmap.sim_verdict
-                 else "")
+        unsure = int((dmap.df_verdict[name] == "undetermined").sum())
+        agree = (f"; agrees with simulation on {100 * dmap.agreement(name):.1f} %"
+                 + (f" (its {unsure} undetermined cells count as no cycle there)" if unsure else "")
+                 if name in dmap.sim_verdict else "")
         lines.append(f"{name}: DF {counts}{agree}")
     return lines + [f"note: {note}" for note in dmap.notes]
 
