@@ -767,6 +767,14 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
     sliver, and the cycles and near misses of all are merged; a saturated cycle's stability
     is Loeb's criterion taken in ``U``.  Under a load torque the saturation's DC balance is
     not solved: the prediction says so in ``note``.
+
+    Dry friction on one side is a third, its describing function a damper slaved to the
+    side's speed amplitude (:class:`FrictionSlaving`).  Under a load torque the DC balance
+    stays the backlash's alone where the loop holds both mean speeds at zero (a cascade, or
+    integral action in the speed loop): the friction of a zero-mean speed has no mean.  A
+    P speed loop under a load torque slides at a mean speed, which that describing function
+    does not take: the prediction says so in ``note``, as with a torque limit or friction on
+    both sides.
     """
     named = model is not None
     if not isinstance(model, BacklashModel):
@@ -791,12 +799,13 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
     part = linear.linear_part() if isinstance(linear, DriveLoop) else None
     limited = part is not None and part.command is not None
     rubbing = part is not None and part.sticking is not None
-    if rubbing and (limited or balanced or len(part.sticking.names) > 1):
+    if rubbing and (limited or len(part.sticking.names) > 1 or (balanced and not _mean_speed_held(rig))):
         return LimitCyclePrediction(
             model=label, cycles=(), near_misses=(), amplitude_range=amplitude_range, omega_range=omega_range,
             linear=linear, describing=n_of, half_gap=half_gap, **carried,
-            note=f"the describing function of dry friction is solved on one side of a loop without a torque limit or "
-                 f"a load torque, and this loop has {_friction_companions(part, balanced)}; the simulations decide",
+            note=f"the describing function of dry friction is solved on one side of a loop without a torque limit "
+                 f"(under a load torque where the loop holds both mean speeds at zero), and this loop has "
+                 f"{_friction_companions(part, rig, balanced)}; the simulations decide",
         )
     if limited and balanced:
         return LimitCyclePrediction(
@@ -1264,11 +1273,32 @@ class FrictionSlaving:
         return self._responses(channels, damping)[0]
 
 
-def _friction_companions(part, balanced):
+def _friction_companions(part, rig, balanced):
     """What a loop with dry friction holds beside it that its describing function does not take, in words."""
     words = [f"dry friction on {len(part.sticking.names)} sides"] if len(part.sticking.names) > 1 else []
-    words += ["a torque limit"] * (part.command is not None) + ["a load torque"] * balanced
+    words += ["a torque limit"] * (part.command is not None)
+    words += ["a load torque on a P speed loop (its sides slide at a mean speed)"] * (balanced and not
+                                                                                        _mean_speed_held(rig))
     return " and ".join(words)
+
+
+def _mean_speed_held(rig):
+    """Whether a periodic orbit of the loop has both speeds' means at zero under a load torque.
+
+    In a cascade the load angle is a state of the orbit, so periodic, and so is theta_d: both
+    sides' mean speeds are zero.  A speed loop with integral action (a finite ``ti``, or a
+    user's speed controller with a pole at s = 0) holds the mean speed error, and so both
+    mean speeds, at zero.  A P speed loop under a load torque runs at a mean speed, where
+    the friction's describing function of a zero-mean speed (and the DC balance without
+    the friction's mean) does not hold.
+    """
+    controller = rig.controller
+    if controller.cascade:
+        return True
+    if controller.speed_controller is not None:
+        a = np.asarray(controller.speed_controller.A, dtype=float)
+        return a.size > 0 and np.linalg.matrix_rank(a) < a.shape[0]
+    return math.isfinite(controller.ti)
 
 
 # --------------------------------------------------------------------------- verification

@@ -389,3 +389,45 @@ def test_a_map_cell_the_friction_df_does_not_solve_is_undetermined_not_quiet(tmp
                                        str(rig.controller.ti), "--no-simulate"])
     assert result.exit_code == 0, result.output
     assert "note: dry friction" in result.output
+
+
+def test_under_a_load_torque_the_friction_df_solves_the_dc_balance_and_the_cycle_with_its_damper():
+    """Substituted back, each part written out here, at the predicted stable cycle (A, w, b) of the lag rig with Coulomb
+    friction on the load under a load torque of 100 N m: the bias is the DC balance (the shaft's mean torque, by
+    quadrature of the law over the period, carries the load: a zero-mean speed gives the friction no mean), the damper
+    d is N_f of the load's speed amplitude in the loop with d, and 1 + G_d N(A, w, b) = 0.  The simulation settles on
+    the cycle within the DF's usual error (10 % in A, 1 % in w, 5 % in the bias)."""
+    from backlash_df.describing import friction_describing_function
+
+    rig = _lag_rig(coulomb_load=50.0).with_values(torque=100.0)
+    prediction = bd.predict_limit_cycles(rig)
+    assert prediction.note == "" and prediction.balanced
+    (cycle,) = prediction.stable_cycles
+    a, w, b = cycle.amplitude, cycle.omega, cycle.bias
+    law = rig.make_model()
+    phase = np.linspace(0.0, 2.0 * np.pi, 6_400_000, endpoint=False)  # the law jumps at release: error O(1/n)
+    torque = law.torque(b + a * np.sin(phase), a * w * np.cos(phase))
+    assert torque.mean() == pytest.approx(-100.0, rel=1e-6)  # the load torque carried (module contract's sign)
+    n = 2.0 * (np.mean(torque * np.sin(phase)) + 1j * np.mean(torque * np.cos(phase))) / a  # (b1 + j a1) / A
+    part = bd.drive_loop(rig, dry_friction=True).linear_part()
+    i = part.state_names.index("load_speed")
+    damping = friction_describing_function(cycle.friction_amplitude, 50.0)  # the loop with this damper:
+    a_mat = part.A.copy()
+    a_mat[i, i] -= damping / rig.plant.load_inertia
+    z = np.linalg.solve(1j * w * np.eye(part.n_states) - a_mat, part.b)
+    assert cycle.friction_amplitude == pytest.approx(a * abs(z[i] / (part.c_x @ z)), rel=1e-9)
+    assert abs(1.0 - (part.c_x @ z) * n) < 1e-6  # G = -c z, so 1 + G N = 1 - (c z) N
+    verified = bd.verify_limit_cycles(rig, prediction)
+    (simulated,) = [c.simulated for c in verified.stable_cycles]
+    assert simulated.found
+    assert simulated.amplitude == pytest.approx(a, rel=0.1) and simulated.omega == pytest.approx(w, rel=0.01)
+    assert simulated.bias == pytest.approx(b, rel=0.05)
+
+
+def test_a_p_speed_loop_under_a_load_torque_leaves_its_friction_to_the_simulations():
+    """A P speed loop under a load torque runs at a mean speed: the zero-mean friction DF does not hold, and the
+    prediction says so; a cascade under the same load holds its mean speeds at zero and is solved."""
+    p_loop = bd.predict_limit_cycles(_lag_rig(coulomb_load=50.0).with_values(torque=100.0, ti=math.inf))
+    assert p_loop.cycles == () and "a load torque on a P speed loop" in p_loop.note
+    cascade = _rig(STICK_SLIP).with_values(torque=5.0)
+    assert bd.predict_limit_cycles(cascade).note == ""
