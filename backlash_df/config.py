@@ -448,12 +448,12 @@ class Rig:
         Parameters
         ----------
         dry_friction : bool
-            True for the time simulation, which models Coulomb and breakaway friction
-            with stiction, the describing-function prediction, which takes it as a slaved
-            damper (:class:`~backlash_df.limit_cycles.FrictionSlaving`), and the verdict,
-            whose probes simulate it (so the tuning's certificates and the design
-            maps' cells); False for the analyses that do not model it yet (the exact
-            orbits, continuation).
+            True for every analysis of the package: the time simulation models Coulomb
+            and breakaway friction with stiction, the describing-function prediction
+            takes it as a slaved damper (:class:`~backlash_df.limit_cycles.FrictionSlaving`),
+            the exact orbits and continuation take Coulomb friction as modes (stuck,
+            sliding either way), the verdict's probes simulate it; False for a loop
+            that would leave it out.
 
         Raises
         ------
@@ -466,10 +466,9 @@ class Rig:
                            f"loop models a torque offset yet (it would be left out); remove the key or set it to 0")
         dry = self.friction.dry
         if dry and not dry_friction:
-            raise RigError(f"{self.source}: [friction] {dry[0]} = {getattr(self.friction, dry[0]):g}: the exact "
-                           f"orbits and continue do not model dry friction yet (it would be left out); `simulate`, "
-                           f"`predict` (its describing function and verdict), `map` and `tune` do, and viscous "
-                           f"friction every analysis does")
+            raise RigError(f"{self.source}: [friction] {dry[0]} = {getattr(self.friction, dry[0]):g}: this loop "
+                           f"leaves dry friction out; build it with drive_loop(rig, dry_friction=True), as every "
+                           f"analysis of the package does")
 
     def to_dict(self):
         """The rig as the rig file's tables (a dict :func:`rig_from_dict` reads back).

@@ -53,8 +53,8 @@ steps jump over it).
 
 The describing function's branch (:func:`~backlash_df.predict_limit_cycles` at
 a set of values) is computed beside it, on an executor if one is given.  Laws and
-loops the shooting solver cannot handle (rubber with beta > 0, elasto-backlash)
-raise its ``ValueError``.
+loops the shooting solver cannot handle (rubber with beta > 0, elasto-backlash, a
+breakaway friction, dry friction with a torque limit) raise its ``ValueError``.
 
 A checkpoint (:class:`~backlash_df.checkpoint.Checkpoint`) keeps the first orbit,
 each step of the branch (the point, tangent, step size and state scale after it)
@@ -71,7 +71,7 @@ import numpy as np
 from .checkpoint import describe, opened, run_cells, step_counter
 from .limit_cycles import predict_limit_cycles
 from .loops import drive_loop
-from .orbits import OrbitNotFound, orbit_residual, periodic_orbit
+from .orbits import OrbitNotFound, orbit_residual, orbit_state_names, periodic_orbit
 from .plotting import ResultPlot, axes_or_new, legend_beside, log_scale
 from .render.continuation import branch_report, branch_sentences, branch_tables
 from .render.sweeps import value_label
@@ -539,7 +539,8 @@ def _contact_instability(rig, parameter, model, inside, outside):
         tuned = _rig_of(rig, parameter, value)
         if tuned.controller.delay > 0.0:
             return None
-        return bool(np.any(drive_loop(tuned).linear_poles(shaft.stiffness, shaft.damping).real > 0.0))
+        return bool(np.any(drive_loop(tuned, dry_friction=True).linear_poles(shaft.stiffness, shaft.damping).real
+                           > 0.0))
 
     beyond = outside + 0.5 * (outside - inside)
     if unstable(inside) is not False or not unstable(beyond):
@@ -635,7 +636,8 @@ def continue_limit_cycles(rig, parameter, values_or_range, model=None, *, seed=N
         No orbit to start from anywhere in the range.
     """
     rig = rig.without_uncertainty(parameter)  # the branch explores its value, boxed or not
-    rig.require_modelled()  # the orbits of a branch do not model dry friction yet
+    rig.require_modelled(dry_friction=True)
+    orbit_state_names(rig, model)  # a law or a friction the orbits cannot hold stops here, in one line
     values = np.atleast_1d(np.asarray(values_or_range, dtype=float))
     if values.size < 2 or values[0] == values[-1] or not np.all(np.isfinite(values)):
         raise ValueError(f"continue: give a range of {parameter} (two different finite values), got {values_or_range!r}")

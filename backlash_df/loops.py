@@ -446,9 +446,9 @@ class _Builder:
 def drive_loop(rig, *, dry_friction=False):
     """The :class:`DriveLoop` of a rig, its ``[friction]`` included (needs its ``[controller]`` table).
 
-    ``dry_friction`` True for the time simulation, which models Coulomb and breakaway
-    friction; else a rig with them is refused, as a rig with a torque offset always is
-    (:meth:`~backlash_df.config.Rig.require_modelled`).
+    ``dry_friction`` True for a loop that holds the rig's Coulomb and breakaway friction
+    (every analysis of the package builds it so); else a rig with them is refused, as a
+    rig with a torque offset always is (:meth:`~backlash_df.config.Rig.require_modelled`).
     """
     rig.require_modelled(dry_friction)
     return DriveLoop(rig.plant, rig.require_controller(), rig.friction)

@@ -64,9 +64,22 @@ each measured signal is replaced by its Pade approximant of order ``pade_order``
 torque command carried over to its states.  The tests check that the orbit converges with
 the order (orders 4 and 6 agree to 1e-9 in amplitude on a near-critical tuning).
 
+**Dry friction.**  Coulomb friction ``F_c sign(w)`` of a side (``[friction]``, viscous
+friction being linear and in the loop already) splits each mode by the side's own mode:
+sliding either way, the friction a constant ``-+F_c`` on the side; or **stuck**, its speed
+held at zero by whatever friction keeps it there (Karnopp), a segment on the zero-speed
+surface whose flow is the field projected by ``P = I - column e_i^T / column_i``
+(:meth:`_Loop.mode_matrix`).  A sliding side whose speed reaches zero sticks where that
+holding friction is within ``F_c`` and reverses where it is not; a stuck side breaks away
+where the holding friction leaves ``[-F_c, F_c]`` (continuous field, ``S = I``) or where
+a contact, release or command switch takes it beyond.  The saltation matrix of a stick
+zeroes the side's speed row (``n^T S = 0``: a deviation of the speed dies at the stick),
+so a stuck phase shows as a multiplier at 0.  The modes stay affine, the flows exact.
+
 **Not supported** (a ``ValueError`` says so): the rubber law with ``beta > 0`` (36)
-and elasto-backlash (torque not affine inside a mode), Coulomb friction of the load.
-A constant load torque (``[load] torque``) is included.
+and elasto-backlash (torque not affine inside a mode), a breakaway (Stribeck) friction
+(its decay with speed is not affine), dry friction together with a torque limit.  A
+constant load torque (``[load] torque``) is included.
 """
 
 import dataclasses
@@ -192,20 +205,23 @@ def _orbit_law(model, rig):
 class _Loop:
     """The closed loop as a piecewise-affine hybrid system (see module docs).
 
-    A mode is a pair ``(backlash mode, command mode)``: -1 left contact, 0 free, +1
-    right contact; the command's of ``_switching.COMMAND_MODES`` (0
-    linear, +-1 saturated, +-2 the integrator clamped, +-3 sliding on the limit;
-    always 0 without a torque limit).  ``aug[mode]`` is the augmented matrix
-    ``[[F, g], [0, 0]]`` over ``[q, 1]`` from ``_switching.mode_matrices``
-    and ``_switching.command_matrices`` (the simulation kernel's own),
-    with the constant load torque in ``g`` and the reference 0.
+    A mode is a triple ``(backlash mode, command mode, friction modes)``: -1 left
+    contact, 0 free, +1 right contact; the command's of ``_switching.COMMAND_MODES``
+    (0 linear, +-1 saturated, +-2 the integrator clamped, +-3 sliding on the limit;
+    always 0 without a torque limit); per rubbing side (Coulomb friction, module docs)
+    +1 or -1 sliding that way, 0 stuck (``()`` without dry friction).  ``base[(b, c)]``
+    is the augmented matrix ``[[F, g], [0, 0]]`` over ``[q, 1]`` from
+    ``_switching.mode_matrices`` and ``_switching.command_matrices`` (the simulation
+    kernel's own), with the constant load torque in ``g`` and the reference 0;
+    ``aug[mode]`` adds the friction's (:meth:`mode_matrix`).
     """
 
     def __init__(self, rig, model, pade_order):
         self.law = _orbit_law(model, rig)
         self.model, self.exact = model, self.law == EXACT
         self.k, self.c, self.alpha = model.stiffness, model.damping, model.half_gap
-        part = drive_loop(rig).linear_part()
+        part = drive_loop(rig, dry_friction=True).linear_part()
+        _require_affine_friction(rig, part)
         constant = np.array([0.0, rig.load.torque])  # reference 0, the load torque
         self.fast = _fastest_rate(part, model, self.law, constant)
         self.pade_order = int(pade_order) if part.delay > 0.0 else 0
@@ -222,17 +238,71 @@ class _Loop:
         self.rows = np.array([self.c_x, self.c_v, e_b])  # (theta_d, dtheta_d, theta_b) = rows @ q
         self.damping_on = 0.0 if self.law == DEAD_ZONE else self.c
         self._ladders, self._fields = {}, {}
+        self.aug = _ModeMatrices(self)
+        self._friction(self.part.sticking)
         command = self.part.command
         self.limit = 0.0 if command is None else command.limit
         if command is None:
-            self.aug = {(side, 0): m_aug[np.ix_(keep, keep)] for side, m_aug in zip(_SIDES, matrices)}
+            self.base = {(side, 0): m_aug[np.ix_(keep, keep)] for side, m_aug in zip(_SIDES, matrices)}
+            self.fast = max(self.fast, self._stuck_rate())
             return
         self.clamps = command.integrator >= 0
         per_mode, u_row, e_row, rates = command_matrices(self.part, matrices, [], constant)
-        self.aug = {(side, c): per_mode[b, command_index(c)][np.ix_(keep, keep)]
-                    for b, side in enumerate(_SIDES) for c in (COMMAND_MODES if self.clamps else COMMAND_MODES[:3])}
+        self.base = {(side, c): per_mode[b, command_index(c)][np.ix_(keep, keep)]
+                     for b, side in enumerate(_SIDES) for c in (COMMAND_MODES if self.clamps else COMMAND_MODES[:3])}
         self.u_row, self.e_row = u_row[keep], e_row[keep]
         self.rates = {(side, s): rates[b, 0 if s > 0 else 1][:, keep] for b, side in enumerate(_SIDES) for s in (1, -1)}
+
+    def _friction(self, sticking):
+        """The rubbing sides' speed states, friction columns over ``q`` and Coulomb levels (none without)."""
+        sides = () if sticking is None else sticking.names
+        self.rubbing = tuple(sides)
+        self.friction_index = () if sticking is None else sticking.index
+        self.friction_level = () if sticking is None else tuple(float(f) for f in sticking.coulomb)
+        self.friction_column = () if sticking is None else tuple(
+            np.concatenate([column, np.zeros(self.size - column.size)]) for column in sticking.column)
+
+    def _stuck_rate(self):
+        """Largest eigenvalue modulus (1/s) of the contact modes with the rubbing sides stuck (0 without friction)."""
+        n = self.part.A.shape[0]
+        return max((np.abs(np.linalg.eigvals(self.aug[side, 0, (0,) * len(self.rubbing)][:n, :n])).max()
+                    for side in (-1, 1)), default=0.0) if self.rubbing else 0.0
+
+    def mode_matrix(self, mode):
+        """The augmented matrix of ``mode`` (the backlash's and the command's ``base``, then the friction's).
+
+        A side sliding in the direction ``s`` adds its Coulomb friction ``-s F_c column`` to
+        the constant term; a stuck side holds ``dw/dt = 0``: the field is projected by
+        ``P = I - column e_i^T / column_i``, the friction taking the value
+        :meth:`holding` that keeps the side at rest (Karnopp).  Each side's column is zero
+        at the other sides' speeds, so the sides' projections commute.
+        """
+        m_aug = self.base[mode[:2]].copy()
+        for level, column, direction in zip(self.friction_level, self.friction_column, mode[2]):
+            m_aug[:-1, -1] -= direction * level * column
+        for i, column, direction in zip(self.friction_index, self.friction_column, mode[2]):
+            if direction == 0:
+                m_aug[:-1, :] -= np.outer(column / column[i], m_aug[i, :])
+        return m_aug
+
+    def holding(self, mode, side, q=None):
+        """The friction (N m) that holds rubbing side ``side`` at rest in ``mode``: a row over ``[q, 1]``, or its value.
+
+        ``e_i^T (F q + g) / column_i`` of the backlash's and command's mode: what the
+        field would accelerate the side by, as a torque (the other sides' friction does
+        not reach the side's speed).
+        """
+        i = self.friction_index[side]
+        row = self.base[mode[:2]][i, :] / self.friction_column[side][i]
+        return row if q is None else row[:-1] @ q + row[-1]
+
+    def friction_after(self, mode, side, q):
+        """Mode of rubbing side ``side`` at ``q`` from its speed, or at rest from its holding friction (+-1, 0)."""
+        w = q[self.friction_index[side]]
+        if w != 0.0:
+            return 1 if w > 0.0 else -1
+        held = self.holding(mode, side, q)
+        return 0 if abs(held) <= self.friction_level[side] else (1 if held > 0.0 else -1)
 
     # ------------------------------------------------------------------ modes and boundaries
 
@@ -271,7 +341,7 @@ class _Loop:
         ``_switching.command_mode_of`` compares them, so that a value
         past zero and its test there agree to the last bit.
         """
-        side, command = mode
+        side, command = mode[:2]
         limit, du, de = self.limit, self.u_row[:-1], self.e_row[:-1]
         u = du @ q + self.u_row[-1]
         if command == 0:
@@ -306,6 +376,23 @@ class _Loop:
             out = [(0, -value, -(np.asarray(grad) @ self.rows) if gradients else None)]
         if self.limit:
             out += [(None, value, grad) for value, grad in self._command_exits(mode, q)]
+        return out + self._friction_exits(mode, q, gradients)
+
+    def _friction_exits(self, mode, q, gradients=True):
+        """``[(("friction", side), value, gradient)]``: a sliding side's speed reaching zero, a stuck side's holding
+        friction leaving ``[-F_c, F_c]`` (its break-away)."""
+        out = []
+        for side, (i, level, direction) in enumerate(zip(self.friction_index, self.friction_level, mode[2])):
+            label = ("friction", side)
+            if direction:
+                gradient = np.zeros(self.size)
+                gradient[i] = -direction
+                out.append((label, -direction * q[i], gradient if gradients else None))
+            else:
+                row = self.holding(mode, side)
+                held = row[:-1] @ q + row[-1]
+                out += [(label, held - level, row[:-1] if gradients else None),
+                        (label, -held - level, -row[:-1] if gradients else None)]
         return out
 
     def on_limit(self, before, after):
@@ -331,14 +418,35 @@ class _Loop:
                                    self.limit, self.clamps))
 
     def target(self, mode, label, q):
-        """Mode entered at an event of ``mode``'s exit ``label`` at the state ``q`` just past it."""
+        """Mode entered at an event of ``mode``'s exit ``label`` at the state ``q`` just past it.
+
+        A rubbing side whose speed reaches zero sticks where its holding friction is within
+        the Coulomb level, else it reverses; a stuck side breaks away in the direction of
+        its holding friction; a stuck side whose holding friction a contact, release or
+        command switch takes beyond the level breaks away at that event.
+        """
+        if isinstance(label, tuple):  # a rubbing side's event
+            side = label[1]
+            frictions = list(mode[2])
+            if frictions[side]:
+                held = self.holding(mode, side, q)
+                frictions[side] = 0 if abs(held) <= self.friction_level[side] else (1 if held > 0.0 else -1)
+            else:
+                frictions[side] = 1 if self.holding(mode, side, q) > 0.0 else -1
+            return mode[0], mode[1], tuple(frictions)
         side = mode[0] if label is None else label
-        if not self.limit:
-            return side, 0
-        command = self.command_mode(side, mode[1], q)
-        if label is None and command == mode[1]:
-            raise OrbitNotFound("the orbit grazes a boundary of the torque command's modes (no switch at its event)")
-        return side, command
+        command = 0
+        if self.limit:
+            command = self.command_mode(side, mode[1], q)
+            if label is None and command == mode[1]:
+                raise OrbitNotFound("the orbit grazes a boundary of the torque command's modes (no switch at its event)")
+        frictions = tuple(direction or self._breakaway((side, command), s, q) for s, direction in enumerate(mode[2]))
+        return side, command, frictions
+
+    def _breakaway(self, mode, side, q):
+        """A stuck side's mode in ``mode`` at ``q``: 0 while its holding friction is within the level, else +-1."""
+        held = self.holding(mode, side, q)
+        return 0 if abs(held) <= self.friction_level[side] else (1 if held > 0.0 else -1)
 
     def initial_mode(self, q):
         """Mode at a section point.
@@ -354,19 +462,25 @@ class _Loop:
             side = 1
         elif _mirrored(_contact_right, *args)[0] >= 0.0 and _mirrored(_release_right, *args)[0] >= 0.0:
             side = -1
-        if not self.limit:
-            return side, 0
-        u, e = self.u_row[:-1] @ q + self.u_row[-1], self.e_row[:-1] @ q + self.e_row[-1]
-        return side, int(initial_command_mode(u, e, self.limit, self.clamps))
+        command = 0
+        if self.limit:
+            u, e = self.u_row[:-1] @ q + self.u_row[-1], self.e_row[:-1] @ q + self.e_row[-1]
+            command = int(initial_command_mode(u, e, self.limit, self.clamps))
+        return side, command, tuple(self.friction_after((side, command), s, q) for s in range(len(self.rubbing)))
 
     def after_event(self, before, target, q, monodromy):
-        """State and monodromy continued into ``target``: the exact model's theta_b set on its stop (14).
+        """State and monodromy continued into ``target``: a side that sticks at zero speed, theta_b on its stop (14).
 
         At contact and at release theta_b sits on the stop of the side touched
         (``+-alpha``): the projection removes round-off, and its derivative (the
         theta_b row zeroed) enters the monodromy; at contact the saltation matrix
         has zeroed that row already.  Command events leave theta_b alone.
         """
+        stuck = [i for i, a, b in zip(self.friction_index, before[2], target[2]) if a and not b]
+        if stuck:  # a side that sticks rests at zero speed: round-off removed (the saltation zeroed its row)
+            q, monodromy = q.copy(), monodromy.copy()
+            q[stuck] = 0.0
+            monodromy[stuck] = 0.0
         if not self.exact or before[0] == target[0]:
             return q, monodromy
         q, monodromy = q.copy(), monodromy.copy()
@@ -511,7 +625,7 @@ class _Loop:
         f_end : ndarray
             Vector field at ``q_end`` (``d phi_T / dT``).
         events : list of (time, from mode, to mode)
-            Modes as ``(backlash mode, command mode)`` pairs.
+            Modes as ``(backlash mode, command mode, friction modes)`` triples.
         segments : list of (start time, mode, start state, duration)
         """
         if not (period > 0.0 and math.isfinite(period)):
@@ -569,7 +683,7 @@ class _Loop:
         phasor = response * (amplitude / (c_x @ response))
         border = np.zeros((n + 1, n + 1))
         border[:n, :n], border[:n, n], border[n, :n] = a_mat, b, c_x
-        rhs = np.concatenate([-self.aug[0, 0][:n, -1], [bias]])
+        rhs = np.concatenate([-self.base[0, 0][:n, -1], [bias]])
         mean = np.linalg.lstsq(border, rhs, rcond=None)[0][:n]
         q = mean + phasor.real  # omega t = pi / 2: theta_d = bias + A, dtheta_d = 0
         if self.exact:
@@ -587,6 +701,34 @@ def _fastest_rate(part, model, law, constant):
         contact = command_matrices(part, mode_matrices(part, model, law, [], constant), [], constant).per_mode[2]
         rates += [np.abs(np.linalg.eigvals(m_aug[:n, :n])).max() for m_aug in contact]
     return max(rates)
+
+
+class _ModeMatrices(dict):
+    """``aug[mode]``: each mode's augmented matrix, built on first use (:meth:`_Loop.mode_matrix`)."""
+
+    def __init__(self, loop):
+        super().__init__()
+        self.loop = loop
+
+    def __missing__(self, mode):
+        self[mode] = matrix = self.loop.mode_matrix(mode)
+        return matrix
+
+
+def _require_affine_friction(rig, part):
+    """Refuse dry friction the modes cannot hold affinely: a breakaway (Stribeck) excess, or friction with a torque
+    limit (the limit's slide rates would need the friction's modes), in one line."""
+    sticking = part.sticking
+    if sticking is None:
+        return
+    names = [f"breakaway_{side}" for side, level in zip(sticking.names, sticking.breakaway) if level > 0.0]
+    if names:
+        raise ValueError(f"{rig.source}: [friction] {names[0]} = {getattr(rig.friction, names[0]):g}: a breakaway "
+                         f"friction's Stribeck decay is not affine inside the exact orbits' modes; they take Coulomb "
+                         f"and viscous friction (the simulations take a breakaway)")
+    if part.command is not None:
+        raise ValueError(f"{rig.source}: the exact orbits do not model dry friction in a loop with a torque limit yet "
+                         f"(the simulations take it)")
 
 
 @functools.lru_cache(maxsize=32)
@@ -670,6 +812,13 @@ class PeriodicOrbit:
         linear, +-1 saturated, +-2 the integrator clamped, +-3 sliding on the limit).
     command : ndarray or None
         The torque command at the samples of ``time``, N m.
+    rubbing : tuple of str
+        The sides with Coulomb friction (``"motor"``, ``"load"``; empty without).
+    stuck_time : tuple of float
+        Time per period (s) each of them is stuck (at rest, held by its friction).
+    friction_events : tuple of (float, str, int, int)
+        ``(time after the section in s, side, mode before, after)`` for every stick,
+        break-away and reversal (+1, -1 sliding that way, 0 stuck).
     """
 
     period: float
@@ -696,6 +845,9 @@ class PeriodicOrbit:
     clamped_time: float = 0.0
     command_events: tuple = ()
     command: np.ndarray = dataclasses.field(default=None, compare=False)
+    rubbing: tuple = ()
+    stuck_time: tuple = ()
+    friction_events: tuple = ()
 
     @property
     def saturated_fraction(self):
@@ -714,17 +866,21 @@ class PeriodicOrbit:
                 f"|mu|max={self.max_multiplier:.4g}{self._command_text()})")
 
     def _command_text(self):
+        stuck = "".join(f", {side} stuck {100 * time / self.period:.0f} % of T"
+                        for side, time in zip(self.rubbing, self.stuck_time))
         if not self.torque_limit:
-            return ""
+            return stuck
         return (f", command {self.command_amplitude:.4g} N m, on its limit {100 * self.saturated_fraction:.0f} % "
-                f"of T")
+                f"of T{stuck}")
 
     def to_dict(self):
         """JSON-ready summary: rad, rad/s, s, N m; multipliers as ``[re, im]`` pairs, the trivial one first.
 
         ``command`` is null without a torque limit, else ``{"limit", "amplitude",
         "saturated_time", "saturated_fraction", "clamped_time", "events"}`` (N m, s;
-        ``events``: switches of the command's mode per period).
+        ``events``: switches of the command's mode per period); ``friction`` null
+        without Coulomb friction, else ``{"sides", "stuck_time", "stuck_fraction",
+        "events"}`` (per side; s; ``events``: sticks, break-aways and reversals per period).
         """
         return {
             "model": self.model,
@@ -747,6 +903,12 @@ class PeriodicOrbit:
                 "saturated_fraction": float(self.saturated_fraction),
                 "clamped_time": float(self.clamped_time),
                 "events": len(self.command_events),
+            },
+            "friction": None if not self.rubbing else {
+                "sides": list(self.rubbing),
+                "stuck_time": [float(t) for t in self.stuck_time],
+                "stuck_fraction": [float(t / self.period) for t in self.stuck_time],
+                "events": len(self.friction_events),
             },
         }
 
@@ -1073,7 +1235,7 @@ def _relaxed(loop, rig, unknowns):
     A seed near an attracting orbit (a DF cycle far off, as where the loci are
     nearly tangent) ends close to it; the project's simulation kernel runs it.
     """
-    system = drive_loop(rig).linear_part()
+    system = drive_loop(rig, dry_friction=True).linear_part()
     n = system.A.shape[0]
     q0, period = unknowns[:-1], unknowns[-1]
     theta_b = float(np.clip(q0[-1], -loop.alpha, loop.alpha)) if loop.exact else 0.0
@@ -1104,6 +1266,14 @@ def _orbit(loop, unknowns, norm, monodromy, events):
             "clamped_time": float(sum(duration for _, mode, _, duration in segments if abs(mode[1]) >= 2)),
             "command_events": tuple((float(t), int(a[1]), int(b[1])) for t, a, b in events if a[1] != b[1]),
             "command": np.array([loop.command_row(mode) @ np.append(q, 1.0) for _, q, mode in track]),
+        }
+    if loop.rubbing:
+        command |= {
+            "rubbing": loop.rubbing,
+            "stuck_time": tuple(float(sum(duration for _, mode, _, duration in segments if mode[2][s] == 0))
+                                for s in range(len(loop.rubbing))),
+            "friction_events": tuple((float(t), loop.rubbing[s], int(a[2][s]), int(b[2][s])) for t, a, b in events
+                                     for s in range(len(loop.rubbing)) if a[2][s] != b[2][s]),
         }
     return PeriodicOrbit(
         period=period, omega=omega, amplitude=float(abs(first[0])), peak=_peak(loop, track, period, mean[0]),
@@ -1230,6 +1400,7 @@ def exact_orbits(rig, prediction, *, simulated=None, pade_order=DEFAULT_PADE_ORD
     if user_linear is not None:
         raise ValueError(f"exact orbits of the '{prediction.model}' prediction: shooting takes the rig's own loop, "
                          f"not a user's linear part")
+    _loop(*_resolve_model(rig, model), pade_order)  # a law or a friction shooting cannot hold: its ValueError, seeds or not
     seeds = list(prediction.cycles) + list(prediction.near_misses[:near_misses])
     if simulated is not None and (not hasattr(simulated, "found") or simulated.found):
         seeds.append(simulated)

@@ -880,7 +880,7 @@ def _orbit_amplitude(settings, point):
 
 def _exact_amplitude(rig, prediction, simulated):
     """The amplitude of the stable exact orbit within 1 % of ``simulated`` (rad), else ``simulated`` (shooting
-    failed, or the loop has dry friction, which the orbits do not model)."""
+    failed, or the loop has a friction or a law the orbits do not model)."""
     try:
         orbits = exact_orbits(rig, prediction)
     except ValueError:

@@ -728,11 +728,8 @@ def judge_loop(rig, prediction, *, linear=None, t_end=10.0, max_t_end=320.0, dis
                                                                              prediction)])
     step = default_step(part, model) if dt is None else dt
     probes = _confirmed_across_starts([_longer(rig, model, p, user_linear, max_t_end, step) for p in probes])
-    if exact and user_linear is None and part.sticking is not None:
-        orbits, note = (), "exact orbits not sought: they do not model dry friction yet (the probes simulate it)"
-    else:
-        orbits, note = (_exact(rig, prediction, probes, t_end, max_t_end, dt, refinement)
-                        if exact and user_linear is None else ((), ""))
+    orbits, note = (_exact(rig, prediction, probes, t_end, max_t_end, dt, refinement)
+                    if exact and user_linear is None else ((), ""))
     evidence = _decide(prediction, contact, rests, probes, orbits)
     separatrix = None
     if evidence.outcome == Outcome.BISTABLE and user_linear is None:

@@ -297,7 +297,7 @@ def test_a_certificate_with_dry_friction_rests_on_the_df_and_the_probes(ti, cert
 
     certificate = certify(_rig(STICK_SLIP, ti=ti))
     assert certificate.certified is certified
-    assert certificate.verdict.orbits == () and "do not model dry friction" in certificate.verdict.orbit_note
+    assert certificate.verdict.orbits == () and "Stribeck decay is not affine" in certificate.verdict.orbit_note
     if not certified:
         assert certificate.verdict.verdict == "bistable" and certificate.amplitude > 0.005
 
@@ -306,7 +306,7 @@ def test_a_certificate_with_dry_friction_rests_on_the_df_and_the_probes(ti, cert
 def test_tune_with_dry_friction_says_what_its_certificate_rests_on():
     tuned = bd.tune(_rig(STICK_SLIP), {"ti": (0.05, 5.0)}, gain_margin=1.0)
     assert tuned.feasible and tuned.values()["ti"] > 0.2
-    assert any(line.startswith("dry friction: the exact orbits do not model it yet") for line in tuned.sentences())
+    assert any(line.startswith("dry friction: its breakaway is not affine") for line in tuned.sentences())
 
 
 def test_tune_where_the_friction_df_does_not_apply_says_why_nothing_is_certified():

@@ -217,7 +217,7 @@ DRY = [key for key in FRICTION if key.startswith(("coulomb", "breakaway"))]
 @pytest.mark.parametrize("key", DRY)
 def test_the_df_analyses_refuse_dry_friction_the_simulation_takes_it(key):
     rig = _rig(friction={key: 2.0, "stribeck_speed": 0.1})
-    with pytest.raises(RigError, match=rf"^rig.toml: \[friction\] {key} = 2: the exact orbits and continue do not"):
+    with pytest.raises(RigError, match=rf"^rig.toml: \[friction\] {key} = 2: this loop leaves dry friction out"):
         bd.drive_loop(rig)
     side = key.split("_")[1]
     assert bd.drive_loop(rig, dry_friction=True).linear_part().sticking.names == (side,)
@@ -273,7 +273,7 @@ COMMANDS = {
     "map": ["map", "rig.toml", "--x", "kp", "10,20", "--y", "ti", "0.1,0.5", "--json", "out.json"],
     "continue": ["continue", "rig.toml", "--parameter", "kp", "--from", "10", "--to", "20", "--json", "out.json"],
 }
-DRY_FRICTION = ("friction", "coulomb_motor = 0.5", "do not model dry friction")
+DRY_FRICTION = ("friction", "breakaway_motor = 0.5\nstribeck_speed = 0.1", "Stribeck decay is not affine")
 OFFSET = ("load", "torque_offset = -3.0", "models a torque offset")
 
 

@@ -62,8 +62,12 @@ def friction_text(tuning):
     prediction = tuning.best.verdict.prediction
     if prediction is None or prediction.rig is None or not prediction.rig.friction.dry:
         return ""
-    return ("dry friction: the exact orbits do not model it yet, so each certificate rests on the describing "
-            "functions (the friction's included) and the probes' simulations (stick and slip)")
+    friction = prediction.rig.friction
+    if friction.breakaway_motor or friction.breakaway_load:
+        return ("dry friction: its breakaway is not affine in the exact orbits' modes, so each certificate rests on "
+                "the describing functions (the friction's included) and the probes' simulations (stick and slip)")
+    return ("dry friction: each certificate rests on the describing functions (the friction's included), the "
+            "probes' simulations and the exact orbits (both with stick and slip)")
 
 
 def uncertainty_text(tuning):
