@@ -301,6 +301,11 @@ class _Loop:
         w = q[self.friction_index[side]]
         if w != 0.0:
             return 1 if w > 0.0 else -1
+        return self._at_rest(mode, side, q)
+
+    def _at_rest(self, mode, side, q):
+        """Mode of rubbing side ``side`` at rest at ``q`` in ``mode``: stuck (0) while its holding friction is within
+        the Coulomb level, else sliding (+-1) the way the torque on it pushes."""
         held = self.holding(mode, side, q)
         return 0 if abs(held) <= self.friction_level[side] else (1 if held > 0.0 else -1)
 
@@ -425,14 +430,10 @@ class _Loop:
         its holding friction; a stuck side whose holding friction a contact, release or
         command switch takes beyond the level breaks away at that event.
         """
-        if isinstance(label, tuple):  # a rubbing side's event
+        if isinstance(label, tuple):  # a rubbing side's speed at zero, or its holding friction past the level
             side = label[1]
             frictions = list(mode[2])
-            if frictions[side]:
-                held = self.holding(mode, side, q)
-                frictions[side] = 0 if abs(held) <= self.friction_level[side] else (1 if held > 0.0 else -1)
-            else:
-                frictions[side] = 1 if self.holding(mode, side, q) > 0.0 else -1
+            frictions[side] = self._at_rest(mode, side, q)
             return mode[0], mode[1], tuple(frictions)
         side = mode[0] if label is None else label
         command = 0
@@ -440,13 +441,8 @@ class _Loop:
             command = self.command_mode(side, mode[1], q)
             if label is None and command == mode[1]:
                 raise OrbitNotFound("the orbit grazes a boundary of the torque command's modes (no switch at its event)")
-        frictions = tuple(direction or self._breakaway((side, command), s, q) for s, direction in enumerate(mode[2]))
+        frictions = tuple(direction or self._at_rest((side, command), s, q) for s, direction in enumerate(mode[2]))
         return side, command, frictions
-
-    def _breakaway(self, mode, side, q):
-        """A stuck side's mode in ``mode`` at ``q``: 0 while its holding friction is within the level, else +-1."""
-        held = self.holding(mode, side, q)
-        return 0 if abs(held) <= self.friction_level[side] else (1 if held > 0.0 else -1)
 
     def initial_mode(self, q):
         """Mode at a section point.
