@@ -315,7 +315,9 @@ class Evidence:
         ``bistable``: the locally stable rest whose reach the probes confirmed.
     separating : float or None
         ``bistable`` (and ``runaway in contact`` with settling probes): amplitude of
-        theta_d (rad) of the separating cycle.
+        theta_d (rad) of the separating cycle; with ``separating_source``
+        ``"simulations"``, no cycle's but the released twist between the largest that
+        settled and the smallest that hunted (their geometric mean).
     separating_source : str
         ``"exact orbit"``, ``"DF unstable cycle"`` or ``"simulations"``; ``""`` if none.
     rest_note : str

@@ -159,9 +159,19 @@ def _bistable(evidence):
             calm += f"; {_list(evidence.settles, 'up to')} settle"
     else:
         calm = f"{_list(evidence.settles, 'up to')} settle" if evidence.settles else "some disturbances settle"
-    start = (f"; hunting starts beyond the separating cycle A = {evidence.separating:.4g} rad "
-             f"({evidence.separating_source})" if evidence.separating is not None else "")
-    return f"{calm}; {_one(evidence.probe.disturbance)} ends on {what}" + start + after
+    return f"{calm}; {_one(evidence.probe.disturbance)} ends on {what}" + _separation(evidence) + after
+
+
+def _separation(evidence):
+    """Where hunting starts: beyond a separating cycle (an exact or DF one), or, with none found, from released
+    twists of about the size between the settling and the hunting ones the probes tried (not a cycle's A)."""
+    if evidence.separating is None:
+        return ""
+    if evidence.separating_source == "simulations":
+        return (f"; hunting starts from released twists of about {evidence.separating:.4g} rad (between those "
+                f"simulated to settle and to hunt; no separating cycle found)")
+    return (f"; hunting starts beyond the separating cycle A = {evidence.separating:.4g} rad "
+            f"({evidence.separating_source})")
 
 
 _SENTENCES = {
