@@ -37,7 +37,8 @@ Two kernels share these rules:
 
 * **Exact discretisation** when the loop is linear inside every mode: the
   dead-zone family (24)-(27), the phase plane law (19)-(23) and the exact model
-  (1), (14), without friction.  In contact ``T = k (theta_d -+ alpha) + c
+  (1), (14), with viscous and Coulomb friction (not a breakaway, nor dry friction
+  with a torque limit).  In contact ``T = k (theta_d -+ alpha) + c
   dtheta_d``, free ``T = 0`` with the exact model's ``dtheta_b/dt = (k / c)
   (theta_d - theta_b) + dtheta_d``; inputs and the delayed signal are quadratic
   in time over a step (through their samples at 0, dt/2, dt).  So one step is a
@@ -46,17 +47,22 @@ Two kernels share these rules:
   of ``exp(M dt 2^-j)`` (``_switching.exp_ladder``).  Only a dead
   time (its interpolation between samples) or inputs that are not quadratic over
   a step leave an error depending on dt.
-* **Classical RK4** otherwise (the rubber band (36), elasto-backlash, friction),
+* **Classical RK4** otherwise (the rubber band (36), elasto-backlash, a breakaway
+  friction, dry friction with a torque limit, the diagnosis' smoothed friction),
   every stage of an unsplit step on an input sample; the exact model's theta_b
   by the exponential step ``_laws.exact_step``.
 
 Dry friction that sticks (a rig's ``[friction]``, :class:`~backlash_df.system.Sticking`)
-runs on the RK4 kernel with a third kind of mode, each rubbing side's: sliding forward,
-sliding backward, stuck.  A sliding side whose speed crosses zero, and a stuck side whose
-holding torque leaves its static level, end the mode; the change is located by the same
-bisection, the speed set to zero where the side sticks, and while stuck its speed's
-rate is held at zero by the friction that holds it (recorded as
-:attr:`SimulationResult.friction_mode`).
+adds a third kind of mode, each rubbing side's: sliding forward, sliding backward, stuck.
+A sliding side whose speed crosses zero, and a stuck side whose holding torque leaves its
+static level, end the mode; the change is located by the same bisection, the speed set
+to zero where the side sticks, and while stuck its speed's rate is held at zero by the
+friction that holds it (recorded as :attr:`SimulationResult.friction_mode`).  With
+Coulomb friction alone every such mode is affine (sliding: a constant torque; stuck: the
+field projected onto the zero-speed surface), and the exact kernel steps it, each
+backlash mode's ladders one per combination of the sides' modes
+(``linear._rubbing_matrices``); a breakaway's Stribeck decay is not affine and runs on
+RK4, with the same stick logic.
 """
 
 from .cycles import MeasuredCycle, measure_limit_cycle

@@ -34,7 +34,8 @@ from .._switching import (CHAIN, CHAINS, CURVATURE, RATE, THETA_B, VALUE, StickR
                           command_mode_of, initial_command_mode)
 from ..friction import friction_kernel
 
-__all__ = ["CommandRows", "AugmentedCommand", "StickRows", "run_rk4", "run_exact", "LEVELS", "BLOW_UP"]
+__all__ = ["CommandRows", "AugmentedCommand", "AugmentedFriction", "StickRows", "run_rk4", "run_exact", "LEVELS",
+           "BLOW_UP"]
 
 _MAX_EVENTS_PER_STEP = 32
 _BISECTIONS = 52
@@ -63,6 +64,18 @@ class AugmentedCommand(NamedTuple):
     rates: np.ndarray
     limit: float
     clamps: bool
+
+
+class AugmentedFriction(NamedTuple):
+    """Coulomb friction as the exact kernel takes it: per rubbing side the row of its speed in the
+    augmented state (``index``), its Coulomb level (N m), and per backlash mode row its holding friction
+    as a row over the augmented state (``hold``, shape (3, sides, size): the friction that keeps the side
+    at rest, ``e_i^T M q / column_i``).  The ladders hold, per backlash mode row, one per combination of
+    the sides' modes (-1, +1 sliding, 0 stuck), numbered ``sum (mode_s + 1) 3^s``."""
+
+    index: np.ndarray
+    level: np.ndarray
+    hold: np.ndarray
 
 
 # --------------------------------------------------------------------------- RK4 kernel (any law)
@@ -747,11 +760,14 @@ def _command_mode_exact(mode, cmode, q, u_row, e_row, rates, limit, clamps):
 
 
 @_jit
-def _leaves(law, p, mode, cmode, q, c_x, c_v, command):
-    """True if ``q``, reached with both modes frozen, lies outside the backlash mode or the command mode."""
+def _leaves(law, p, mode, cmode, q, c_x, c_v, command, friction, fmodes):
+    """True if ``q``, reached with the modes frozen, lies outside the backlash mode, a rubbing side's or the
+    command mode."""
     n = c_x.shape[0]
     x, v = _xv(q, c_x, c_v)
     if _must_leave(law, p, mode, x, v, q[n + THETA_B]):
+        return True
+    if friction is not None and _rubbing_leaves(friction, fmodes, mode, q):
         return True
     if command is None:
         return False
@@ -760,7 +776,7 @@ def _leaves(law, p, mode, cmode, q, c_x, c_v, command):
 
 
 @_jit
-def _locate(ladders, which, q, left, law, p, mode, cmode, c_x, c_v, command, q_lo, trial, q_hi):
+def _locate(ladders, which, q, left, law, p, mode, cmode, c_x, c_v, command, q_lo, trial, q_hi, friction, fmodes):
     """Bisect for the first time the frozen-mode trajectory must leave its modes; returns it (fraction of dt).
 
     Binary search on the dyadic ladder ``which`` from ``q`` (a sub-step ``dt 2^-j`` is
@@ -776,7 +792,7 @@ def _locate(ladders, which, q, left, law, p, mode, cmode, c_x, c_v, command, q_l
         if lo + s >= hi:
             continue
         _apply(ladders, which, j, q_lo, trial, size)
-        if _leaves(law, p, mode, cmode, trial, c_x, c_v, command):
+        if _leaves(law, p, mode, cmode, trial, c_x, c_v, command, friction, fmodes):
             _copy_vector(trial, q_hi, size)
             hi = lo + s
         else:
@@ -808,8 +824,82 @@ def _ladder_of(count, mode, cmode):
 
 
 @_jit
-def _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, command, q_new, q_lo, trial, q_hi):
-    """Advance ``q`` by one step ``dt``, switching modes at every located event; returns (mode, cmode, events)."""
+def _ladder_with(count, mode, cmode, friction, fmodes):
+    """:func:`_ladder_of`, with Coulomb friction the row of the sides' modes among the backlash mode's ladders
+    (:class:`AugmentedFriction`; no torque limit with it)."""
+    if friction is None:
+        return _ladder_of(count, mode, cmode)
+    code = 0
+    scale = 1
+    for s in range(fmodes.shape[0]):
+        code += (fmodes[s] + 1) * scale
+        scale *= 3
+    return _mode_index(mode) * (count // 3) + code
+
+
+@_jit
+def _held(friction, b, s, q):
+    """The friction (N m) that holds rubbing side ``s`` at rest at ``q`` in backlash mode row ``b``."""
+    acc = 0.0
+    for j in range(q.shape[0]):
+        acc += friction.hold[b, s, j] * q[j]
+    return acc
+
+
+@_jit
+def _at_rest(friction, b, s, q):
+    """A rubbing side's mode at rest at ``q``: stuck (0) while its holding friction is within the Coulomb level,
+    else sliding (+-1) the way it is pushed."""
+    held = _held(friction, b, s, q)
+    if abs(held) <= friction.level[s]:
+        return 0
+    return 1 if held > 0.0 else -1
+
+
+@_jit
+def _rubbing_leaves(friction, fmodes, mode, q):
+    """True if a rubbing side has left its mode at ``q``: a sliding side's speed past zero, a stuck side's holding
+    friction past its level."""
+    b = _mode_index(mode)
+    for s in range(fmodes.shape[0]):
+        if fmodes[s] != 0:
+            if fmodes[s] * q[friction.index[s]] < 0.0:
+                return True
+        elif abs(_held(friction, b, s, q)) > friction.level[s]:
+            return True
+    return False
+
+
+@_jit
+def _rubbing_after(friction, fmodes, mode, q, out):
+    """The rubbing sides' modes just past an event at ``q``, the backlash in ``mode`` (the one entered), into
+    ``out``: a sliding side whose speed reached zero and every stuck side decided at rest (:func:`_at_rest`: it
+    sticks, reverses or breaks away); True if one changed."""
+    b = _mode_index(mode)
+    changed = False
+    for s in range(fmodes.shape[0]):
+        side = fmodes[s]
+        if side == 0 or side * q[friction.index[s]] <= 0.0:
+            side = _at_rest(friction, b, s, q)
+        out[s] = side
+        changed = changed or side != fmodes[s]
+    return changed
+
+
+@_jit
+def _rubbing_enter(friction, fmodes, new, q):
+    """Take the new modes of the rubbing sides; a side that sticks rests at zero speed (round-off removed)."""
+    for s in range(fmodes.shape[0]):
+        if new[s] == 0:
+            q[friction.index[s]] = 0.0
+        fmodes[s] = new[s]
+
+
+@_jit
+def _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, command, q_new, q_lo, trial, q_hi, friction, fmodes,
+                  f_new):
+    """Advance ``q`` by one step ``dt``, switching modes at every located event; returns (mode, cmode, events)
+    (the rubbing sides' modes updated in ``fmodes``)."""
     n, size = c_x.shape[0], q.shape[0]
     # z and theta_b only: the other entries are constant or reset every step (all of them when the
     # command, which reads the inputs and delayed signals, can switch)
@@ -817,42 +907,46 @@ def _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, command, q_new, q_l
     left = 1.0  # fraction of the step still to go
     events = 0
     for _ in range(_MAX_EVENTS_PER_STEP):
-        which = _ladder_of(ladders.shape[0], mode, cmode)
+        which = _ladder_with(ladders.shape[0], mode, cmode, friction, fmodes)
         if left == 1.0:
             _apply(ladders, which, 0, q, q_new, first_rows)
         else:
             _advance_exactly(ladders, which, q, left, q_new, trial)
-        if not _leaves(law, p, mode, cmode, q_new, c_x, c_v, command):
+        if not _leaves(law, p, mode, cmode, q_new, c_x, c_v, command, friction, fmodes):
             _copy_vector(q_new, q, size)
             return mode, cmode, events
         if left == 1.0:
             _apply(ladders, which, 0, q, q_hi, size)
         else:
             _copy_vector(q_new, q_hi, size)
-        h = _locate(ladders, which, q, left, law, p, mode, cmode, c_x, c_v, command, q_lo, trial, q_hi)
+        h = _locate(ladders, which, q, left, law, p, mode, cmode, c_x, c_v, command, q_lo, trial, q_hi, friction,
+                    fmodes)
         if law == EXACT and mode == 0:
             q_hi[n + THETA_B] = p[HALF_GAP] if q_hi[n + THETA_B] > 0.0 else -p[HALF_GAP]
         x, v = _xv(q_hi, c_x, c_v)
         new_mode = _mode_of(law, p, mode, x, v, q_hi[n + THETA_B])
         new_cmode = 0 if command is None else _command_mode_exact(new_mode, cmode, q_hi, command.u_row, command.e_row,
                                                                   command.rates, command.limit, command.clamps)
-        if new_mode == mode and new_cmode == cmode:  # grazing or round-off at a boundary: no real switch
+        rubbed = False if friction is None else _rubbing_after(friction, fmodes, new_mode, q_hi, f_new)
+        if new_mode == mode and new_cmode == cmode and not rubbed:  # grazing or round-off: no real switch
             break
         _copy_vector(q_hi, q, size)
+        if friction is not None:
+            _rubbing_enter(friction, fmodes, f_new, q)
         mode = new_mode
         cmode = new_cmode
         left -= h
         events += 1
         if left <= 1e-14:
             return mode, cmode, events
-    _advance_exactly(ladders, _ladder_of(ladders.shape[0], mode, cmode), q, left, q_new, trial)
+    _advance_exactly(ladders, _ladder_with(ladders.shape[0], mode, cmode, friction, fmodes), q, left, q_new, trial)
     _copy_vector(q_new, q, size)
     return mode, cmode, events
 
 
 @_jit
 def run_exact(ladders, command, law, p, W, q, delay, d_rows, c_x, c_v, dt, n_steps, Z, T, THETA, MODES, CMODES, hist,
-              first, mode0, cmode0):
+              first, mode0, cmode0, friction, fmodes, FMODES):
     """Exact-discretisation run on the augmented state ``q`` of ``_switching.mode_matrices``.
 
     ``ladders`` holds ``_switching.exp_ladder`` of the left-contact,
@@ -863,24 +957,39 @@ def run_exact(ladders, command, law, p, W, q, delay, d_rows, c_x, c_v, dt, n_ste
     from ``q`` at sample ``first`` (0, the modes
     found there; or a run's last sample, going on with it, its modes ``mode0`` and
     ``cmode0``, its samples and history ``hist`` up to there filled in) to sample
-    ``n_steps``, where ``q`` is left; returns the event count of the steps taken.
+    ``n_steps``, where ``q`` is left; returns the event count of the steps taken.  With Coulomb
+    friction (``friction``, an :class:`AugmentedFriction`; None without, and the kernel compiles
+    without its code) the rubbing sides' modes are ``fmodes`` (found at the start, or a run's
+    last ones going on with it; left at the end) and are stored in ``FMODES``.
     """
     n = Z.shape[1]
     size = ladders.shape[2]
     q_new, q_lo, trial, q_hi = np.empty(size), np.empty(size), np.empty(size), np.empty(size)
+    f_new = np.empty(fmodes.shape[0], dtype=np.int64)
     mode = mode0
     cmode = cmode0
     if first == 0:
         x, v = _xv(q, c_x, c_v)
         mode = _mode_of(law, p, np.int64(0), x, v, q[n + THETA_B])
         cmode = 0
+        if friction is not None:
+            for s in range(fmodes.shape[0]):
+                w = q[friction.index[s]]
+                fmodes[s] = (1 if w > 0.0 else -1) if w != 0.0 else _at_rest(friction, _mode_index(mode), s, q)
     events = 0
     first_rows = n + THETA_B + 1 if command is None else size  # the rows _step_exactly advances over a whole step
     for i in range(first, n_steps + 1):
         x, v = _xv(q, c_x, c_v)
         _record(i, q, n, q[n + THETA_B], mode, cmode, _torque(law, mode, x, v, p), d_rows, Z, T, THETA, MODES, CMODES,
                 hist)
+        if friction is not None:
+            for s in range(fmodes.shape[0]):
+                FMODES[i, s] = fmodes[s]
         if i == n_steps or _diverged(i, q, n, Z, T, THETA, MODES, CMODES):
+            if friction is not None and i < n_steps:  # a diverged run: its later samples keep the last modes
+                for j in range(i + 1, n_steps + 1):
+                    for s in range(fmodes.shape[0]):
+                        FMODES[j, s] = fmodes[s]
             break
         if W is not None:
             _set_step_inputs(q, i, W, hist, delay, dt, n)
@@ -890,9 +999,11 @@ def run_exact(ladders, command, law, p, W, q, delay, d_rows, c_x, c_v, dt, n_ste
             CMODES[0] = cmode
         # the first try of _step_exactly, here: a step that stays in its modes calls only functions
         # without calls (whose arrays numba does not reference-count)
-        _apply(ladders, _ladder_of(ladders.shape[0], mode, cmode), 0, q, q_new, first_rows)
+        _apply(ladders, _ladder_with(ladders.shape[0], mode, cmode, friction, fmodes), 0, q, q_new, first_rows)
         x, v = _xv(q_new, c_x, c_v)
         stays = not _must_leave(law, p, mode, x, v, q_new[n + THETA_B])
+        if stays and friction is not None:
+            stays = not _rubbing_leaves(friction, fmodes, mode, q_new)
         if stays and command is not None:
             u_row, e_row, rates, limit, clamps = command
             u = _dot(u_row, q_new)
@@ -906,6 +1017,10 @@ def run_exact(ladders, command, law, p, W, q, delay, d_rows, c_x, c_v, dt, n_ste
             _copy_vector(q_new, q, size)
         else:
             mode, cmode, found = _step_exactly(ladders, law, p, mode, cmode, q, c_x, c_v, command, q_new, q_lo, trial,
-                                               q_hi)
+                                               q_hi, friction, fmodes, f_new)
             events += found
+        if friction is not None:  # a stuck side's speed stays zero (the flow's round-off removed)
+            for s in range(fmodes.shape[0]):
+                if fmodes[s] == 0:
+                    q[friction.index[s]] = 0.0
     return events

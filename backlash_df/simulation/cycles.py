@@ -151,7 +151,7 @@ def _window_integral(time, values, t0, t1):
 #: Windows the second half of a record is split into for the trend of the motion.
 TREND_WINDOWS = 8
 #: Words of a motion that dies out without a steady state yet: a second, longer run confirms them as rest.
-DYING = ("decaying", "drifting in the gap")
+DYING = ("decaying", "drifting in the gap", "held by friction")
 _ROUNDOFF = 1e-9  # a relative speed this far below the record's largest is round-off: rest
 _LEVEL = 0.1  # an oscillation holding its level: the RMS of its second half's halves within 10 % ...
 _SWING = 0.05  # ... and its swing within 5 % of the shorter run's
@@ -221,6 +221,11 @@ def measure_limit_cycle(result, *, periods=6, rtol=1e-3, window=0.25, bound=None
       command limit) and in contact: one linear mode, decaying to its rest; never
       with the torque command on its limit in the second half (the drive may
       accelerate with the shaft still);
+    * **held by friction** (``"held by friction"``): every rubbing side of a loop with
+      dry friction stuck through the second half, the backlash in one mode
+      (:func:`_held_by_friction`): integral action creeping to rest against the
+      friction, however its slow wind-up moves the envelope; confirmed as rest by
+      ``previous`` as a dying motion is (below);
     * **dying out** (``"decaying"``): the coasting speeds of the last three free
       flights across the gap fall by 20 % a flight at least (:func:`free_flights`),
       as when a free load bounces between the flanks ever more slowly (its speed
@@ -283,6 +288,10 @@ def measure_limit_cycle(result, *, periods=6, rtol=1e-3, window=0.25, bound=None
     still = round_off or (not switches.any() and _standing(result, envelope))
     if still and not limited and drive is None:
         return _none("no limit cycle", True)
+    if not limited and _held_by_friction(result):
+        word = "held by friction"
+        confirmed = previous is not None and previous.verdict in DYING
+        return _none("no limit cycle", True) if confirmed else _none(word, False)
     free_tail = np.all(result.mode[time >= time[-1] * (1.0 - window)] == 0)
     measured = _steady_cycle(result, periods, rtol)
     if measured is None and free_tail:  # a periodic motion carried by a load coasting across the gap
@@ -309,6 +318,23 @@ def measure_limit_cycle(result, *, periods=6, rtol=1e-3, window=0.25, bound=None
     if word in DYING and previous is not None and previous.verdict in DYING:
         return _none("no limit cycle", True)
     return _none(word, False)
+
+
+def _held_by_friction(result):
+    """True if dry friction holds every rubbing side stuck through the record's second half, the backlash in one mode.
+
+    The loop then stands still but for its controller winding up against the friction:
+    integral action creeping to rest breaks the side away ever later, each slide ending
+    nearer the rest (Olsson and Astrom), and the shaft's slow wind-up would be read as a
+    growing or irregular envelope from the round-off of its speed.  A stick-slip cycle, or
+    a motor hunting in the gap against a locked load, breaks away or switches the backlash
+    in every half of a run long against its period; a second, longer run confirms it
+    (:data:`DYING`).
+    """
+    if result.friction_mode is None or result.friction_mode.shape[1] == 0:
+        return False
+    later = result.time >= 0.5 * result.time[-1]
+    return bool(np.all(result.friction_mode[later] == 0) and np.all(result.mode[later] == result.mode[-1]))
 
 
 def _slowing(result, least=4, ratio=1.5, falls=(0.35, 0.8)):

@@ -17,7 +17,7 @@ from .._switching import THETA_B, UNIT, command_matrices, exp_ladder, mode_matri
 from ..models import BacklashModel, make_model
 from ..plotting import ResultPlot, axes_or_new
 from ..system import closed_loop_matrix, two_mass_system
-from ._kernels import LEVELS, AugmentedCommand, CommandRows, run_exact, run_rk4
+from ._kernels import LEVELS, AugmentedCommand, AugmentedFriction, CommandRows, run_exact, run_rk4
 
 __all__ = ["SimulationResult", "simulate_linear", "simulate_two_mass", "timed_inputs", "default_step", "signal_trace",
            "MAX_STEPS"]
@@ -176,8 +176,12 @@ class SimulationResult:
 
 
 def _piecewise_affine(system, model):
-    """True if the loop is linear within every mode: no friction, torque affine in (theta_d, dtheta_d)."""
-    if system.friction > 0.0 or system.breakaway > 0.0 or system.sticking is not None:
+    """True if the loop is linear within every mode: no smoothed or breakaway friction (Coulomb friction's
+    stick and slip are modes, without a torque limit), torque affine in (theta_d, dtheta_d)."""
+    if system.friction > 0.0 or system.breakaway > 0.0:
+        return False
+    sticking = system.sticking
+    if sticking is not None and (np.any(sticking.breakaway > 0.0) or system.command is not None):
         return False
     if model.law == RUBBER:
         return model.rubber_thickness == 0.0
@@ -189,7 +193,7 @@ def _simulate_exactly(system, model, w, dt, n_steps, outputs, start, first):
 
     Returns ``(events, q)``: the events of the steps taken and the kernel's state at the last sample.
     """
-    states, torque, theta_b, modes, cmodes, _, hist = outputs
+    states, torque, theta_b, modes, cmodes, fmodes, hist = outputs
     law = _stepped_law(model)
     varying = [j for j in range(w.shape[1]) if np.ptp(w[:, j]) > 0.0]
     constant = np.delete(w[0], varying)
@@ -200,6 +204,9 @@ def _simulate_exactly(system, model, w, dt, n_steps, outputs, start, first):
         per_mode, u_row, e_row, rates = command_matrices(system, matrices, varying, constant)
         matrices = per_mode.reshape(-1, size, size)
         command = AugmentedCommand(u_row, e_row, rates, float(system.command.limit), system.command.integrator >= 0)
+    friction = None  # the kernel compiled without the friction's code
+    if system.sticking is not None:
+        matrices, friction = _rubbing_matrices(system, matrices)
     ladders = np.stack([exp_ladder(m_aug, dt, LEVELS) for m_aug in matrices])
     if first == 0:
         n = system.A.shape[0]
@@ -212,9 +219,40 @@ def _simulate_exactly(system, model, w, dt, n_steps, outputs, start, first):
     events = run_exact(
         ladders, command, law, _law_params(model), inputs, q,
         float(system.delay), system.d, system.c_x, system.c_v, dt, n_steps, states, torque, theta_b, modes, cmodes,
-        hist, first, start.mode, start.cmode,
+        hist, first, start.mode, start.cmode, friction, start.fmodes.copy(), fmodes,
     )
     return events, q
+
+
+def _rubbing_matrices(system, matrices):
+    """The modes' matrices with Coulomb friction, and the friction as the exact kernel takes it.
+
+    Per backlash mode, one matrix per combination of the rubbing sides' modes (numbered
+    ``sum (mode_s + 1) 3^s``, :class:`~backlash_df.simulation._kernels.AugmentedFriction`):
+    a side sliding in the direction ``m`` adds ``-m F_c column`` to the constant term; a
+    stuck side's speed is held at zero, the field projected by ``P = I - column
+    e_i^T / column_i`` (the friction taking the value that holds it).  The holding
+    friction of each side in each backlash mode is ``e_i^T M / column_i`` of its
+    frictionless matrix.
+    """
+    sticking, n = system.sticking, system.A.shape[0]
+    size, sides = matrices.shape[1], len(sticking.names)
+    columns = np.zeros((sides, size))
+    columns[:, :n] = sticking.column
+    index = np.array(sticking.index, dtype=np.int64)
+    hold = np.stack([[m_aug[i] / columns[s, i] for s, i in enumerate(index)] for m_aug in matrices])
+    out = []
+    for m_aug in matrices:
+        for code in range(3 ** sides):
+            directions = [(code // 3 ** s) % 3 - 1 for s in range(sides)]
+            rubbing = m_aug.copy()
+            for s, direction in enumerate(directions):
+                rubbing[:, n + UNIT] -= direction * sticking.coulomb[s] * columns[s]
+            for s, direction in enumerate(directions):
+                if direction == 0:
+                    rubbing -= np.outer(columns[s] / columns[s, index[s]], rubbing[index[s]])
+            out.append(rubbing)
+    return np.stack(out), AugmentedFriction(index, np.ascontiguousarray(sticking.coulomb, dtype=float), hold)
 
 
 def _stepped_law(model):
