@@ -521,6 +521,56 @@ def print_friction_row(repeat):
           f"dt/2: {error:.1e} of the load angle's range", flush=True)
 
 
+#: Coulomb friction in the exact kernel, stick modes active: motor_lag_feedback with 500 N m of Coulomb friction on
+#: the load, kicked onto its backlash cycle, on which the load sticks twice a period (tests/test_friction_orbits.py).
+COULOMB_CASE = ("motor_lag_feedback.toml", {"coulomb_load": 500.0}, {"motor_speed": 62.83}, 2.0)  # rig, friction, start, s
+
+
+def coulomb_row(repeat):
+    """(friction ns/step, frictionless ns/step, RK4 ns/step, floor ns/step, size, error, transitions, stuck share).
+
+    ``simulate`` of the Coulomb case at the RK4 rows' step against the same rig without its friction (the
+    exact kernel's own path, the named alternative), the same friction on the RK4 kernel (a breakaway of 1e-9
+    N m, which the exact kernel does not take) and the one-product floor; the error is theta_d's against the
+    run at dt/2, relative to its range (the exact kernel has no step-size error).
+    """
+    from threadpoolctl import threadpool_limits
+
+    name, friction, start, t_end = COULOMB_CASE
+    plain = load_rig(ROOT / "examples" / name)
+    rubbing = plain.with_values(**friction)
+    smooth = rubbing.with_values(breakaway_load=1e-9, stribeck_speed=1.0)
+    dt = GRID / SPLITS[-1]
+    n_steps = round(t_end / dt)
+
+    def run(rig, step=dt):
+        with threadpool_limits(1, user_api="blas"):
+            return simulate(rig, t_end=t_end, dt=step, initial=start)
+
+    times = []
+    for rig in (rubbing, plain, smooth):
+        run(rig)  # compiles
+        times.append(best_of(lambda rig=rig: run(rig), max(repeat, 5))[0] / n_steps * 1e9)
+    part = drive_loop(plain).linear_part()
+    z0 = initial_state(part, start)
+    floor, size = product_floor(SimpleNamespace(part=part, model=plain.make_model(), z0=z0), repeat, t_end)
+    coarse, fine = run(rubbing), run(rubbing, dt / 2)
+    error = np.abs(coarse.theta_d - fine.theta_d[::2]).max() / np.ptp(fine.theta_d)
+    stuck = coarse.friction_mode[:, 0] == 0
+    return (*times, floor, size, float(error), int(np.count_nonzero(np.diff(stuck))), float(stuck.mean()))
+
+
+def print_coulomb_row(repeat):
+    kernel, plain, rk4, floor, size, error, transitions, stuck = coulomb_row(repeat)
+    name, friction, _, t_end = COULOMB_CASE
+    print(f"  exact kernel with Coulomb friction, {name[:-5]} with {friction['coulomb_load']:g} N m on the load, "
+          f"{t_end:g} s, dt = {GRID / SPLITS[-1]:.0e} s: {transitions} stick/slip transitions, stuck {100 * stuck:.0f} "
+          f"% of the run; {kernel:.0f} ns/step = {kernel / floor:.1f}x the floor ({size} x {size} product, "
+          f"{floor:.1f} ns/step, target within {FRICTION_TARGET:g}x), {kernel / plain:.2f}x the same loop without "
+          f"friction ({plain:.0f} ns/step), the same friction on RK4 {rk4:.0f} ns/step ({rk4 / kernel:.1f}x); error "
+          f"against the run at dt/2: {error:.1e} of theta_d's range", flush=True)
+
+
 PROFILE_WORKER = """
 import gc, sys, time
 sys.path.insert(0, {bench!r})
@@ -718,6 +768,7 @@ def main():
     print(f"\nthe RK4 kernel's laws (load average {os.getloadavg()[0]:.2f})")
     print_rk4_rows(args.repeat)
     print_friction_row(args.repeat)
+    print_coulomb_row(args.repeat)
     print("\nsummary: the cheapest run of each method reaching the error")
     for loop, points in cases:
         print(f" {loop.name}")
