@@ -67,7 +67,18 @@ def diagnosis():
         predict(measurements, rig, structure=structure)
 
 
-HALVES = ((exact_kernel_and_verdict, diagnosis, describing_function_variants), (rk4_kernel_and_laws,))
+def coulomb_kernel():
+    """The exact kernel with Coulomb friction's modes (7 s)."""
+    bd.simulate(_rig().with_values(coulomb_load=200.0), t_end=0.05)
+
+
+def breakaway_kernel():
+    """The RK4 kernel with a breakaway friction's stick logic (10 s)."""
+    bd.simulate(_rig().with_values(coulomb_load=200.0, breakaway_load=50.0, stribeck_speed=0.1), t_end=0.05)
+
+
+HALVES = ((exact_kernel_and_verdict, diagnosis, describing_function_variants, coulomb_kernel),
+          (rk4_kernel_and_laws, breakaway_kernel))
 
 
 if __name__ == "__main__":
