@@ -47,6 +47,8 @@ __all__ = [
     "command_matrices",
     "command_mode_of",
     "initial_command_mode",
+    "rubbing_matrix",
+    "holding_rows",
     "exp_ladder",
 ]
 
@@ -305,6 +307,57 @@ def _taylor(a0, ratios, scaled):
         power = a0 if k == 1 else power @ a0
         out += coefs[:, k - 1, None, None] * power
     return out
+
+
+def rubbing_matrix(m_aug, columns, index, levels, directions, unit):
+    """A mode's augmented matrix with the Coulomb friction of its rubbing sides in their modes.
+
+    A side ``s`` sliding in the direction ``directions[s]`` (+-1) adds ``-direction F_c
+    column`` to the constant term (column ``unit`` of ``m_aug``); a stuck side (0) holds
+    ``dw/dt = 0``: the field is projected by ``P = I - column e_i^T / column_i``, the
+    friction taking the value :func:`holding_rows` gives, that keeps the side at rest
+    (Karnopp).  Each side's column is zero at the other sides' speeds, so the projections
+    commute.
+
+    Parameters
+    ----------
+    m_aug : ndarray, shape (N, N)
+        The frictionless mode's augmented matrix.
+    columns : ndarray, shape (sides, N)
+        How each side's friction enters (``-column F``), over the augmented state.
+    index : sequence of int
+        Each side's speed in the augmented state.
+    levels : sequence of float
+        Coulomb levels F_c, N m.
+    directions : sequence of int
+        Each side's mode: +1, -1 sliding that way, 0 stuck.
+    unit : int
+        The constant 1's column.
+
+    Returns
+    -------
+    ndarray, shape (N, N)
+    """
+    rubbing = m_aug.copy()
+    for level, column, direction in zip(levels, columns, directions):
+        rubbing[:, unit] -= direction * level * column
+    for i, column, direction in zip(index, columns, directions):
+        if direction == 0:
+            rubbing -= np.outer(column / column[i], rubbing[i])
+    return rubbing
+
+
+def holding_rows(m_aug, columns, index):
+    """Each rubbing side's holding friction in a frictionless mode, rows over the augmented state (N m).
+
+    ``e_i^T M / column_i``: what the field would accelerate the side by, as a torque; the
+    friction that keeps the side at rest (the other sides' friction does not reach its speed).
+
+    Returns
+    -------
+    ndarray, shape (sides, N)
+    """
+    return np.array([m_aug[i] / columns[s, i] for s, i in enumerate(index)])
 
 
 def exp_ladder(m_aug, dt, levels):

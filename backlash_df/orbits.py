@@ -97,8 +97,10 @@ from ._switching import (
     command_matrices,
     command_mode_of,
     exp_ladder,
+    holding_rows,
     initial_command_mode,
     mode_matrices,
+    rubbing_matrix,
 )
 from .limit_cycles import predict_limit_cycles
 from .loops import drive_loop
@@ -259,8 +261,9 @@ class _Loop:
         self.rubbing = tuple(sides)
         self.friction_index = () if sticking is None else sticking.index
         self.friction_level = () if sticking is None else tuple(float(f) for f in sticking.coulomb)
-        self.friction_column = () if sticking is None else tuple(
-            np.concatenate([column, np.zeros(self.size - column.size)]) for column in sticking.column)
+        self.friction_column = np.zeros((len(sides), self.size + 1))  # over [q, 1]
+        if sticking is not None:
+            self.friction_column[:, :sticking.column.shape[1]] = sticking.column
 
     def _stuck_rate(self):
         """Largest eigenvalue modulus (1/s) of the contact modes with the rubbing sides stuck (0 without friction)."""
@@ -269,31 +272,15 @@ class _Loop:
                     for side in (-1, 1)), default=0.0) if self.rubbing else 0.0
 
     def mode_matrix(self, mode):
-        """The augmented matrix of ``mode`` (the backlash's and the command's ``base``, then the friction's).
-
-        A side sliding in the direction ``s`` adds its Coulomb friction ``-s F_c column`` to
-        the constant term; a stuck side holds ``dw/dt = 0``: the field is projected by
-        ``P = I - column e_i^T / column_i``, the friction taking the value
-        :meth:`holding` that keeps the side at rest (Karnopp).  Each side's column is zero
-        at the other sides' speeds, so the sides' projections commute.
-        """
-        m_aug = self.base[mode[:2]].copy()
-        for level, column, direction in zip(self.friction_level, self.friction_column, mode[2]):
-            m_aug[:-1, -1] -= direction * level * column
-        for i, column, direction in zip(self.friction_index, self.friction_column, mode[2]):
-            if direction == 0:
-                m_aug[:-1, :] -= np.outer(column / column[i], m_aug[i, :])
-        return m_aug
+        """The augmented matrix of ``mode``: the backlash's and the command's ``base``, with the rubbing sides'
+        Coulomb friction in their modes (``_switching.rubbing_matrix``, as the simulation kernel builds it)."""
+        return rubbing_matrix(self.base[mode[:2]], self.friction_column, self.friction_index, self.friction_level,
+                              mode[2], self.size)
 
     def holding(self, mode, side, q=None):
-        """The friction (N m) that holds rubbing side ``side`` at rest in ``mode``: a row over ``[q, 1]``, or its value.
-
-        ``e_i^T (F q + g) / column_i`` of the backlash's and command's mode: what the
-        field would accelerate the side by, as a torque (the other sides' friction does
-        not reach the side's speed).
-        """
-        i = self.friction_index[side]
-        row = self.base[mode[:2]][i, :] / self.friction_column[side][i]
+        """The friction (N m) that holds rubbing side ``side`` at rest in ``mode``: a row over ``[q, 1]``, or its value
+        (``_switching.holding_rows`` of the backlash's and command's mode)."""
+        row = holding_rows(self.base[mode[:2]], self.friction_column, self.friction_index)[side]
         return row if q is None else row[:-1] @ q + row[-1]
 
     def friction_after(self, mode, side, q):

@@ -13,7 +13,7 @@ import numpy as np
 
 from .._json import json_ready
 from .._laws import DAMPED_DEAD_ZONE, DEAD_ZONE, EXACT, PHASE_PLANE, REVISED_DEAD_ZONE, RUBBER
-from .._switching import THETA_B, UNIT, command_matrices, exp_ladder, mode_matrices
+from .._switching import THETA_B, UNIT, command_matrices, exp_ladder, holding_rows, mode_matrices, rubbing_matrix
 from ..models import BacklashModel, make_model
 from ..plotting import ResultPlot, axes_or_new
 from ..system import closed_loop_matrix, two_mass_system
@@ -228,30 +228,19 @@ def _rubbing_matrices(system, matrices):
     """The modes' matrices with Coulomb friction, and the friction as the exact kernel takes it.
 
     Per backlash mode, one matrix per combination of the rubbing sides' modes (numbered
-    ``sum (mode_s + 1) 3^s``, :class:`~backlash_df.simulation._kernels.AugmentedFriction`):
-    a side sliding in the direction ``m`` adds ``-m F_c column`` to the constant term; a
-    stuck side's speed is held at zero, the field projected by ``P = I - column
-    e_i^T / column_i`` (the friction taking the value that holds it).  The holding
-    friction of each side in each backlash mode is ``e_i^T M / column_i`` of its
-    frictionless matrix.
+    ``sum (mode_s + 1) 3^s``, :class:`~backlash_df.simulation._kernels.AugmentedFriction`),
+    ``_switching.rubbing_matrix``; each side's holding friction per backlash mode,
+    ``_switching.holding_rows``.
     """
     sticking, n = system.sticking, system.A.shape[0]
     size, sides = matrices.shape[1], len(sticking.names)
     columns = np.zeros((sides, size))
     columns[:, :n] = sticking.column
     index = np.array(sticking.index, dtype=np.int64)
-    hold = np.stack([[m_aug[i] / columns[s, i] for s, i in enumerate(index)] for m_aug in matrices])
-    out = []
-    for m_aug in matrices:
-        for code in range(3 ** sides):
-            directions = [(code // 3 ** s) % 3 - 1 for s in range(sides)]
-            rubbing = m_aug.copy()
-            for s, direction in enumerate(directions):
-                rubbing[:, n + UNIT] -= direction * sticking.coulomb[s] * columns[s]
-            for s, direction in enumerate(directions):
-                if direction == 0:
-                    rubbing -= np.outer(columns[s] / columns[s, index[s]], rubbing[index[s]])
-            out.append(rubbing)
+    hold = np.stack([holding_rows(m_aug, columns, index) for m_aug in matrices])
+    out = [rubbing_matrix(m_aug, columns, index, sticking.coulomb, [(code // 3 ** s) % 3 - 1 for s in range(sides)],
+                          n + UNIT)
+           for m_aug in matrices for code in range(3 ** sides)]
     return np.stack(out), AugmentedFriction(index, np.ascontiguousarray(sticking.coulomb, dtype=float), hold)
 
 
