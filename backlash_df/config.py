@@ -450,7 +450,7 @@ class Rig:
         dry_friction : bool
             True for every analysis of the package: the time simulation models Coulomb
             and breakaway friction with stiction, the describing-function prediction
-            takes it as a slaved damper (:class:`~backlash_df.limit_cycles.FrictionSlaving`),
+            takes it as a slaved damper (:class:`~backlash_df.slaving.FrictionSlaving`),
             the exact orbits and continuation take Coulomb friction as modes (stuck,
             sliding either way), the verdict's probes simulate it; False for a loop
             that would leave it out.

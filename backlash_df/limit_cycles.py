@@ -44,20 +44,19 @@ import math
 import numpy as np
 
 from ._json import json_ready
-from .describing import BiasedDescribing, describing_function, friction_describing_function
+from .describing import BiasedDescribing, describing_function
 from .loops import DriveLoop, drive_loop, frequency_response_of
 from .models import BacklashModel
 from .plotting import ResultPlot, adaptive_curve, axes_or_new, legend_below, legend_under, scaled_ticks
 from .render.prediction import prediction_report
 from .simulation import simulated_limit_cycle
-from .system import command_channels, frequency_response
+from .slaving import CommandFrictionSlaving, CommandSlaving, FrictionSlaving
+from .system import frequency_response
 
 __all__ = [
     "LimitCycle",
     "NearMiss",
     "LimitCyclePrediction",
-    "CommandSlaving",
-    "FrictionSlaving",
     "solve_harmonic_balance",
     "default_ranges",
     "predict_limit_cycles",
@@ -223,7 +222,7 @@ class LimitCyclePrediction:
         The user's linear part, None for the rig's own loop.
     void_cycles : tuple of LimitCycle
         With dry friction: solutions of the harmonic balance where the friction holds
-        the side through the cycle (:class:`FrictionSlaving` has no fixed point): the
+        the side through the cycle (:class:`~backlash_df.slaving.FrictionSlaving` has no fixed point): the
         describing function of a sliding side does not hold there, so they are not
         ``cycles`` and no later stage takes them as evidence.
     amplitude_unit, linear_name, linear_unit : str
@@ -552,7 +551,7 @@ def solve_harmonic_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range,
     g_of_w : callable
         ``omega -> G(j omega)`` (complex, vectorised); with ``amplitude_dependent``,
         ``(omega, A) -> G``: a linear part holding a second nonlinearity by its
-        describing function slaved to A (the torque limit, :class:`CommandSlaving`).
+        describing function slaved to A (the torque limit, :class:`~backlash_df.slaving.CommandSlaving`).
     n_of : callable
         ``(A, omega) -> N`` (complex, broadcasting), zero for ``A <= half_gap``.
     half_gap : float
@@ -759,7 +758,7 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
     With a torque limit the loop holds two nonlinearities; both are replaced by
     their describing functions (Gelb and Vander Velde's multiple-nonlinearity
     method): the saturation's real gain ``N_s(U)`` of the command's first harmonic
-    ``U`` is slaved to the amplitude (:class:`CommandSlaving`), and each cycle
+    ``U`` is slaved to the amplitude (:class:`~backlash_df.slaving.CommandSlaving`), and each cycle
     reports ``U`` and whether it exceeds the limit.  The slaved gain can have several
     values at one (A, w) (the unsaturated 1 and saturated ones): the balance is solved on
     each of them, on the box and, where a saturated one lives in a sliver of the (A, w)
@@ -769,12 +768,13 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
     not solved: the prediction says so in ``note``.
 
     Dry friction on one side is a third, its describing function a damper slaved to the
-    side's speed amplitude (:class:`FrictionSlaving`).  Under a load torque the DC balance
-    stays the backlash's alone where the loop holds both mean speeds at zero (a cascade, or
-    integral action in the speed loop): the friction of a zero-mean speed has no mean.  A
-    P speed loop under a load torque slides at a mean speed, which that describing function
-    does not take: the prediction says so in ``note``, as with a torque limit or friction on
-    both sides.
+    side's speed amplitude (:class:`~backlash_df.slaving.FrictionSlaving`; with a torque limit
+    slaved together with the saturation's gain, :class:`~backlash_df.slaving.CommandFrictionSlaving`).
+    Under a load torque the DC balance stays the backlash's alone where the loop holds both
+    mean speeds at zero (a cascade, or integral action in the speed loop): the friction of a
+    zero-mean speed has no mean.  A P speed loop under a load torque slides at a mean speed,
+    which that describing function does not take: the prediction says so in ``note``, as
+    with friction on both sides or, with a torque limit, any load torque.
     """
     named = model is not None
     if not isinstance(model, BacklashModel):
@@ -799,12 +799,12 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
     part = linear.linear_part() if isinstance(linear, DriveLoop) else None
     limited = part is not None and part.command is not None
     rubbing = part is not None and part.sticking is not None
-    if rubbing and (limited or len(part.sticking.names) > 1 or (balanced and not _mean_speed_held(rig))):
+    if rubbing and (len(part.sticking.names) > 1 or (balanced and not (_mean_speed_held(rig) and not limited))):
         return LimitCyclePrediction(
             model=label, cycles=(), near_misses=(), amplitude_range=amplitude_range, omega_range=omega_range,
             linear=linear, describing=n_of, half_gap=half_gap, **carried,
-            note=f"the describing function of dry friction is solved on one side of a loop without a torque limit "
-                 f"(under a load torque where the loop holds both mean speeds at zero), and this loop has "
+            note=f"the describing function of dry friction is solved on one side (under a load torque where the "
+                 f"loop holds both mean speeds at zero and has no torque limit), and this loop has "
                  f"{_friction_companions(part, rig, balanced)}; the simulations decide",
         )
     if limited and balanced:
@@ -814,12 +814,15 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
             note="the describing function of a torque-limited loop under a load torque (the saturation's DC balance) "
                  "is not implemented; the simulations decide",
         )
+    void = ()
     if limited:
-        g_of_w = CommandSlaving(part)
-        cycles, near = _slaved_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range, grid, near_miss_cutoff)
+        g_of_w = CommandFrictionSlaving(part) if rubbing else CommandSlaving(part)
+        cycles, near, void = _slaved_balance(g_of_w, n_of, half_gap, amplitude_range, omega_range, grid,
+                                             near_miss_cutoff)
         return LimitCyclePrediction(
             model=label, cycles=tuple(cycles), near_misses=tuple(near), amplitude_range=amplitude_range,
-            omega_range=omega_range, linear=g_of_w, describing=n_of, half_gap=half_gap, **carried,
+            omega_range=omega_range, linear=g_of_w, describing=n_of, half_gap=half_gap, void_cycles=tuple(void),
+            **carried,
         )
     if rubbing:
         g_of_w = FrictionSlaving(part)
@@ -833,7 +836,6 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
     )
     if balanced:
         cycles = [dataclasses.replace(c, bias=float(n_of.bias(c.amplitude, c.omega))) for c in cycles]
-    void = ()
     if rubbing:
         cycles = [dataclasses.replace(c, friction_amplitude=float(g_of_w.speed_amplitude(c.amplitude, c.omega)))
                   for c in cycles]
@@ -849,7 +851,7 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
 def _slaved_balance(slaving, n_of, half_gap, amplitude_range, omega_range, grid, near_miss_cutoff):
     """The harmonic balance of a torque-limited loop on every branch of its slaved saturation gain.
 
-    Each branch of :class:`CommandSlaving` that exists at a scan point is solved as a
+    Each branch of :class:`~backlash_df.slaving.CommandSlaving` that exists at a scan point is solved as a
     balance of its own (:func:`solve_harmonic_balance`'s scan, Newton and near misses),
     first on the searched box, then around every frequency where a saturated branch
     reaches into the box at its narrowest (:func:`_dips`), on a box of ``(log(A - alpha),
@@ -864,6 +866,10 @@ def _slaved_balance(slaving, n_of, half_gap, amplitude_range, omega_range, grid,
         By increasing amplitude.
     near_misses : list of NearMiss
         By increasing distance.
+    void : list of LimitCycle
+        With dry friction: the solutions where the friction holds the side through the
+        cycle (:meth:`~backlash_df.slaving.CommandFrictionSlaving.sticks`), by increasing
+        amplitude.
     """
     (lo_w, hi_w), hi_a = omega_range, amplitude_range[1]
     span, band = _log_box(half_gap, amplitude_range, omega_range)
@@ -873,25 +879,29 @@ def _slaved_balance(slaving, n_of, half_gap, amplitude_range, omega_range, grid,
             far = min(room, 0.5 * centre)
             if far > _DIP_NEAREST * centre:
                 boxes.append((centre, side, (span, (math.log(_DIP_NEAREST * centre), math.log(far)))))
-    cycles, near = [], []
+    cycles, near, void = [], [], []
     for centre, side, box in boxes:
         # the scan's values of every branch from one evaluation of the channels, the roots and N
         problem = _Problem(None, n_of, half_gap, True, centre, side)
         amplitudes, omegas = problem.to_aw(np.linspace(*box[0], grid[0])[:, None], np.linspace(*box[1], grid[1]))
-        channels = command_channels(slaving.part, omegas)
+        channels = slaving.channels(omegas)
         roots = slaving.branch_roots(amplitudes, channels)
         n = n_of(amplitudes, omegas)
         for branch in range(roots.shape[-1]):
             if not np.isfinite(roots[..., branch]).any():
                 continue
             problem.g_of_w = functools.partial(slaving, branch=branch)
-            values = 1.0 + slaving.closed(channels, roots[..., branch])[0] * n
+            values = 1.0 + slaving.response(amplitudes, channels, roots[..., branch]) * n
             found, missed = _solve(problem, box, grid, near_miss_cutoff, values)
             for cycle in found:
-                if not any(_same(cycle, other) for other in cycles):
-                    cycles.append(_slaved_cycle(slaving, branch, cycle, half_gap))
-            near += [miss for miss in missed if not any(_same(miss, other) for other in near + cycles)]
-    return sorted(cycles, key=lambda c: (c.amplitude, c.omega)), sorted(near, key=lambda m: m.distance)
+                if not any(_same(cycle, other) for other in cycles + void):
+                    cycle = _slaved_cycle(slaving, branch, cycle, half_gap)
+                    sticks = isinstance(slaving, CommandFrictionSlaving) and slaving.sticks(
+                        cycle.amplitude, cycle.omega, branch)
+                    (void if sticks else cycles).append(cycle)
+            near += [miss for miss in missed if not any(_same(miss, other) for other in near + cycles + void)]
+    by_size = functools.partial(sorted, key=lambda c: (c.amplitude, c.omega))
+    return by_size(cycles), sorted(near, key=lambda m: m.distance), by_size(void)
 
 
 def _slaved_cycle(slaving, branch, cycle, half_gap):
@@ -917,6 +927,8 @@ def _slaved_cycle(slaving, branch, cycle, half_gap):
         slope = float(ends[0] - ends[1]) / (2.0 * step)
         if math.isfinite(slope) and slope != 0.0:
             loeb = math.copysign(1.0, slope) * cycle.loeb
+    if isinstance(slaving, CommandFrictionSlaving):
+        cycle = dataclasses.replace(cycle, friction_amplitude=float(slaving.speed_amplitude(amplitude, omega, branch)))
     return dataclasses.replace(cycle, command_amplitude=u, saturated=saturated, loeb=loeb, stable=bool(loeb > 0.0))
 
 
@@ -931,7 +943,7 @@ def _dips(slaving, omega_range, largest, samples):
 
     A saturated root of the slaving exists at (A, w) where the peak of ``U`` over the gain
     exceeds the limit: ``A > L mu(w)``, ``mu = min_N |theta(N)| / |c|``
-    (:class:`CommandSlaving`'s notes), and ``mu`` dips towards 0 where the loop with a rigid
+    (:class:`~backlash_df.slaving.CommandSlaving`'s notes), and ``mu`` dips towards 0 where the loop with a rigid
     gear has a saturation cycle of its own: the branch is a sliver of the (A, w) plane
     there, narrowing with A.  ``mu`` is sampled at ``samples`` frequencies (log-spaced),
     every interior sample no neighbour undercuts by more than ``_FLAT_TOL`` relative is
@@ -957,328 +969,15 @@ def _dips(slaving, omega_range, largest, samples):
     return dips
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
-class CommandSlaving:
-    """A torque-limited loop's linear part with the saturation by its describing function, slaved to A.
-
-    For ``theta_d = A sin(w t)`` the command's first harmonic is ``U(N_s) = A |u / theta_d|``
-    (N m) of the loop whose command gain is the saturation's describing function ``N_s``
-    (:func:`~backlash_df.describing.saturation_describing_function`), and the gain must be
-    the saturation's at that amplitude: ``N_s = N_sat(U(N_s))`` (Gelb and Vander Velde's
-    multiple-nonlinearity method).  That fixed point can have several roots in (0, 1]:
-    the unsaturated ``N_s = 1`` where ``U(1)`` is inside the limit, and saturated ones
-    (``U`` beyond the limit) where ``U`` grows as ``N_s`` falls: on a near-rigid shaft
-    ``theta_d`` nearly vanishes at the gain of the rigid loop's own saturation cycle, and
-    ``U`` peaks there.  :meth:`roots` finds them all.  Each is a *branch*, numbered from the
-    top (branch 0 the largest ``N_s``; where the command stays inside the limit, the only
-    one, ``N_s = 1``); calling the object with ``branch=k`` gives ``G(jw)`` of the loop with
-    the k-th root's gain, NaN where (A, w) has fewer roots.  All of it follows from the
-    loop's responses with the command cut (:func:`~backlash_df.system.command_channels`:
-    linear-fractional in the gain), one solve per frequency.
-
-    Attributes
-    ----------
-    part : LinearPart
-        The loop, with its :class:`~backlash_df.system.Command`.
-
-    Notes
-    -----
-    With ``theta(N) = a (1 - d N) + b c N = a + e N`` (``e = b c - a d``; ``theta_d`` per
-    unit shaft torque), ``U(N) = A |c| / |theta(N)|`` and ``|theta|^2`` is a quadratic in N:
-    ``U`` rises to one peak at ``N* = -Re(a e*) / |e|^2`` and falls beyond it, so that
-    ``h(N) = N - N_sat(U(N))`` increases below the peak (at most one root there).  The
-    roots are sought on a grid fixed in ``log U``: ``_ROOT_GRID`` levels from the limit to
-    the peak (at most ``_U_SPAN`` times the limit), each mapped to the N on either side of
-    the peak that gives it, with 0, ``N*`` (clipped to [0, 1]) and 1 added: the grid
-    resolves the peak however narrow it is.  Neighbours on which ``h > 0`` against
-    ``h <= 0`` differ are bisected ``_BISECTIONS`` times in N, ``h`` evaluated directly, so
-    each root substitutes back to round-off.  Two roots above the peak closer than the
-    grid's step (a factor ``_U_SPAN ** (1 / (_ROOT_GRID - 1))``, 1.8, in ``U``) pass unseen,
-    as do roots below ``N_s = 4 / (pi _U_SPAN)``; roots within ``_ROOT_TOL`` of each other
-    count as one.
-    """
-
-    part: object
-
-    _BISECTIONS = 60
-    _ROOT_GRID = 48
-    _U_SPAN = 1e12
-    _ROOT_TOL = 1e-12
-
-    @staticmethod
-    def closed(channels, gain):
-        """(G, u / theta_d) of the loop with the command through ``gain``, from its
-        :func:`~backlash_df.system.command_channels`: rad/(N m) and N m/rad, broadcast."""
-        a, b, c, d = channels
-        theta = a * (1.0 - d * gain) + b * c * gain
-        with np.errstate(divide="ignore", invalid="ignore"):  # NaN off a branch
-            return -theta / (1.0 - d * gain), c / theta
-
-    def branch_roots(self, amplitude, channels):
-        """:meth:`roots` from the loop's :func:`~backlash_df.system.command_channels` (class notes).
-
-        Parameters
-        ----------
-        amplitude : array_like
-            A, rad.
-        channels : tuple of ndarray
-            ``(a, b, c, d)`` at the frequencies, broadcast against ``amplitude``.
-
-        Returns
-        -------
-        ndarray
-            The roots by decreasing N_s on a last axis of at least one entry, NaN-padded.
-        """
-        amplitude, a, b, c, d = np.broadcast_arrays(np.asarray(amplitude, dtype=float), *channels)
-        limit = self.part.command.limit
-        e = b * c - a * d
-        scale = amplitude * np.abs(c)  # U(N) = scale / |a + e N|
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            star = -(a * np.conj(e)).real / np.abs(e) ** 2
-            peak = np.where(np.isfinite(star), np.clip(star, 0.0, 1.0), 0.0)
-            top = scale / np.abs(a + e * peak)  # the largest U on [0, 1]
-            unsaturated = scale / np.abs(a + e) <= limit
-        shape = amplitude.shape
-        busy = np.flatnonzero(top.reshape(-1) > limit)  # elsewhere N_sat(U) = 1 on [0, 1]: N_s = 1 alone
-        if not busy.size:
-            return np.where(unsaturated, 1.0, np.nan)[..., None]
-        a, e, scale, star, peak = (x.reshape(-1)[busy] for x in (a, e, scale, star, peak))
-        top = np.minimum(top.reshape(-1)[busy], self._U_SPAN * limit)
-
-        def excess(fixed, n):
-            """h(N) = N - N_sat(U(N)) (:func:`saturation_describing_function` written out: the bisection's kernel),
-            ``fixed`` the ``(Re a, Im a, Re e, Im e, scale / limit)`` broadcast against ``n``."""
-            a_re, a_im, e_re, e_im, reach = fixed
-            r = np.minimum(np.hypot(a_re + e_re * n, a_im + e_im * n) / reach, 1.0)  # limit / U
-            return n - 2.0 / np.pi * (np.arcsin(r) + r * np.sqrt(1.0 - r * r))
-
-        columns = (a.real, a.imag, e.real, e.imag, scale / limit)
-        every = tuple(x[:, None] for x in columns)
-        levels = limit * (top / limit)[:, None] ** np.linspace(0.0, 1.0, self._ROOT_GRID)
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            floor = np.abs(a + e * star) ** 2  # the least |a + e N|^2
-            offset = np.sqrt(np.maximum((scale[:, None] / levels) ** 2 - floor[:, None], 0.0)) / np.abs(e)[:, None]
-            grid = np.concatenate([np.clip(star[:, None] - offset, 0.0, peak[:, None]),
-                                   np.clip(star[:, None] + offset, peak[:, None], 1.0),
-                                   np.stack([np.zeros(busy.size), peak, np.ones(busy.size)], axis=1)], axis=1)
-        grid = np.sort(np.where(np.isfinite(grid), grid, 0.0), axis=1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            positive = excess(every, grid) > 0.0
-        row, col = np.nonzero(positive[:, 1:] != positive[:, :-1])
-        lo, hi, rising = grid[row, col], grid[row, col + 1], positive[row, col + 1]
-        brackets = tuple(x[row] for x in columns)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            for _ in range(self._BISECTIONS):
-                mid = 0.5 * (lo + hi)
-                if not ((mid > lo) & (mid < hi)).any():  # every bracket down to neighbouring floats
-                    break
-                upper = (excess(brackets, mid) > 0.0) == rising  # mid on the upper end's side
-                lo, hi = np.where(upper, lo, mid), np.where(upper, mid, hi)
-        flat_unsaturated = np.flatnonzero(unsaturated.reshape(-1))
-        points = np.concatenate([busy[row], flat_unsaturated])
-        values = np.concatenate([0.5 * (lo + hi), np.ones(flat_unsaturated.size)])
-        order = np.lexsort((-values, points))
-        points, values = points[order], values[order]
-        keep = np.ones(points.size, dtype=bool)  # a root within _ROOT_TOL of the one above it is that one
-        keep[1:] = (points[1:] != points[:-1]) | (values[:-1] - values[1:] > self._ROOT_TOL)
-        points, values = points[keep], values[keep]
-        first = np.searchsorted(points, points)  # the index of each point's first root
-        rank = np.arange(points.size) - first
-        roots = np.full((amplitude.size, max(1, int(rank.max(initial=0)) + 1)), np.nan)
-        roots[points, rank] = values
-        return roots.reshape(shape + (roots.shape[1],))
-
-    def roots(self, amplitude, omega):
-        """Every root of ``N_s = N_sat(U(N_s))`` in (0, 1] at (A, w), broadcast.
-
-        Parameters
-        ----------
-        amplitude : array_like
-            A, rad.
-        omega : array_like
-            w, rad/s.
-
-        Returns
-        -------
-        ndarray
-            The broadcast shape of A and w with a last axis of at least one entry: the roots by
-            decreasing N_s (the branches), NaN beyond the roots of each (A, w).
-        """
-        return self.branch_roots(amplitude, command_channels(self.part, omega))
-
-    def gain(self, amplitude, omega, branch=0):
-        """N_s of branch ``branch`` at (A, w), broadcast: 1 where the command stays inside the limit, NaN where
-        (A, w) has no such root."""
-        return self._branch(self.roots(amplitude, omega), branch)
-
-    @staticmethod
-    def _branch(roots, branch):
-        return roots[..., branch] if branch < roots.shape[-1] else np.full(roots.shape[:-1], np.nan)
-
-    def least_amplitude(self, omega):
-        """A, rad: the amplitude above which a saturated root exists at w (the peak of ``U`` over the gain
-        reaches the limit: ``L min |theta(N)| / |c|``, N in [0, 1]), broadcast."""
-        a, b, c, d = command_channels(self.part, omega)
-        e = b * c - a * d
-        with np.errstate(divide="ignore", invalid="ignore"):
-            star = -(a * np.conj(e)).real / np.abs(e) ** 2
-        peak = np.where(np.isfinite(star), np.clip(star, 0.0, 1.0), 0.0)
-        return self.part.command.limit * np.abs(a + e * peak) / np.abs(c)
-
-    def command_amplitude(self, amplitude, omega, branch=0):
-        """U, N m: the first-harmonic amplitude of the command u at (A, w) on branch ``branch``."""
-        channels = command_channels(self.part, omega)
-        gain = self._branch(self.branch_roots(amplitude, channels), branch)
-        return np.asarray(amplitude) * np.abs(self.closed(channels, gain)[1])
-
-    def __call__(self, omega, amplitude=None, branch=0):
-        """G(jw), rad/(N m), with the saturation's gain at A on branch ``branch`` (the command unsaturated without
-        ``amplitude``), broadcast."""
-        channels = command_channels(self.part, omega)
-        gain = 1.0 if amplitude is None else self._branch(self.branch_roots(amplitude, channels), branch)
-        return self.closed(channels, gain)[0]
-
-
-@dataclasses.dataclass(frozen=True, eq=False)
-class FrictionSlaving:
-    """A loop with dry friction on one side, the friction by its describing function, slaved to A.
-
-    The friction's describing function is a viscous coefficient ``N_f(A_w)``
-    (:func:`~backlash_df.describing.friction_describing_function`) of the side's speed
-    amplitude ``A_w``, and for ``theta_d = A sin(w t)`` that amplitude is
-    ``A |z_i / theta_d|`` of the loop with the damper ``N_f`` on the side (Gelb and
-    Vander Velde's multiple-nonlinearity method, as :class:`CommandSlaving` does for a
-    torque limit).  :meth:`gain` solves ``d = N_f(A_w(d))``: with Coulomb friction
-    alone in closed form (:meth:`_level_root`: the damper changes the loop by a rank
-    one, :meth:`_channels`), with a breakaway friction by bisection: ``d -
-    N_f(A_w(d))`` is negative at ``d = 0`` and positive beyond the root, found by
-    doubling.  Where there is no root (with a breakaway friction: none below ``2^50``
-    times the first guess) the friction holds the side through the cycle (the driving
-    torque's amplitude is below the friction's): the side **sticks**, the damper is
-    ``2^51`` times the friction's at ``d = 0`` (the side locked), and :meth:`sticks`
-    says so: the describing function of a sliding side does not hold.
-
-    Attributes
-    ----------
-    part : LinearPart
-        The loop, with a :class:`~backlash_df.system.Sticking` of one side.
-    """
-
-    part: object
-
-    _BISECTIONS = 60
-    _DOUBLINGS = 50
-
-    def _channels(self, omega):
-        """The loop's responses without the damper, from which those with any damper follow, broadcast.
-
-        The damper ``d`` on the side's speed ``z_i`` adds ``d column e_i^T`` to ``jw I - A``
-        (the dead time exact): a rank-one change.  From ``z = M^-1 b`` and ``y = M^-1 column``
-        of the loop without it, the Sherman-Morrison formula gives ``z_i(d) = z_i / (1 + d y_i)``
-        and ``theta_d(d) = c z - d z_i (c y) / (1 + d y_i)``: every damper's responses from
-        the four numbers ``(c z, c y, z_i, y_i)``, one solve a frequency (:meth:`_responses`).
-        """
-        part, sticking = self.part, self.part.sticking
-        omega = np.asarray(omega, dtype=float)
-        jw = 1j * omega.reshape(-1)[:, None, None]
-        n = part.n_states
-        mats = jw * np.eye(n) - part.A
-        if part.e_d.shape[1]:
-            mats = mats - np.exp(-jw * part.delay) * (part.e_d @ part.d)
-        sources = np.broadcast_to(np.column_stack([part.b, sticking.column[0]]), (jw.shape[0], n, 2))
-        response = np.linalg.solve(mats, sources.astype(complex))  # (points, n, 2): from T and from the damper
-        theta = np.einsum("j,pjs->ps", part.c_x, response)
-        side = response[:, sticking.index[0], :]
-        return tuple(values.reshape(omega.shape) for values in (theta[:, 0], theta[:, 1], side[:, 0], side[:, 1]))
-
-    @staticmethod
-    def _responses(channels, damping):
-        """(G, z_i / theta_d) of the loop with the side's dry friction as the viscous ``damping``, broadcast, from
-        its :meth:`_channels`."""
-        theta_z, theta_y, side_z, side_y = channels
-        spread = 1.0 + damping * side_y
-        theta = theta_z - damping * side_z * theta_y / spread
-        return -theta, side_z / (theta * spread)
-
-    def _excess(self, amplitude, channels, damping):
-        """``N_f(A_w(d)) - d``, N m s/rad: positive below the fixed point."""
-        sticking = self.part.sticking
-        speed = amplitude * np.abs(self._responses(channels, damping)[1])
-        gain = friction_describing_function(np.maximum(speed, 1e-300), sticking.coulomb[0], sticking.breakaway[0],
-                                            sticking.stribeck_speed[0])
-        return gain - damping
-
-    @staticmethod
-    def _level_root(amplitude, channels, coulomb):
-        """The fixed point of Coulomb friction ``coulomb`` (N m) alone, broadcast; NaN where there is none.
-
-        With ``a = c z`` and ``g = a y_i - z_i c y`` (:meth:`_channels`) the side's speed
-        amplitude is ``A_w = A |z_i| / |a + d g|``, so ``d = N_f(A_w) = K |a + d g|``,
-        ``K = 4 F_c / (pi A |z_i|)``: the smallest root ``d >= 0`` of
-        ``(1 - K^2 |g|^2) d^2 - 2 K^2 Re(a g*) d - K^2 |a|^2 = 0``, written so that
-        neither root cancels.
-        """
-        theta_z, theta_y, side_z, side_y = channels
-        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):  # a side at rest: K = inf, no root
-            gain = 4.0 * coulomb / (np.pi * np.maximum(amplitude * np.abs(side_z), 1e-300))
-            slope = theta_z * side_y - side_z * theta_y
-            alpha = 1.0 - (gain * np.abs(slope)) ** 2
-            beta = gain ** 2 * (theta_z * np.conj(slope)).real
-            gamma = (gain * np.abs(theta_z)) ** 2
-            disc = beta ** 2 + alpha * gamma
-            root = np.sqrt(np.maximum(disc, 0.0))
-            found = (disc >= 0.0) & np.where(beta > 0.0, alpha > 0.0, root > beta)
-            return np.where(found, np.where(beta > 0.0, (beta + root) / alpha, gamma / (root - beta)), np.nan)
-
-    def _solve(self, amplitude, omega):
-        """(d, sticks, channels): the fixed point, and where there is none, the locked side's damper and True; the
-        loop's :meth:`_channels` at the broadcast frequencies."""
-        a, w = np.broadcast_arrays(np.asarray(amplitude, dtype=float), np.asarray(omega, dtype=float))
-        channels = self._channels(w)
-        hi = 2.0 * self._excess(a, channels, np.zeros(a.shape))  # twice the friction's damper at d = 0
-        if self.part.sticking.breakaway[0] == 0.0:
-            d = self._level_root(a, channels, self.part.sticking.coulomb[0])
-            return np.where(np.isnan(d), 2.0 ** self._DOUBLINGS * hi, d), np.isnan(d), channels
-        for _ in range(self._DOUBLINGS):
-            above = self._excess(a, channels, hi) > 0.0
-            if not above.any():
-                break
-            hi = np.where(above, 2.0 * hi, hi)
-        sticks = self._excess(a, channels, hi) > 0.0
-        lo = np.zeros(a.shape)
-        for _ in range(self._BISECTIONS):
-            mid = 0.5 * (lo + hi)
-            below = self._excess(a, channels, mid) > 0.0
-            lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
-        return np.where(sticks, hi, 0.5 * (lo + hi)), sticks, channels
-
-    def gain(self, amplitude, omega):
-        """The friction's equivalent damping N_f at (A, w), N m s/rad, broadcast."""
-        return self._solve(amplitude, omega)[0]
-
-    def sticks(self, amplitude, omega):
-        """Whether the side sticks through the cycle at (A, w): the friction's DF has no fixed point."""
-        return self._solve(amplitude, omega)[1]
-
-    def speed_amplitude(self, amplitude, omega):
-        """A_w, rad/s: the first-harmonic amplitude of the rubbing side's speed at (A, w)."""
-        damping, _, channels = self._solve(amplitude, omega)
-        return np.asarray(amplitude) * np.abs(self._responses(channels, damping)[1])
-
-    def __call__(self, omega, amplitude=None):
-        """G(jw) with the friction's damper at A (without ``amplitude``: the loop without its dry friction)."""
-        if amplitude is None:
-            return -self._channels(omega)[0]
-        damping, _, channels = self._solve(amplitude, omega)
-        return self._responses(channels, damping)[0]
 
 
 def _friction_companions(part, rig, balanced):
     """What a loop with dry friction holds beside it that its describing function does not take, in words."""
     words = [f"dry friction on {len(part.sticking.names)} sides"] if len(part.sticking.names) > 1 else []
-    words += ["a torque limit"] * (part.command is not None)
-    words += ["a load torque on a P speed loop (its sides slide at a mean speed)"] * (balanced and not
-                                                                                        _mean_speed_held(rig))
+    if balanced and part.command is not None:
+        words.append("a load torque with a torque limit")
+    elif balanced and not _mean_speed_held(rig):
+        words.append("a load torque on a P speed loop (its sides slide at a mean speed)")
     return " and ".join(words)
 
 

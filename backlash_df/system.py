@@ -21,7 +21,7 @@ describing function, the simulation, the orbits and the verdict share:
   balanced, for every pole, orbit and Floquet computation;
 * :func:`command_channels`: with a torque limit (:class:`Command`), the loop's
   responses with the command cut, from which the saturation's describing function
-  closes it.
+  closes it (:func:`command_friction_channels`: with the rubbing side's friction too).
 
 The matrices of the loop's modes that the simulation kernels and the orbits step
 (left contact, free, right contact; with a torque limit, the command linear,
@@ -45,6 +45,7 @@ __all__ = [
     "Sticking",
     "frequency_response",
     "command_channels",
+    "command_friction_channels",
     "closed_loop_matrix",
     "closed_loop_response",
     "with_pade",
@@ -310,20 +311,55 @@ def command_channels(part, omega):
     a, b, c, d : ndarray of complex
         The shape of ``omega``; rad/(N m), rad/(N m), dimensionless and dimensionless.
     """
+    theta, u, _ = _command_cut(part, np.asarray(omega, dtype=float), ())
+    return theta[..., 0], theta[..., 1], u[..., 0], u[..., 1]
+
+
+def command_friction_channels(part, omega):
+    """:func:`command_channels` with a third source and a third output: the friction of the rubbing side.
+
+    With the command cut as there and the side's friction ``F`` entering ``dz/dt`` by
+    ``-column`` (:class:`Sticking`, its one side), the loop is linear in ``(T, T_c,
+    -F)``, and the side's speed ``z_i`` is a third output beside ``theta_d`` and
+    ``u``.  Closing the command through the saturation's gain ``N`` and the friction
+    through its damper ``d`` (``F = d z_i``) is a 2 x 2 solve from these nine numbers
+    (:class:`~backlash_df.slaving.CommandFrictionSlaving`).
+
+    Parameters
+    ----------
+    part : LinearPart
+        With a :class:`Command` and a :class:`Sticking` of one side.
+    omega : array_like
+        Frequencies, rad/s (> 0), any shape.
+
+    Returns
+    -------
+    ndarray of complex, shape ``omega.shape + (3, 3)``
+        Rows the outputs ``(theta_d, u, z_i)``, columns the sources ``(T, T_c, column)``.
+    """
+    omega = np.asarray(omega, dtype=float)
+    sticking = part.sticking
+    theta, u, states = _command_cut(part, omega, (sticking.column[0],))
+    return np.stack([theta, u, states[..., sticking.index[0], :]], axis=-2)
+
+
+def _command_cut(part, omega, columns):
+    """(theta_d, u, z) of the loop with its command cut, from ``T``, ``T_c`` and each of ``columns`` (sources on a
+    last axis; z's states before it), at the frequencies ``omega``, the dead time exact."""
     command = part.command
     n, m = part.n_states, part.E.shape[1]
-    omega = np.asarray(omega, dtype=float)
     jw = 1j * omega.reshape(-1)[:, None, None]
     row_z, row_d = command.row[:n], command.row[n + m:]
     delayed = np.exp(-jw * part.delay)
     mats = (jw * np.eye(n) - part.A + np.outer(command.column, row_z)
             - delayed * ((part.e_d - np.outer(command.column, row_d)) @ part.d))
-    sources = np.broadcast_to(np.column_stack([part.b, command.column]), (jw.shape[0], n, 2)).astype(complex)
-    response = np.linalg.solve(mats, sources)  # (points, n, 2): from T and from T_c
+    sources = np.column_stack([part.b, command.column, *columns])
+    response = np.linalg.solve(mats, np.broadcast_to(sources, (jw.shape[0],) + sources.shape).astype(complex))
     theta = np.einsum("j,pjs->ps", part.c_x, response)
     u = np.einsum("j,pjs->ps", row_z, response) + delayed[:, 0, :] * np.einsum(
         "k,kj,pjs->ps", row_d, part.d, response) if part.n_delayed else np.einsum("j,pjs->ps", row_z, response)
-    return tuple(values.reshape(omega.shape) for values in (theta[:, 0], theta[:, 1], u[:, 0], u[:, 1]))
+    k = sources.shape[1]
+    return theta.reshape(omega.shape + (k,)), u.reshape(omega.shape + (k,)), response.reshape(omega.shape + (n, k))
 
 
 def closed_loop_matrix(part, stiffness, damping=0.0):

@@ -215,7 +215,7 @@ def test_the_slaved_friction_damper_is_its_own_describing_function(friction):
     """Substituted back: the damper d at (A, w) is N_f of the side's speed amplitude in the loop with d, the loop
     written out here (Coulomb friction's damper is a closed form, a breakaway's bisected)."""
     from backlash_df.describing import friction_describing_function
-    from backlash_df.limit_cycles import FrictionSlaving
+    from backlash_df.slaving import FrictionSlaving
 
     rig = _lag_rig(**friction)
     part = bd.drive_loop(rig, dry_friction=True).linear_part()
@@ -264,8 +264,62 @@ def test_a_solution_where_the_friction_holds_the_side_is_void_not_a_cycle():
 
 
 def test_what_the_friction_df_does_not_solve_is_left_to_the_simulations():
-    prediction = bd.predict_limit_cycles(_lag_rig(coulomb_load=5.0).with_values(torque_limit=300.0))
-    assert prediction.cycles == () and "a torque limit; the simulations decide" in prediction.note
+    prediction = bd.predict_limit_cycles(_lag_rig(coulomb_load=5.0, coulomb_motor=5.0))
+    assert prediction.cycles == () and "dry friction on 2 sides; the simulations decide" in prediction.note
+    limited = bd.predict_limit_cycles(_lag_rig(coulomb_load=5.0).with_values(torque_limit=300.0, torque=10.0))
+    assert limited.cycles == () and "a load torque with a torque limit" in limited.note
+
+
+# --------------------------------------------------------------------------- the friction DF with a torque limit
+
+def _saturation_gain(command, limit):
+    """N_sat(U), the closed form written here."""
+    r = min(limit / command, 1.0)
+    return 2.0 / math.pi * (math.asin(r) + r * math.sqrt(1.0 - r * r))
+
+
+def test_with_a_torque_limit_the_friction_damper_and_the_saturation_gain_are_their_own_describing_functions():
+    """Substituted back at the predicted saturated cycle of the lag rig (Coulomb friction 50 N m on the load, torque
+    limit 3000 N m), the loop written out here with the command through the gain N_s = N_sat(U) and the damper d =
+    4 F_c / (pi A_w): the command's amplitude is U, the load's speed amplitude A_w, and 1 + G N(A, w) = 0.  The
+    simulation settles on the cycle within the DF's usual error (5 % in A, 1 % in w)."""
+    rig = _lag_rig(coulomb_load=50.0).with_values(torque_limit=3000.0)
+    prediction = bd.predict_limit_cycles(rig)
+    assert prediction.note == ""
+    (cycle,) = prediction.stable_cycles
+    assert cycle.saturated and cycle.command_amplitude > 3000.0 and cycle.friction_amplitude > 0.0
+    a, w = cycle.amplitude, cycle.omega
+    part = bd.drive_loop(rig, dry_friction=True).linear_part()
+    assert part.n_delayed == 0  # the command row is over the states alone
+    n_s = _saturation_gain(cycle.command_amplitude, 3000.0)
+    damping = 4.0 * 50.0 / (math.pi * cycle.friction_amplitude)
+    i = part.state_names.index("load_speed")
+    row = part.command.row[:part.n_states]
+    a_mat = part.A - (1.0 - n_s) * np.outer(part.command.column, row)  # the command through N_s
+    a_mat[i, i] -= damping / rig.plant.load_inertia
+    z = np.linalg.solve(1j * w * np.eye(part.n_states) - a_mat, part.b)
+    theta = part.c_x @ z
+    assert a * abs((row @ z) / theta) == pytest.approx(cycle.command_amplitude, rel=1e-9)
+    assert a * abs(z[i] / theta) == pytest.approx(cycle.friction_amplitude, rel=1e-9)
+    n = complex(bd.describing_function(rig.make_model(), a, w))
+    assert abs(1.0 - theta * n) < 1e-8  # G = -theta per unit T
+    verified = bd.verify_limit_cycles(rig, prediction)
+    (simulated,) = [c.simulated for c in verified.stable_cycles]
+    assert simulated.found and simulated.saturation > 0.0
+    assert simulated.amplitude == pytest.approx(a, rel=0.05) and simulated.omega == pytest.approx(w, rel=0.01)
+
+
+def test_a_torque_limit_never_reached_leaves_the_friction_df_as_it_was():
+    """The limit far above the command: the same cycles as without a limit, to round-off of the two algebras, each
+    unsaturated; the void solution stays void."""
+    free = bd.predict_limit_cycles(_lag_rig(coulomb_load=50.0))
+    limited = bd.predict_limit_cycles(_lag_rig(coulomb_load=50.0).with_values(torque_limit=1e7))
+    assert len(limited.cycles) == len(free.cycles) == 1 and len(limited.void_cycles) == len(free.void_cycles) == 1
+    for ours, theirs in zip(limited.cycles + limited.void_cycles, free.cycles + free.void_cycles):
+        assert not ours.saturated and ours.stable is theirs.stable
+        assert ours.amplitude == pytest.approx(theirs.amplitude, rel=1e-10)
+        assert ours.omega == pytest.approx(theirs.omega, rel=1e-10)
+    assert limited.cycles[0].friction_amplitude == pytest.approx(free.cycles[0].friction_amplitude, rel=1e-9)
 
 
 # --------------------------------------------------------------------------- the verdict with friction
@@ -310,9 +364,9 @@ def test_tune_with_dry_friction_says_what_its_certificate_rests_on():
 
 
 def test_tune_where_the_friction_df_does_not_apply_says_why_nothing_is_certified():
-    """With a torque limit the friction's DF is not solved (each prediction's note): no certificate, one verdict of
-    the fastest tuning, and the first line says why (it crashed on an empty search before)."""
-    tuned = bd.tune(_rig(STICK_SLIP, ti=math.inf, torque_limit=100.0), {"kv": (5.0, 20.0)}, gain_margin=1.0)
+    """With friction on both sides the friction's DF is not solved (each prediction's note): no certificate, one
+    verdict of the fastest tuning, and the first line says why (it crashed on an empty search before)."""
+    tuned = bd.tune(_rig(dict(STICK_SLIP, coulomb_motor=1.0), ti=math.inf), {"kv": (5.0, 20.0)}, gain_margin=1.0)
     assert not tuned.feasible and tuned.values()["kv"] == 20.0
     assert tuned.sentences()[0].startswith("no tuning certified: a certificate needs the describing function, and "
                                            "here the describing function of dry friction")
@@ -370,10 +424,10 @@ def test_a_map_over_the_breakaway_friction_finds_the_stick_slip_cycle_of_the_ref
 
 
 def test_a_map_cell_the_friction_df_does_not_solve_is_undetermined_not_quiet(tmp_path):
-    """With a torque limit the friction DF is not applied (the prediction's note): its map cell says so, where a
-    prediction with no cycles would have read "no oscillation"; without dry friction there is no note."""
+    """With friction on both sides the friction DF is not applied (the prediction's note): its map cell says so,
+    where a prediction with no cycles would have read "no oscillation"; without dry friction there is no note."""
     rig = _lag_rig(coulomb_load=5.0)
-    dmap = bd.design_map(rig, [0.0, 300.0], [rig.controller.ti], x="torque_limit", y="ti", simulate=False)
+    dmap = bd.design_map(rig, [0.0, 5.0], [rig.controller.ti], x="coulomb_motor", y="ti", simulate=False)
     assert dmap.df_verdict[rig.model].tolist() == [["limit cycle"], ["undetermined"]]
     assert np.isfinite(dmap.df_amplitude[rig.model][0, 0]) and np.isnan(dmap.df_amplitude[rig.model][1, 0])
     plain = bd.design_map(_lag_rig(), [0.0], [rig.controller.ti], x="coulomb_load", y="ti", simulate=False)
@@ -385,7 +439,7 @@ def test_a_map_cell_the_friction_df_does_not_solve_is_undetermined_not_quiet(tmp
 
     rig_file = tmp_path / "rubbing.toml"
     rig_file.write_text(rig.to_toml())
-    result = CliRunner().invoke(main, ["map", str(rig_file), "--x", "torque_limit", "0,300", "--y", "ti",
+    result = CliRunner().invoke(main, ["map", str(rig_file), "--x", "coulomb_motor", "0,5", "--y", "ti",
                                        str(rig.controller.ti), "--no-simulate"])
     assert result.exit_code == 0, result.output
     assert "note: dry friction" in result.output

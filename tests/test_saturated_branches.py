@@ -15,7 +15,7 @@ import pytest
 
 import backlash_df as bd
 from backlash_df.describing import saturation_describing_function
-from backlash_df.limit_cycles import CommandSlaving
+from backlash_df.slaving import CommandSlaving
 
 LIMIT = 1.0
 

@@ -1,0 +1,517 @@
+"""The loop's other nonlinearities by their describing functions, slaved to the backlash's cycle.
+
+A loop with a torque limit or dry friction beside its backlash is solved by Gelb and
+Vander Velde's multiple-nonlinearity method: for ``theta_d = A sin(w t)`` each further
+nonlinearity is replaced by its describing function at the first-harmonic amplitude
+of its own input, and that amplitude follows from the loop with those describing
+functions in it, a fixed point at every (A, w).  Each class here is that fixed point
+for one combination, callable as ``G(jw)`` at (A, w) for the harmonic balance of
+:func:`~backlash_df.limit_cycles.predict_limit_cycles`:
+
+* :class:`CommandSlaving`: a torque limit, the saturation's real gain ``N_s`` of the
+  command's amplitude ``U``, on every root (branch) of its fixed point;
+* :class:`FrictionSlaving`: dry friction on one side, a damper ``N_f`` of the side's
+  speed amplitude ``A_w``;
+* :class:`CommandFrictionSlaving`: both, the damper solved inside the saturation's
+  fixed point.
+
+Every one follows from the loop's responses at a frequency with its nonlinearities
+cut (:func:`~backlash_df.system.command_channels`,
+:func:`~backlash_df.system.command_friction_channels`): closing them through real
+gains is a rank-one or rank-two change, a few complex numbers a frequency.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+
+from .describing import friction_describing_function
+from .system import command_channels, command_friction_channels
+
+__all__ = ["CommandSlaving", "FrictionSlaving", "CommandFrictionSlaving"]
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class CommandSlaving:
+    """A torque-limited loop's linear part with the saturation by its describing function, slaved to A.
+
+    For ``theta_d = A sin(w t)`` the command's first harmonic is ``U(N_s) = A |u / theta_d|``
+    (N m) of the loop whose command gain is the saturation's describing function ``N_s``
+    (:func:`~backlash_df.describing.saturation_describing_function`), and the gain must be
+    the saturation's at that amplitude: ``N_s = N_sat(U(N_s))`` (Gelb and Vander Velde's
+    multiple-nonlinearity method).  That fixed point can have several roots in (0, 1]:
+    the unsaturated ``N_s = 1`` where ``U(1)`` is inside the limit, and saturated ones
+    (``U`` beyond the limit) where ``U`` grows as ``N_s`` falls: on a near-rigid shaft
+    ``theta_d`` nearly vanishes at the gain of the rigid loop's own saturation cycle, and
+    ``U`` peaks there.  :meth:`roots` finds them all.  Each is a *branch*, numbered from the
+    top (branch 0 the largest ``N_s``; where the command stays inside the limit, the only
+    one, ``N_s = 1``); calling the object with ``branch=k`` gives ``G(jw)`` of the loop with
+    the k-th root's gain, NaN where (A, w) has fewer roots.  All of it follows from the
+    loop's responses with the command cut (:func:`~backlash_df.system.command_channels`:
+    linear-fractional in the gain), one solve per frequency.
+
+    Attributes
+    ----------
+    part : LinearPart
+        The loop, with its :class:`~backlash_df.system.Command`.
+
+    Notes
+    -----
+    With ``theta(N) = a (1 - d N) + b c N = a + e N`` (``e = b c - a d``; ``theta_d`` per
+    unit shaft torque), ``U(N) = A |c| / |theta(N)|`` and ``|theta|^2`` is a quadratic in N:
+    ``U`` rises to one peak at ``N* = -Re(a e*) / |e|^2`` and falls beyond it, so that
+    ``h(N) = N - N_sat(U(N))`` increases below the peak (at most one root there).  The
+    roots are sought on a grid fixed in ``log U``: ``_ROOT_GRID`` levels from the limit to
+    the peak (at most ``_U_SPAN`` times the limit), each mapped to the N on either side of
+    the peak that gives it, with 0, ``N*`` (clipped to [0, 1]) and 1 added: the grid
+    resolves the peak however narrow it is.  Neighbours on which ``h > 0`` against
+    ``h <= 0`` differ are bisected ``_BISECTIONS`` times in N, ``h`` evaluated directly, so
+    each root substitutes back to round-off.  Two roots above the peak closer than the
+    grid's step (a factor ``_U_SPAN ** (1 / (_ROOT_GRID - 1))``, 1.8, in ``U``) pass unseen,
+    as do roots below ``N_s = 4 / (pi _U_SPAN)``; roots within ``_ROOT_TOL`` of each other
+    count as one.
+    """
+
+    part: object
+
+    _BISECTIONS = 60
+    _ROOT_GRID = 48
+    _U_SPAN = 1e12
+    _ROOT_TOL = 1e-12
+
+    @staticmethod
+    def closed(channels, gain):
+        """(G, u / theta_d) of the loop with the command through ``gain``, from its
+        :func:`~backlash_df.system.command_channels`: rad/(N m) and N m/rad, broadcast."""
+        a, b, c, d = channels
+        theta = a * (1.0 - d * gain) + b * c * gain
+        with np.errstate(divide="ignore", invalid="ignore"):  # NaN off a branch
+            return -theta / (1.0 - d * gain), c / theta
+
+    def channels(self, omega):
+        """The loop's :func:`~backlash_df.system.command_channels` at the frequencies ``omega``."""
+        return command_channels(self.part, omega)
+
+    def response(self, amplitude, channels, gain):
+        """G(jw) at (A, w) on the branch whose gain is ``gain``, from the loop's :meth:`channels`."""
+        return self._closed_at(amplitude, channels, gain)[0]
+
+    def branch_roots(self, amplitude, channels):
+        """:meth:`roots` from the loop's :func:`~backlash_df.system.command_channels` (class notes).
+
+        Parameters
+        ----------
+        amplitude : array_like
+            A, rad.
+        channels : tuple of ndarray
+            ``(a, b, c, d)`` at the frequencies, broadcast against ``amplitude``.
+
+        Returns
+        -------
+        ndarray
+            The roots by decreasing N_s on a last axis of at least one entry, NaN-padded.
+        """
+        amplitude, a, b, c, d = np.broadcast_arrays(np.asarray(amplitude, dtype=float), *channels)
+        e = b * c - a * d
+        scale = amplitude * np.abs(c)
+        columns = tuple(x.reshape(-1) for x in (a.real, a.imag, e.real, e.imag, scale / self.part.command.limit))
+        return self._gain_roots(a, e, scale, columns, _saturation_excess)
+
+    def _gain_roots(self, a, e, scale, columns, excess):
+        """The roots of ``excess(columns, N) = 0`` for N in (0, 1] on the grid the linear-fractional ``U(N) = scale /
+        |a + e N|`` fixes (class notes), bisected on ``excess`` itself, by point.
+
+        ``excess(fixed, n)`` is ``N - N_sat(U(N))`` with ``fixed`` the ``columns`` (one entry per point, flat) of
+        the points asked for, broadcast against ``n``; where it is the saturation's of ``U(N)`` itself
+        (:meth:`branch_roots`) the roots are this class's, and N = 1 is a root wherever ``U(1)`` is inside the
+        limit.  Returns the roots by decreasing N on a last axis after the shape of ``a``, NaN-padded.
+        """
+        limit = self.part.command.limit
+        shape = a.shape
+        a, e, scale = (x.reshape(-1) for x in (a, e, scale))
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            star = -(a * np.conj(e)).real / np.abs(e) ** 2
+            peak = np.where(np.isfinite(star), np.clip(star, 0.0, 1.0), 0.0)
+            top = scale / np.abs(a + e * peak)  # the largest U on [0, 1]
+            unsaturated = scale / np.abs(a + e) <= limit
+        busy = np.flatnonzero(top > limit)  # elsewhere N_sat(U) = 1 on [0, 1]: N_s = 1 alone
+        if not busy.size:
+            return np.where(unsaturated, 1.0, np.nan).reshape(shape + (1,))
+        a, e, scale, star, peak = (x[busy] for x in (a, e, scale, star, peak))
+        top = np.minimum(top[busy], self._U_SPAN * limit)
+        columns = tuple(x[busy] for x in columns)
+        every = tuple(x[:, None] for x in columns)
+        levels = limit * (top / limit)[:, None] ** np.linspace(0.0, 1.0, self._ROOT_GRID)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            floor = np.abs(a + e * star) ** 2  # the least |a + e N|^2
+            offset = np.sqrt(np.maximum((scale[:, None] / levels) ** 2 - floor[:, None], 0.0)) / np.abs(e)[:, None]
+            grid = np.concatenate([np.clip(star[:, None] - offset, 0.0, peak[:, None]),
+                                   np.clip(star[:, None] + offset, peak[:, None], 1.0),
+                                   np.stack([np.zeros(busy.size), peak, np.ones(busy.size)], axis=1)], axis=1)
+        grid = np.sort(np.where(np.isfinite(grid), grid, 0.0), axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            positive = excess(every, grid) > 0.0
+        row, col = np.nonzero(positive[:, 1:] != positive[:, :-1])
+        lo, hi, rising = grid[row, col], grid[row, col + 1], positive[row, col + 1]
+        brackets = tuple(x[row] for x in columns)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for _ in range(self._BISECTIONS):
+                mid = 0.5 * (lo + hi)
+                if not ((mid > lo) & (mid < hi)).any():  # every bracket down to neighbouring floats
+                    break
+                upper = (excess(brackets, mid) > 0.0) == rising  # mid on the upper end's side
+                lo, hi = np.where(upper, lo, mid), np.where(upper, mid, hi)
+        flat_unsaturated = np.flatnonzero(unsaturated)
+        points = np.concatenate([busy[row], flat_unsaturated])
+        values = np.concatenate([0.5 * (lo + hi), np.ones(flat_unsaturated.size)])
+        order = np.lexsort((-values, points))
+        points, values = points[order], values[order]
+        keep = np.ones(points.size, dtype=bool)  # a root within _ROOT_TOL of the one above it is that one
+        keep[1:] = (points[1:] != points[:-1]) | (values[:-1] - values[1:] > self._ROOT_TOL)
+        points, values = points[keep], values[keep]
+        first = np.searchsorted(points, points)  # the index of each point's first root
+        rank = np.arange(points.size) - first
+        roots = np.full((math.prod(shape), max(1, int(rank.max(initial=0)) + 1)), np.nan)
+        roots[points, rank] = values
+        return roots.reshape(shape + (roots.shape[1],))
+
+    def roots(self, amplitude, omega):
+        """Every root of ``N_s = N_sat(U(N_s))`` in (0, 1] at (A, w), broadcast.
+
+        Parameters
+        ----------
+        amplitude : array_like
+            A, rad.
+        omega : array_like
+            w, rad/s.
+
+        Returns
+        -------
+        ndarray
+            The broadcast shape of A and w with a last axis of at least one entry: the roots by
+            decreasing N_s (the branches), NaN beyond the roots of each (A, w).
+        """
+        return self.branch_roots(amplitude, self.channels(omega))
+
+    def gain(self, amplitude, omega, branch=0):
+        """N_s of branch ``branch`` at (A, w), broadcast: 1 where the command stays inside the limit, NaN where
+        (A, w) has no such root."""
+        return self._branch(self.roots(amplitude, omega), branch)
+
+    @staticmethod
+    def _branch(roots, branch):
+        return roots[..., branch] if branch < roots.shape[-1] else np.full(roots.shape[:-1], np.nan)
+
+    def _closed_at(self, amplitude, channels, gain):
+        """(G, u / theta_d) at (A, w) with the command through ``gain``: :meth:`closed` (A matters only to a
+        further slaved nonlinearity, :class:`CommandFrictionSlaving`)."""
+        return self.closed(channels, gain)
+
+    def least_amplitude(self, omega):
+        """A, rad: the amplitude above which a saturated root exists at w (the peak of ``U`` over the gain
+        reaches the limit: ``L min |theta(N)| / |c|``, N in [0, 1]), broadcast."""
+        a, b, c, d = command_channels(self.part, omega)
+        e = b * c - a * d
+        with np.errstate(divide="ignore", invalid="ignore"):
+            star = -(a * np.conj(e)).real / np.abs(e) ** 2
+        peak = np.where(np.isfinite(star), np.clip(star, 0.0, 1.0), 0.0)
+        return self.part.command.limit * np.abs(a + e * peak) / np.abs(c)
+
+    def command_amplitude(self, amplitude, omega, branch=0):
+        """U, N m: the first-harmonic amplitude of the command u at (A, w) on branch ``branch``."""
+        channels = self.channels(omega)
+        gain = self._branch(self.branch_roots(amplitude, channels), branch)
+        return np.asarray(amplitude) * np.abs(self._closed_at(amplitude, channels, gain)[1])
+
+    def __call__(self, omega, amplitude=None, branch=0):
+        """G(jw), rad/(N m), with the saturation's gain at A on branch ``branch`` (without ``amplitude``: the
+        command unsaturated, and no further slaved nonlinearity), broadcast."""
+        channels = self.channels(omega)
+        if amplitude is None:
+            return self._unslaved(channels)
+        return self.response(amplitude, channels, self._branch(self.branch_roots(amplitude, channels), branch))
+
+    def _unslaved(self, channels):
+        """G(jw) with the command unsaturated."""
+        return self.closed(channels, 1.0)[0]
+
+
+def _saturation_excess(fixed, n):
+    """h(N) = N - N_sat(U(N)) (:func:`~backlash_df.describing.saturation_describing_function` written out: the
+    bisection's kernel), ``fixed`` the ``(Re a, Im a, Re e, Im e, scale / limit)`` broadcast against ``n``."""
+    a_re, a_im, e_re, e_im, reach = fixed
+    return n - _saturation_gain(np.hypot(a_re + e_re * n, a_im + e_im * n) / reach)
+
+
+def _saturation_gain(ratio):
+    """N_sat at ``limit / U = ratio`` (clipped to 1: inside the limit)."""
+    r = np.minimum(ratio, 1.0)
+    return 2.0 / np.pi * (np.arcsin(r) + r * np.sqrt(1.0 - r * r))
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class FrictionSlaving:
+    """A loop with dry friction on one side, the friction by its describing function, slaved to A.
+
+    The friction's describing function is a viscous coefficient ``N_f(A_w)``
+    (:func:`~backlash_df.describing.friction_describing_function`) of the side's speed
+    amplitude ``A_w``, and for ``theta_d = A sin(w t)`` that amplitude is
+    ``A |z_i / theta_d|`` of the loop with the damper ``N_f`` on the side (Gelb and
+    Vander Velde's multiple-nonlinearity method, as :class:`CommandSlaving` does for a
+    torque limit).  :meth:`gain` solves ``d = N_f(A_w(d))``: with Coulomb friction
+    alone in closed form (the damper changes the loop by a rank one,
+    :meth:`_channels`), with a breakaway friction by bisection: ``d - N_f(A_w(d))``
+    is negative at ``d = 0`` and positive beyond the root, found by doubling
+    (:func:`_friction_damper`).  Where there is no root (with a breakaway friction:
+    none below ``2^50`` times the first guess) the friction holds the side through the
+    cycle (the driving torque's amplitude is below the friction's): the side
+    **sticks**, the damper is ``2^51`` times the friction's at ``d = 0`` (the side
+    locked), and :meth:`sticks` says so: the describing function of a sliding side
+    does not hold.
+
+    Attributes
+    ----------
+    part : LinearPart
+        The loop, with a :class:`~backlash_df.system.Sticking` of one side.
+    """
+
+    part: object
+
+    def _channels(self, omega):
+        """The loop's responses without the damper, from which those with any damper follow, broadcast.
+
+        The damper ``d`` on the side's speed ``z_i`` adds ``d column e_i^T`` to ``jw I - A``
+        (the dead time exact): a rank-one change.  From ``z = M^-1 b`` and ``y = M^-1 column``
+        of the loop without it, the Sherman-Morrison formula gives ``z_i(d) = z_i / (1 + d y_i)``
+        and ``theta_d(d) = c z - d z_i (c y) / (1 + d y_i)``: every damper's responses from
+        the four numbers ``(c z, c y, z_i, y_i)``, one solve a frequency (:func:`_damped`).
+        """
+        part, sticking = self.part, self.part.sticking
+        omega = np.asarray(omega, dtype=float)
+        jw = 1j * omega.reshape(-1)[:, None, None]
+        n = part.n_states
+        mats = jw * np.eye(n) - part.A
+        if part.e_d.shape[1]:
+            mats = mats - np.exp(-jw * part.delay) * (part.e_d @ part.d)
+        sources = np.broadcast_to(np.column_stack([part.b, sticking.column[0]]), (jw.shape[0], n, 2))
+        response = np.linalg.solve(mats, sources.astype(complex))  # (points, n, 2): from T and from the damper
+        theta = np.einsum("j,pjs->ps", part.c_x, response)
+        side = response[:, sticking.index[0], :]
+        return tuple(values.reshape(omega.shape) for values in (theta[:, 0], theta[:, 1], side[:, 0], side[:, 1]))
+
+    def _solve(self, amplitude, omega):
+        """(d, sticks, channels): :func:`_friction_damper` at the broadcast (A, w), with the loop's
+        :meth:`_channels` there."""
+        a, w = np.broadcast_arrays(np.asarray(amplitude, dtype=float), np.asarray(omega, dtype=float))
+        channels = self._channels(w)
+        return (*_friction_damper(a, channels, self.part.sticking), channels)
+
+    def gain(self, amplitude, omega):
+        """The friction's equivalent damping N_f at (A, w), N m s/rad, broadcast."""
+        return self._solve(amplitude, omega)[0]
+
+    def sticks(self, amplitude, omega):
+        """Whether the side sticks through the cycle at (A, w): the friction's DF has no fixed point."""
+        return self._solve(amplitude, omega)[1]
+
+    def speed_amplitude(self, amplitude, omega):
+        """A_w, rad/s: the first-harmonic amplitude of the rubbing side's speed at (A, w)."""
+        damping, _, channels = self._solve(amplitude, omega)
+        return np.asarray(amplitude) * np.abs(_damped(channels, damping)[1])
+
+    def __call__(self, omega, amplitude=None):
+        """G(jw) with the friction's damper at A (without ``amplitude``: the loop without its dry friction)."""
+        if amplitude is None:
+            return -self._channels(omega)[0]
+        damping, _, channels = self._solve(amplitude, omega)
+        return _damped(channels, damping)[0]
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class CommandFrictionSlaving(CommandSlaving):
+    """A torque-limited loop with dry friction on one side: the saturation and the friction both slaved to A.
+
+    The saturation's gain ``N_s`` on the command and the friction's damper ``d`` on the
+    side's speed are fixed points together: ``N_s = N_sat(U)`` and ``d = N_f(A_w)``, with
+    ``U`` and ``A_w`` of the loop with both in it (Gelb and Vander Velde's
+    multiple-nonlinearity method).  For a given ``N_s`` the loop with its command closed
+    through it is linear and the damper's fixed point is :class:`FrictionSlaving`'s
+    (:func:`_friction_damper`: in closed form for Coulomb friction, bisected with a
+    breakaway); what is left is one equation in ``N_s``, ``h(N_s) = N_s -
+    N_sat(U(N_s, d(N_s)))``, whose roots are the branches, sought and bisected as
+    :class:`CommandSlaving` seeks its own, on the grid of the loop with the damper
+    fixed at the unsaturated one's, ``d(1)``.  ``N_s = 1`` is a root where ``U(1,
+    d(1))`` is inside the limit.  Both closings are a 2 x 2 solve from the nine
+    responses of :func:`~backlash_df.system.command_friction_channels`, one solve a
+    frequency.
+
+    A branch where the friction holds the side (no damper's fixed point: the side
+    locked, as in :class:`FrictionSlaving`) is solved with the locked side, and
+    :meth:`sticks` says so.  The search boxes around a saturated branch's dips
+    (:meth:`least_amplitude`) are those of the loop without its friction.
+
+    Attributes
+    ----------
+    part : LinearPart
+        The loop, with its :class:`~backlash_df.system.Command` and a
+        :class:`~backlash_df.system.Sticking` of one side.
+    """
+
+    def channels(self, omega):
+        """The loop's :func:`~backlash_df.system.command_friction_channels` at the frequencies ``omega``."""
+        return command_friction_channels(self.part, omega)
+
+    @staticmethod
+    def _friction_channels(channels, gain):
+        """(theta_z, theta_y, side_z, side_y) of :class:`FrictionSlaving` for the loop with the command closed
+        through ``gain``, and (u_z, u_y), the command's, broadcast: from ``T`` and from the friction's column."""
+        r = channels
+        closing = gain / (1.0 - gain * r[..., 1, 1])  # T_c = N u with u = u_j + u_c T_c
+        through = [r[..., 1, j] * closing for j in (0, 2)]  # T_c per unit source j
+        theta_z, theta_y = (r[..., 0, j] + r[..., 0, 1] * t for j, t in zip((0, 2), through))
+        side_z, side_y = (r[..., 2, j] + r[..., 2, 1] * t for j, t in zip((0, 2), through))
+        u_z, u_y = (r[..., 1, j] / (1.0 - gain * r[..., 1, 1]) for j in (0, 2))
+        return (theta_z, theta_y, side_z, side_y), (u_z, u_y)
+
+    def _solved(self, amplitude, channels, gain):
+        """(d, sticks, G, u / theta_d, z_i / theta_d) of the loop with the command through ``gain`` and the
+        damper at its fixed point there, broadcast."""
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            friction, (u_z, u_y) = self._friction_channels(channels, gain)
+            damping, sticks = _friction_damper(amplitude, friction, self.part.sticking)
+            g, side = _damped(friction, damping)
+            theta = -g
+            force = damping * friction[2] / (1.0 + damping * friction[3])  # F = d z_i per unit T
+            return damping, sticks, g, (u_z - u_y * force) / theta, side
+
+    def branch_roots(self, amplitude, channels):
+        """The roots of ``h(N_s)`` (class notes) in (0, 1] at the broadcast A and the channels' frequencies.
+
+        Parameters
+        ----------
+        amplitude : array_like
+            A, rad.
+        channels : ndarray
+            :func:`~backlash_df.system.command_friction_channels`, ``(..., 3, 3)``.
+
+        Returns
+        -------
+        ndarray
+            The roots by decreasing N_s on a last axis of at least one entry, NaN-padded.
+        """
+        amplitude = np.asarray(amplitude, dtype=float)
+        shape = np.broadcast_shapes(amplitude.shape, channels.shape[:-2])
+        amplitude = np.broadcast_to(amplitude, shape)
+        channels = np.broadcast_to(channels, shape + (3, 3))
+        top = self._solved(amplitude, channels, 1.0)[0]  # the unsaturated branch's damper d(1)
+        fixed = _damper_closed(channels, top)  # (a, b, c, d) of the loop with that damper, the command cut
+        a, b, c, d = fixed
+        e = b * c - a * d
+        scale = amplitude * np.abs(c)
+        flat = channels.reshape(-1, 3, 3)
+        columns = (amplitude.reshape(-1), *(flat[:, o, j] for o in range(3) for j in range(3)))
+        return self._gain_roots(a, e, scale, columns, self._excess)
+
+    def _excess(self, fixed, n):
+        """h(N) = N - N_sat(U(N, d(N))), ``fixed`` the amplitude and the nine channels (flat) against ``n``."""
+        amplitude, *entries = np.broadcast_arrays(*fixed, n)[:-1]
+        channels = np.stack(entries, axis=-1).reshape(amplitude.shape + (3, 3))
+        command = amplitude * np.abs(self._solved(amplitude, channels, n)[3])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return n - _saturation_gain(self.part.command.limit / command)
+
+    def _closed_at(self, amplitude, channels, gain):
+        solved = self._solved(amplitude, channels, gain)
+        return solved[2], solved[3]
+
+    def _unslaved(self, channels):
+        """G(jw) with the command unsaturated and no friction."""
+        return -(channels[..., 0, 0] + channels[..., 0, 1] * channels[..., 1, 0] / (1.0 - channels[..., 1, 1]))
+
+    def _at(self, amplitude, omega, branch):
+        channels = self.channels(omega)
+        gain = self._branch(self.branch_roots(amplitude, channels), branch)
+        return self._solved(amplitude, channels, gain)
+
+    def sticks(self, amplitude, omega, branch=0):
+        """Whether the side sticks through the cycle at (A, w) on branch ``branch``: no damper's fixed point."""
+        return self._at(amplitude, omega, branch)[1]
+
+    def speed_amplitude(self, amplitude, omega, branch=0):
+        """A_w, rad/s: the first-harmonic amplitude of the rubbing side's speed at (A, w) on branch ``branch``."""
+        return np.asarray(amplitude) * np.abs(self._at(amplitude, omega, branch)[4])
+
+
+def _damper_closed(channels, damping):
+    """:func:`~backlash_df.system.command_channels`' ``(a, b, c, d)`` of the loop with the friction as the damper
+    ``damping`` on its side, from the nine :func:`~backlash_df.system.command_friction_channels`, broadcast."""
+    r = channels
+    spread = 1.0 + damping * r[..., 2, 2]
+    return tuple(r[..., o, j] - damping * r[..., o, 2] * r[..., 2, j] / spread for o in (0, 1) for j in (0, 1))
+
+
+def _damped(channels, damping):
+    """(G, z_i / theta_d) of the loop with the side's dry friction as the viscous ``damping``, broadcast, from
+    its :class:`FrictionSlaving` channels ``(theta_z, theta_y, side_z, side_y)``."""
+    theta_z, theta_y, side_z, side_y = channels
+    spread = 1.0 + damping * side_y
+    theta = theta_z - damping * side_z * theta_y / spread
+    return -theta, side_z / (theta * spread)
+
+
+def _friction_excess(amplitude, channels, damping, sticking):
+    """``N_f(A_w(d)) - d``, N m s/rad: positive below the fixed point."""
+    speed = amplitude * np.abs(_damped(channels, damping)[1])
+    gain = friction_describing_function(np.maximum(speed, 1e-300), sticking.coulomb[0], sticking.breakaway[0],
+                                        sticking.stribeck_speed[0])
+    return gain - damping
+
+
+def _coulomb_root(amplitude, channels, coulomb):
+    """The fixed point of Coulomb friction ``coulomb`` (N m) alone, broadcast; NaN where there is none.
+
+    With ``a = c z`` and ``g = a y_i - z_i c y`` (:meth:`FrictionSlaving._channels`) the
+    side's speed amplitude is ``A_w = A |z_i| / |a + d g|``, so ``d = N_f(A_w) = K |a + d
+    g|``, ``K = 4 F_c / (pi A |z_i|)``: the smallest root ``d >= 0`` of ``(1 - K^2 |g|^2)
+    d^2 - 2 K^2 Re(a g*) d - K^2 |a|^2 = 0``, written so that neither root cancels.
+    """
+    theta_z, theta_y, side_z, side_y = channels
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):  # a side at rest: K = inf, no root
+        gain = 4.0 * coulomb / (np.pi * np.maximum(amplitude * np.abs(side_z), 1e-300))
+        slope = theta_z * side_y - side_z * theta_y
+        alpha = 1.0 - (gain * np.abs(slope)) ** 2
+        beta = gain ** 2 * (theta_z * np.conj(slope)).real
+        gamma = (gain * np.abs(theta_z)) ** 2
+        disc = beta ** 2 + alpha * gamma
+        root = np.sqrt(np.maximum(disc, 0.0))
+        found = (disc >= 0.0) & np.where(beta > 0.0, alpha > 0.0, root > beta)
+        return np.where(found, np.where(beta > 0.0, (beta + root) / alpha, gamma / (root - beta)), np.nan)
+
+
+_BISECTIONS = 60
+_DOUBLINGS = 50
+
+
+def _friction_damper(amplitude, channels, sticking):
+    """(d, sticks): the damper's fixed point ``d = N_f(A_w(d))`` at the broadcast A and channels, and where there
+    is none, the locked side's damper (``2^51`` times the friction's at ``d = 0``) and True
+    (:class:`FrictionSlaving`'s notes)."""
+    a = np.broadcast_to(np.asarray(amplitude, dtype=float), np.broadcast_shapes(np.shape(amplitude),
+                                                                                 np.shape(channels[0])))
+    hi = 2.0 * _friction_excess(a, channels, np.zeros(a.shape), sticking)  # twice the friction's damper at d = 0
+    if sticking.breakaway[0] == 0.0:
+        d = _coulomb_root(a, channels, sticking.coulomb[0])
+        return np.where(np.isnan(d), 2.0 ** _DOUBLINGS * hi, d), np.isnan(d)
+    for _ in range(_DOUBLINGS):
+        above = _friction_excess(a, channels, hi, sticking) > 0.0
+        if not above.any():
+            break
+        hi = np.where(above, 2.0 * hi, hi)
+    sticks = _friction_excess(a, channels, hi, sticking) > 0.0
+    lo = np.zeros(a.shape)
+    for _ in range(_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        below = _friction_excess(a, channels, mid, sticking) > 0.0
+        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+    return np.where(sticks, hi, 0.5 * (lo + hi)), sticks
