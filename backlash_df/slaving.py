@@ -22,6 +22,7 @@ gains is a rank-one or rank-two change, a few complex numbers a frequency.
 """
 
 import dataclasses
+import functools
 import math
 
 import numpy as np
@@ -120,7 +121,7 @@ class CommandSlaving:
 
     def _gain_roots(self, a, e, scale, columns, excess):
         """The roots of ``excess(columns, N) = 0`` for N in (0, 1] on the grid the linear-fractional ``U(N) = scale /
-        |a + e N|`` fixes (class notes), bisected on ``excess`` itself, by point.
+        |a + e N|`` fixes (class notes), narrowed on ``excess`` itself (:meth:`_refine`), by point.
 
         ``excess(fixed, n)`` is ``N - N_sat(U(N))`` with ``fixed`` the ``columns`` (one entry per point, flat) of
         the points asked for, broadcast against ``n``; where it is the saturation's of ``U(N)`` itself
@@ -151,17 +152,13 @@ class CommandSlaving:
                                    np.stack([np.zeros(busy.size), peak, np.ones(busy.size)], axis=1)], axis=1)
         grid = np.sort(np.where(np.isfinite(grid), grid, 0.0), axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
-            positive = excess(every, grid) > 0.0
+            values = excess(every, grid)
+        positive = values > 0.0
         row, col = np.nonzero(positive[:, 1:] != positive[:, :-1])
-        lo, hi, rising = grid[row, col], grid[row, col + 1], positive[row, col + 1]
         brackets = tuple(x[row] for x in columns)
         with np.errstate(divide="ignore", invalid="ignore"):
-            for _ in range(self._BISECTIONS):
-                mid = 0.5 * (lo + hi)
-                if not ((mid > lo) & (mid < hi)).any():  # every bracket down to neighbouring floats
-                    break
-                upper = (excess(brackets, mid) > 0.0) == rising  # mid on the upper end's side
-                lo, hi = np.where(upper, lo, mid), np.where(upper, mid, hi)
+            lo, hi = self._refine(functools.partial(excess, brackets), grid[row, col], grid[row, col + 1],
+                                  values[row, col], values[row, col + 1])
         flat_unsaturated = np.flatnonzero(unsaturated)
         points = np.concatenate([busy[row], flat_unsaturated])
         values = np.concatenate([0.5 * (lo + hi), np.ones(flat_unsaturated.size)])
@@ -175,6 +172,19 @@ class CommandSlaving:
         roots = np.full((math.prod(shape), max(1, int(rank.max(initial=0)) + 1)), np.nan)
         roots[points, rank] = values
         return roots.reshape(shape + (roots.shape[1],))
+
+    def _refine(self, excess, lo, hi, at_lo, at_hi):
+        """The brackets ``[lo, hi]`` of the roots of ``excess`` (its values there ``at_lo``, ``at_hi``, of opposite
+        signs) bisected down to neighbouring floats (at most ``_BISECTIONS`` times), ``excess`` evaluated
+        directly: each root substitutes back to round-off."""
+        rising = at_hi > 0.0
+        for _ in range(self._BISECTIONS):
+            mid = 0.5 * (lo + hi)
+            if not ((mid > lo) & (mid < hi)).any():  # every bracket down to neighbouring floats
+                break
+            upper = (excess(mid) > 0.0) == rising  # mid on the upper end's side
+            lo, hi = np.where(upper, lo, mid), np.where(upper, mid, hi)
+        return lo, hi
 
     def roots(self, amplitude, omega):
         """Every root of ``N_s = N_sat(U(N_s))`` in (0, 1] at (A, w), broadcast.
@@ -261,9 +271,9 @@ class FrictionSlaving:
     Vander Velde's multiple-nonlinearity method, as :class:`CommandSlaving` does for a
     torque limit).  :meth:`gain` solves ``d = N_f(A_w(d))``: with Coulomb friction
     alone in closed form (the damper changes the loop by a rank one,
-    :meth:`_channels`), with a breakaway friction by bisection: ``d - N_f(A_w(d))``
-    is negative at ``d = 0`` and positive beyond the root, found by doubling
-    (:func:`_friction_damper`).  Where there is no root (with a breakaway friction:
+    :meth:`_channels`), with a breakaway friction by false position: ``d -
+    N_f(A_w(d))`` is negative at ``d = 0`` and positive beyond the root, found by
+    doubling (:func:`_friction_damper`, :func:`_false_position`).  Where there is no root (with a breakaway friction:
     none below ``2^50`` times the first guess) the friction holds the side through the
     cycle (the driving torque's amplitude is below the friction's): the side
     **sticks**, the damper is ``2^51`` times the friction's at ``d = 0`` (the side
@@ -337,11 +347,13 @@ class CommandFrictionSlaving(CommandSlaving):
     ``U`` and ``A_w`` of the loop with both in it (Gelb and Vander Velde's
     multiple-nonlinearity method).  For a given ``N_s`` the loop with its command closed
     through it is linear and the damper's fixed point is :class:`FrictionSlaving`'s
-    (:func:`_friction_damper`: in closed form for Coulomb friction, bisected with a
-    breakaway); what is left is one equation in ``N_s``, ``h(N_s) = N_s -
-    N_sat(U(N_s, d(N_s)))``, whose roots are the branches, sought and bisected as
-    :class:`CommandSlaving` seeks its own, on the grid of the loop with the damper
-    fixed at the unsaturated one's, ``d(1)``.  ``N_s = 1`` is a root where ``U(1,
+    (:func:`_friction_damper`: in closed form for Coulomb friction, by false position with
+    a breakaway); what is left is one equation in ``N_s``, ``h(N_s) = N_s -
+    N_sat(U(N_s, d(N_s)))``, whose roots are the branches, sought as :class:`CommandSlaving`
+    seeks its own, on the grid of the loop with the damper fixed at the unsaturated one's,
+    ``d(1)``, and narrowed by false position (:func:`_false_position`, to 1e-13).  With a
+    breakaway friction each value of ``h`` is a false position of its own: a prediction
+    takes tens of seconds where Coulomb friction's takes one.  ``N_s = 1`` is a root where ``U(1,
     d(1))`` is inside the limit.  Both closings are a 2 x 2 solve from the nine
     responses of :func:`~backlash_df.system.command_friction_channels`, one solve a
     frequency.
@@ -421,6 +433,11 @@ class CommandFrictionSlaving(CommandSlaving):
         with np.errstate(divide="ignore", invalid="ignore"):
             return n - _saturation_gain(self.part.command.limit / command)
 
+    def _refine(self, excess, lo, hi, at_lo, at_hi):
+        """The brackets of :meth:`CommandSlaving._refine` narrowed by :func:`_false_position`: each value of ``h``
+        here solves a damper's fixed point, and bisection to neighbouring floats would take fifty."""
+        return _false_position(excess, lo, hi, at_lo, at_hi)
+
     def _closed_at(self, amplitude, channels, gain):
         solved = self._solved(amplitude, channels, gain)
         return solved[2], solved[3]
@@ -489,7 +506,6 @@ def _coulomb_root(amplitude, channels, coulomb):
         return np.where(found, np.where(beta > 0.0, (beta + root) / alpha, gamma / (root - beta)), np.nan)
 
 
-_BISECTIONS = 60
 _DOUBLINGS = 50
 
 
@@ -508,10 +524,41 @@ def _friction_damper(amplitude, channels, sticking):
         if not above.any():
             break
         hi = np.where(above, 2.0 * hi, hi)
-    sticks = _friction_excess(a, channels, hi, sticking) > 0.0
-    lo = np.zeros(a.shape)
-    for _ in range(_BISECTIONS):
-        mid = 0.5 * (lo + hi)
-        below = _friction_excess(a, channels, mid, sticking) > 0.0
-        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+    at_hi = _friction_excess(a, channels, hi, sticking)
+    sticks = at_hi > 0.0
+    lo, hi = _false_position(lambda d: _friction_excess(a, channels, d, sticking), np.where(sticks, hi, 0.0), hi,
+                             0.5 * hi, at_hi)  # a stuck side has no bracket: lo = hi
     return np.where(sticks, hi, 0.5 * (lo + hi)), sticks
+
+
+def _false_position(f, lo, hi, at_lo, at_hi, rtol=1e-13, iterations=120):
+    """The brackets ``[lo, hi]`` (``f`` there ``at_lo``, ``at_hi``, of opposite signs), narrowed together by the
+    Illinois variant of false position (Dowell and Jarratt, 1971) to ``rtol`` of ``hi``, broadcast.
+
+    The end on ``hi``'s side of each new point (``f > 0`` there as at ``hi``) moves to it, the other keeps
+    its side; an end kept twice in a row has its value halved (Illinois), so both ends converge,
+    superlinearly, in about ten evaluations where bisection takes forty.  A step that is not a number or
+    leaves the bracket is a bisection's, and from the twelfth on every other step is one (near the root
+    round-off in ``f`` can stall false position).  Where ``|f|`` is within ``rtol`` of the point (``f`` is
+    of the size of its argument: a damper's excess, a gain's), both ends meet there.
+    """
+    rising = at_hi > 0.0
+    kept = np.zeros(lo.shape, dtype=np.int8)  # +1: hi kept by the last step, -1: lo kept
+    for step in range(iterations):
+        active = (hi - lo) > rtol * np.maximum(np.abs(lo), np.abs(hi))
+        if not active.any():
+            break
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            x = hi - at_hi * (hi - lo) / (at_hi - at_lo)
+        mid = 0.5 * (lo + hi)
+        x = np.where((x > lo) & (x < hi) & (step < 12 or step % 2 == 0), x, mid)
+        value = f(x)
+        upper = (value > 0.0) == rising  # x on hi's side: hi moves there
+        at_lo = np.where(upper & (kept == -1), 0.5 * at_lo, at_lo)
+        at_hi = np.where(~upper & (kept == 1), 0.5 * at_hi, at_hi)
+        root = np.abs(value) <= rtol * np.abs(x)  # f's own round-off: both ends meet there
+        move_hi, move_lo = active & (upper | root), active & (~upper | root)
+        hi, at_hi = np.where(move_hi, x, hi), np.where(move_hi, value, at_hi)
+        lo, at_lo = np.where(move_lo, x, lo), np.where(move_lo, value, at_lo)
+        kept = np.where(upper, -1, 1).astype(np.int8)
+    return lo, hi
