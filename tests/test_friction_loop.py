@@ -363,6 +363,16 @@ def test_tune_with_dry_friction_says_what_its_certificate_rests_on():
     assert any(line.startswith("dry friction: its breakaway is not affine") for line in tuned.sentences())
 
 
+def test_tune_with_friction_and_a_torque_limit_says_its_certificate_has_no_exact_orbit():
+    """The friction DF with the saturation screens and certifies; the exact orbits refuse the loop, and the
+    tuning's sentence says the certificate rests on the describing functions and the probes alone."""
+    tuned = bd.tune(_lag_rig(coulomb_load=50.0).with_values(torque_limit=3000.0), {"kp": (20.0, 400.0)},
+                    gain_margin=1.0)
+    assert tuned.feasible and tuned.best.verdict.orbits == () and "torque limit" in tuned.best.verdict.orbit_note
+    assert ("dry friction: the exact orbits do not model it with a torque limit, so each certificate rests on the "
+            "describing functions (the friction's and the saturation's included)") in "\n".join(tuned.sentences())
+
+
 def test_tune_where_the_friction_df_does_not_apply_says_why_nothing_is_certified():
     """With friction on both sides the friction's DF is not solved (each prediction's note): no certificate, one
     verdict of the fastest tuning, and the first line says why (it crashed on an empty search before)."""

@@ -66,6 +66,10 @@ def friction_text(tuning):
     if friction.breakaway_motor or friction.breakaway_load:
         return ("dry friction: its breakaway is not affine in the exact orbits' modes, so each certificate rests on "
                 "the describing functions (the friction's included) and the probes' simulations (stick and slip)")
+    if prediction.rig.controller.torque_limit > 0.0:
+        return ("dry friction: the exact orbits do not model it with a torque limit, so each certificate rests on "
+                "the describing functions (the friction's and the saturation's included) and the probes' "
+                "simulations (stick and slip)")
     return ("dry friction: each certificate rests on the describing functions (the friction's included), the "
             "probes' simulations and the exact orbits (both with stick and slip)")
 
