@@ -50,7 +50,7 @@ from .models import BacklashModel
 from .plotting import ResultPlot, adaptive_curve, axes_or_new, legend_below, legend_under, scaled_ticks
 from .render.prediction import prediction_report
 from .simulation import simulated_limit_cycle
-from .slaving import CommandFrictionSlaving, CommandSlaving, FrictionSlaving
+from .slaving import CommandFrictionSlaving, CommandSlaving, FrictionPairSlaving, FrictionSlaving
 from .system import frequency_response
 
 __all__ = [
@@ -104,9 +104,10 @@ class LimitCycle:
         command u (N m) on the cycle; NaN without a limit.
     saturated : bool
         True where ``U`` exceeds the torque limit: the cycle's command saturates.
-    friction_amplitude : float
-        With dry friction: A_w, the first-harmonic amplitude of the rubbing side's
-        speed on the cycle (rad/s); NaN without.
+    friction_amplitude : dict
+        With dry friction: ``{side: A_w}``, the first-harmonic amplitude of each
+        rubbing side's speed on the cycle (rad/s, sides ``"motor"``, ``"load"``);
+        empty without.
     """
 
     amplitude: float
@@ -118,7 +119,7 @@ class LimitCycle:
     bias: float = 0.0
     command_amplitude: float = math.nan
     saturated: bool = False
-    friction_amplitude: float = math.nan
+    friction_amplitude: dict = dataclasses.field(default_factory=dict, hash=False)
 
     @property
     def amplitude_error(self):
@@ -144,7 +145,8 @@ class LimitCycle:
             "simulated": None if self.simulated is None else self.simulated.cycle_dict(),
             "command_amplitude": None if math.isnan(self.command_amplitude) else float(self.command_amplitude),
             "saturated": bool(self.saturated),
-            **({} if math.isnan(self.friction_amplitude) else {"friction_amplitude": float(self.friction_amplitude)}),
+            **({"friction_amplitude": {side: float(value) for side, value in self.friction_amplitude.items()}}
+               if self.friction_amplitude else {}),
         }
 
     def __repr__(self):
@@ -152,8 +154,9 @@ class LimitCycle:
         text = f"LimitCycle(A={self.amplitude:.6g} rad, omega={self.omega:.6g} rad/s, {kind}"
         if not math.isnan(self.command_amplitude):
             text += f", command U={self.command_amplitude:.4g} N m{' saturated' if self.saturated else ''}"
-        if not math.isnan(self.friction_amplitude):
-            text += f", rubbing speed {self.friction_amplitude:.4g} rad/s"
+        if self.friction_amplitude:
+            speeds = ", ".join(f"{side} {value:.4g}" for side, value in self.friction_amplitude.items())
+            text += f", rubbing speed {speeds} rad/s"
         if self.simulated is not None:
             text += f", simulated={self.simulated!r}"
         return text + ")"
@@ -774,7 +777,9 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
     mean speeds at zero (a cascade, or integral action in the speed loop): the friction of a
     zero-mean speed has no mean.  A P speed loop under a load torque slides at a mean speed,
     which that describing function does not take: the prediction says so in ``note``, as
-    with friction on both sides or, with a torque limit, any load torque.
+    with a torque limit under any load torque.  Dry friction on both sides is two dampers
+    slaved together (:class:`~backlash_df.slaving.FrictionPairSlaving`), without a torque
+    limit (with one the prediction has a ``note``).
     """
     named = model is not None
     if not isinstance(model, BacklashModel):
@@ -799,13 +804,14 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
     part = linear.linear_part() if isinstance(linear, DriveLoop) else None
     limited = part is not None and part.command is not None
     rubbing = part is not None and part.sticking is not None
-    if rubbing and (len(part.sticking.names) > 1 or (balanced and not (_mean_speed_held(rig) and not limited))):
+    pair = rubbing and len(part.sticking.names) > 1
+    if rubbing and ((pair and limited) or (balanced and not (_mean_speed_held(rig) and not limited))):
         return LimitCyclePrediction(
             model=label, cycles=(), near_misses=(), amplitude_range=amplitude_range, omega_range=omega_range,
             linear=linear, describing=n_of, half_gap=half_gap, **carried,
-            note=f"the describing function of dry friction is solved on one side (under a load torque where the "
-                 f"loop holds both mean speeds at zero and has no torque limit), and this loop has "
-                 f"{_friction_companions(part, rig, balanced)}; the simulations decide",
+            note=f"the describing function of dry friction is solved on one side, or on both without a torque "
+                 f"limit (under a load torque where the loop holds both mean speeds at zero and has no torque "
+                 f"limit), and this loop has {_friction_companions(part, rig, balanced)}; the simulations decide",
         )
     if limited and balanced:
         return LimitCyclePrediction(
@@ -825,7 +831,7 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
             **carried,
         )
     if rubbing:
-        g_of_w = FrictionSlaving(part)
+        g_of_w = FrictionPairSlaving(part) if pair else FrictionSlaving(part)
     elif part is not None:
         g_of_w = functools.partial(frequency_response, part)  # the loop built once, not at every residual
     else:
@@ -837,7 +843,7 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
     if balanced:
         cycles = [dataclasses.replace(c, bias=float(n_of.bias(c.amplitude, c.omega))) for c in cycles]
     if rubbing:
-        cycles = [dataclasses.replace(c, friction_amplitude=float(g_of_w.speed_amplitude(c.amplitude, c.omega)))
+        cycles = [dataclasses.replace(c, friction_amplitude=_floats(g_of_w.speed_amplitudes(c.amplitude, c.omega)))
                   for c in cycles]
         void = tuple(c for c in cycles if g_of_w.sticks(c.amplitude, c.omega))
         cycles = [c for c in cycles if c not in void]
@@ -928,8 +934,14 @@ def _slaved_cycle(slaving, branch, cycle, half_gap):
         if math.isfinite(slope) and slope != 0.0:
             loeb = math.copysign(1.0, slope) * cycle.loeb
     if isinstance(slaving, CommandFrictionSlaving):
-        cycle = dataclasses.replace(cycle, friction_amplitude=float(slaving.speed_amplitude(amplitude, omega, branch)))
+        cycle = dataclasses.replace(cycle, friction_amplitude=_floats(slaving.speed_amplitudes(amplitude, omega,
+                                                                                                 branch)))
     return dataclasses.replace(cycle, command_amplitude=u, saturated=saturated, loeb=loeb, stable=bool(loeb > 0.0))
+
+
+def _floats(values):
+    """``{side: float}`` of a slaving's ``speed_amplitudes`` at one point."""
+    return {side: float(value) for side, value in values.items()}
 
 
 def _same(one, other, tol=1e-6):
@@ -973,7 +985,8 @@ def _dips(slaving, omega_range, largest, samples):
 
 def _friction_companions(part, rig, balanced):
     """What a loop with dry friction holds beside it that its describing function does not take, in words."""
-    words = [f"dry friction on {len(part.sticking.names)} sides"] if len(part.sticking.names) > 1 else []
+    pair = len(part.sticking.names) > 1
+    words = ["dry friction on both sides and a torque limit"] if pair and part.command is not None else []
     if balanced and part.command is not None:
         words.append("a load torque with a torque limit")
     elif balanced and not _mean_speed_held(rig):

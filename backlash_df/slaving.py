@@ -12,12 +12,14 @@ for one combination, callable as ``G(jw)`` at (A, w) for the harmonic balance of
   command's amplitude ``U``, on every root (branch) of its fixed point;
 * :class:`FrictionSlaving`: dry friction on one side, a damper ``N_f`` of the side's
   speed amplitude ``A_w``;
+* :class:`FrictionPairSlaving`: dry friction on both sides, two such dampers;
 * :class:`CommandFrictionSlaving`: both, the damper solved inside the saturation's
   fixed point.
 
 Every one follows from the loop's responses at a frequency with its nonlinearities
 cut (:func:`~backlash_df.system.command_channels`,
-:func:`~backlash_df.system.command_friction_channels`): closing them through real
+:func:`~backlash_df.system.command_friction_channels`,
+:func:`~backlash_df.system.friction_channels`): closing them through real
 gains is a rank-one or rank-two change, a few complex numbers a frequency.
 """
 
@@ -28,9 +30,9 @@ import math
 import numpy as np
 
 from .describing import friction_describing_function
-from .system import command_channels, command_friction_channels
+from .system import command_channels, command_friction_channels, friction_channels
 
-__all__ = ["CommandSlaving", "FrictionSlaving", "CommandFrictionSlaving"]
+__all__ = ["CommandSlaving", "FrictionSlaving", "FrictionPairSlaving", "CommandFrictionSlaving"]
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -297,18 +299,8 @@ class FrictionSlaving:
         and ``theta_d(d) = c z - d z_i (c y) / (1 + d y_i)``: every damper's responses from
         the four numbers ``(c z, c y, z_i, y_i)``, one solve a frequency (:func:`_damped`).
         """
-        part, sticking = self.part, self.part.sticking
-        omega = np.asarray(omega, dtype=float)
-        jw = 1j * omega.reshape(-1)[:, None, None]
-        n = part.n_states
-        mats = jw * np.eye(n) - part.A
-        if part.e_d.shape[1]:
-            mats = mats - np.exp(-jw * part.delay) * (part.e_d @ part.d)
-        sources = np.broadcast_to(np.column_stack([part.b, sticking.column[0]]), (jw.shape[0], n, 2))
-        response = np.linalg.solve(mats, sources.astype(complex))  # (points, n, 2): from T and from the damper
-        theta = np.einsum("j,pjs->ps", part.c_x, response)
-        side = response[:, sticking.index[0], :]
-        return tuple(values.reshape(omega.shape) for values in (theta[:, 0], theta[:, 1], side[:, 0], side[:, 1]))
+        r = friction_channels(self.part, omega)
+        return r[..., 0, 0], r[..., 0, 1], r[..., 1, 0], r[..., 1, 1]
 
     def _solve(self, amplitude, omega):
         """(d, sticks, channels): :func:`_friction_damper` at the broadcast (A, w), with the loop's
@@ -325,10 +317,10 @@ class FrictionSlaving:
         """Whether the side sticks through the cycle at (A, w): the friction's DF has no fixed point."""
         return self._solve(amplitude, omega)[1]
 
-    def speed_amplitude(self, amplitude, omega):
-        """A_w, rad/s: the first-harmonic amplitude of the rubbing side's speed at (A, w)."""
+    def speed_amplitudes(self, amplitude, omega):
+        """{side: A_w}, rad/s: the first-harmonic amplitude of the rubbing side's speed at (A, w)."""
         damping, _, channels = self._solve(amplitude, omega)
-        return np.asarray(amplitude) * np.abs(_damped(channels, damping)[1])
+        return {self.part.sticking.names[0]: np.asarray(amplitude) * np.abs(_damped(channels, damping)[1])}
 
     def __call__(self, omega, amplitude=None):
         """G(jw) with the friction's damper at A (without ``amplitude``: the loop without its dry friction)."""
@@ -336,6 +328,71 @@ class FrictionSlaving:
             return -self._channels(omega)[0]
         damping, _, channels = self._solve(amplitude, omega)
         return _damped(channels, damping)[0]
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class FrictionPairSlaving:
+    """A loop with dry friction on both sides, each by its describing function, both slaved to A.
+
+    Each side's friction is a damper ``d_s = N_f(A_w,s)`` of its own speed amplitude in the
+    loop with both dampers in it (Gelb and Vander Velde's multiple-nonlinearity method, as
+    :class:`FrictionSlaving` for one side).  For a given load damper ``d_2`` the motor's
+    fixed point ``d_1(d_2)`` is :class:`FrictionSlaving`'s in the loop with ``d_2`` closed
+    (:func:`_friction_damper`: in closed form for Coulomb friction); what is left is one
+    equation, ``d_2 = N_f(A_w,2(d_1(d_2), d_2))``, bracketed by doubling and narrowed by
+    false position (:func:`_fixed_point`).  Both closings are rank-one changes of the
+    nine responses of :func:`~backlash_df.system.friction_channels`, one solve a
+    frequency.  Where either side has no fixed point (the friction holds it through the
+    cycle) it is locked, as in :class:`FrictionSlaving`, and :meth:`sticks` says so.
+
+    Attributes
+    ----------
+    part : LinearPart
+        The loop, with a :class:`~backlash_df.system.Sticking` of two sides.
+    """
+
+    part: object
+
+    def _motor(self, amplitude, channels, load):
+        """(d_1, sticks_1, channels with both dampers closed) at the load damper ``load``, broadcast."""
+        with_load = _close(channels, 2, load)
+        motor = (with_load[..., 0, 0], with_load[..., 0, 1], with_load[..., 1, 0], with_load[..., 1, 1])
+        damping, sticks = _friction_damper(amplitude, motor, self.part.sticking, side=0)
+        return damping, sticks, _close(with_load, 1, damping)
+
+    def _load_excess(self, amplitude, channels, load):
+        """``N_f,2(A_w,2) - d_2`` with the motor's damper at its fixed point: positive below the root."""
+        closed = self._motor(amplitude, channels, load)[2]
+        speed = amplitude * np.abs(closed[..., 2, 0] / closed[..., 0, 0])
+        sticking = self.part.sticking
+        return friction_describing_function(np.maximum(speed, 1e-300), sticking.coulomb[1], sticking.breakaway[1],
+                                            sticking.stribeck_speed[1]) - load
+
+    def _solve(self, amplitude, omega):
+        """(the loop's responses with both dampers closed, sticks) at the broadcast (A, w)."""
+        a, w = np.broadcast_arrays(np.asarray(amplitude, dtype=float), np.asarray(omega, dtype=float))
+        channels = friction_channels(self.part, w)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            excess = functools.partial(self._load_excess, a, channels)
+            load, load_sticks = _fixed_point(excess, excess(np.zeros(a.shape)))
+            _, motor_sticks, closed = self._motor(a, channels, load)
+        return closed, load_sticks | motor_sticks
+
+    def sticks(self, amplitude, omega):
+        """Whether a side sticks through the cycle at (A, w): its friction's DF has no fixed point."""
+        return self._solve(amplitude, omega)[1]
+
+    def speed_amplitudes(self, amplitude, omega):
+        """{side: A_w}, rad/s: the first-harmonic amplitudes of the sides' speeds at (A, w)."""
+        closed = self._solve(amplitude, omega)[0]
+        return {name: np.asarray(amplitude) * np.abs(closed[..., 1 + s, 0] / closed[..., 0, 0])
+                for s, name in enumerate(self.part.sticking.names)}
+
+    def __call__(self, omega, amplitude=None):
+        """G(jw) with both dampers at A (without ``amplitude``: the loop without its dry friction)."""
+        if amplitude is None:
+            return -friction_channels(self.part, omega)[..., 0, 0]
+        return -self._solve(amplitude, omega)[0][..., 0, 0]
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -455,17 +512,26 @@ class CommandFrictionSlaving(CommandSlaving):
         """Whether the side sticks through the cycle at (A, w) on branch ``branch``: no damper's fixed point."""
         return self._at(amplitude, omega, branch)[1]
 
-    def speed_amplitude(self, amplitude, omega, branch=0):
-        """A_w, rad/s: the first-harmonic amplitude of the rubbing side's speed at (A, w) on branch ``branch``."""
-        return np.asarray(amplitude) * np.abs(self._at(amplitude, omega, branch)[4])
+    def speed_amplitudes(self, amplitude, omega, branch=0):
+        """{side: A_w}, rad/s: the first-harmonic amplitude of the rubbing side's speed at (A, w) on branch
+        ``branch``."""
+        return {self.part.sticking.names[0]: np.asarray(amplitude) * np.abs(self._at(amplitude, omega, branch)[4])}
 
 
 def _damper_closed(channels, damping):
     """:func:`~backlash_df.system.command_channels`' ``(a, b, c, d)`` of the loop with the friction as the damper
     ``damping`` on its side, from the nine :func:`~backlash_df.system.command_friction_channels`, broadcast."""
-    r = channels
-    spread = 1.0 + damping * r[..., 2, 2]
-    return tuple(r[..., o, j] - damping * r[..., o, 2] * r[..., 2, j] / spread for o in (0, 1) for j in (0, 1))
+    r = _close(channels, 2, damping)
+    return r[..., 0, 0], r[..., 0, 1], r[..., 1, 0], r[..., 1, 1]
+
+
+def _close(channels, k, damping):
+    """The responses ``channels`` (outputs by sources, ``(..., m, m)``) with the friction of entry ``k`` (its side's
+    speed the k-th output, its column the k-th source) closed through the damper ``damping``, ``F = d z_k``:
+    ``R[o, j] - d R[o, k] R[k, j] / (1 + d R[k, k])`` (Sherman-Morrison), broadcast; entry ``k`` stays, the
+    side's speed with its damper."""
+    d = np.asarray(damping)[..., None, None]
+    return channels - d * channels[..., :, k:k + 1] * channels[..., k:k + 1, :] / (1.0 + d * channels[..., k:k + 1, k:k + 1])
 
 
 def _damped(channels, damping):
@@ -477,11 +543,11 @@ def _damped(channels, damping):
     return -theta, side_z / (theta * spread)
 
 
-def _friction_excess(amplitude, channels, damping, sticking):
-    """``N_f(A_w(d)) - d``, N m s/rad: positive below the fixed point."""
+def _friction_excess(amplitude, channels, damping, sticking, side=0):
+    """``N_f(A_w(d)) - d``, N m s/rad, of side ``side``: positive below the fixed point."""
     speed = amplitude * np.abs(_damped(channels, damping)[1])
-    gain = friction_describing_function(np.maximum(speed, 1e-300), sticking.coulomb[0], sticking.breakaway[0],
-                                        sticking.stribeck_speed[0])
+    gain = friction_describing_function(np.maximum(speed, 1e-300), sticking.coulomb[side], sticking.breakaway[side],
+                                        sticking.stribeck_speed[side])
     return gain - damping
 
 
@@ -509,25 +575,32 @@ def _coulomb_root(amplitude, channels, coulomb):
 _DOUBLINGS = 50
 
 
-def _friction_damper(amplitude, channels, sticking):
-    """(d, sticks): the damper's fixed point ``d = N_f(A_w(d))`` at the broadcast A and channels, and where there
-    is none, the locked side's damper (``2^51`` times the friction's at ``d = 0``) and True
-    (:class:`FrictionSlaving`'s notes)."""
+def _friction_damper(amplitude, channels, sticking, side=0):
+    """(d, sticks): the damper's fixed point ``d = N_f(A_w(d))`` of side ``side`` at the broadcast A and channels,
+    and where there is none, the locked side's damper and True (:class:`FrictionSlaving`'s notes)."""
     a = np.broadcast_to(np.asarray(amplitude, dtype=float), np.broadcast_shapes(np.shape(amplitude),
                                                                                  np.shape(channels[0])))
-    hi = 2.0 * _friction_excess(a, channels, np.zeros(a.shape), sticking)  # twice the friction's damper at d = 0
-    if sticking.breakaway[0] == 0.0:
-        d = _coulomb_root(a, channels, sticking.coulomb[0])
-        return np.where(np.isnan(d), 2.0 ** _DOUBLINGS * hi, d), np.isnan(d)
+    excess = functools.partial(_friction_excess, a, channels, sticking=sticking, side=side)
+    at_rest = excess(np.zeros(a.shape))  # the friction's damper at d = 0
+    if sticking.breakaway[side] == 0.0:
+        d = _coulomb_root(a, channels, sticking.coulomb[side])
+        return np.where(np.isnan(d), 2.0 ** (_DOUBLINGS + 1) * at_rest, d), np.isnan(d)
+    return _fixed_point(excess, at_rest)
+
+
+def _fixed_point(excess, at_rest):
+    """(d, sticks): a root ``d > 0`` of ``excess`` (positive below it, ``at_rest`` at d = 0), bracketed by doubling
+    ``2 at_rest`` (at most ``_DOUBLINGS`` times) and narrowed by :func:`_false_position`; where the doublings
+    find no bracket, the last of them and True (the side locked)."""
+    hi = 2.0 * at_rest
     for _ in range(_DOUBLINGS):
-        above = _friction_excess(a, channels, hi, sticking) > 0.0
+        above = excess(hi) > 0.0
         if not above.any():
             break
         hi = np.where(above, 2.0 * hi, hi)
-    at_hi = _friction_excess(a, channels, hi, sticking)
+    at_hi = excess(hi)
     sticks = at_hi > 0.0
-    lo, hi = _false_position(lambda d: _friction_excess(a, channels, d, sticking), np.where(sticks, hi, 0.0), hi,
-                             0.5 * hi, at_hi)  # a stuck side has no bracket: lo = hi
+    lo, hi = _false_position(excess, np.where(sticks, hi, 0.0), hi, at_rest, at_hi)  # a stuck side: lo = hi
     return np.where(sticks, hi, 0.5 * (lo + hi)), sticks
 
 

@@ -33,7 +33,7 @@ With dry friction (``[friction]`` Coulomb or breakaway values, or a swept one) t
 takes the friction as a damper slaved to the sliding side's speed and the simulation
 models stick and slip.  The DF cannot see stick-slip hunting (a breakaway excess over
 Coulomb friction under integral action), and it is not applied with friction on both
-sides, a load torque on a P speed loop or a load torque with a torque limit: the map's
+sides and a torque limit, a load torque on a P speed loop or a load torque with a torque limit: the map's
 ``notes`` say so, and the simulation's cells are the ones to read there.
 """
 
@@ -394,8 +394,8 @@ def design_map(rig, x_values, y_values, *, x="kp", y="ti", models=None, simulate
 #: :attr:`DesignMap.notes` of a grid with dry friction in its cells (module docs).
 DRY_FRICTION_NOTE = ("dry friction: the DF takes it as a damper of the sliding side and cannot see stick-slip "
                      "hunting (a breakaway excess over Coulomb friction under integral action), nor is it applied "
-                     "with friction on both sides, a load torque on a P speed loop or a load torque with a torque "
-                     "limit (those cells: undetermined); the simulation models stick and slip")
+                     "with friction on both sides and a torque limit, a load torque on a P speed loop or a load "
+                     "torque with a torque limit (those cells: undetermined); the simulation models stick and slip")
 
 
 def _notes(corner):

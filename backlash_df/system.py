@@ -21,7 +21,8 @@ describing function, the simulation, the orbits and the verdict share:
   balanced, for every pole, orbit and Floquet computation;
 * :func:`command_channels`: with a torque limit (:class:`Command`), the loop's
   responses with the command cut, from which the saturation's describing function
-  closes it (:func:`command_friction_channels`: with the rubbing side's friction too).
+  closes it (:func:`command_friction_channels`: with the rubbing side's friction too);
+* :func:`friction_channels`: with dry friction, the loop's responses with it cut.
 
 The matrices of the loop's modes that the simulation kernels and the orbits step
 (left contact, free, right contact; with a torque limit, the command linear,
@@ -46,6 +47,7 @@ __all__ = [
     "frequency_response",
     "command_channels",
     "command_friction_channels",
+    "friction_channels",
     "closed_loop_matrix",
     "closed_loop_response",
     "with_pade",
@@ -341,6 +343,41 @@ def command_friction_channels(part, omega):
     sticking = part.sticking
     theta, u, states = _command_cut(part, omega, (sticking.column[0],))
     return np.stack([theta, u, states[..., sticking.index[0], :]], axis=-2)
+
+
+def friction_channels(part, omega):
+    """The loop's responses with its dry friction cut: from ``T`` and each rubbing side's friction to theta_d and
+    the sides' speeds.
+
+    Each side's friction ``F_s`` enters ``dz/dt`` by ``-column[s]`` (:class:`Sticking`);
+    with it cut, the loop is linear in ``(T, -F_1, ...)`` and its outputs ``(theta_d,
+    z_1, ...)`` (the sides' speeds) are phasors at ``jw``, the dead time exact.  Closing a
+    side's friction through a damper ``F_s = d_s z_s`` (its describing function) is a
+    rank-one change of these numbers (:mod:`backlash_df.slaving`).
+
+    Parameters
+    ----------
+    part : LinearPart
+        With a :class:`Sticking`; a torque command unsaturated.
+    omega : array_like
+        Frequencies, rad/s (> 0), any shape.
+
+    Returns
+    -------
+    ndarray of complex, shape ``omega.shape + (1 + sides, 1 + sides)``
+        Rows the outputs ``(theta_d, z_1, ...)``, columns the sources ``(T, column_1, ...)``.
+    """
+    sticking = part.sticking
+    omega = np.asarray(omega, dtype=float)
+    jw = 1j * omega.reshape(-1)[:, None, None]
+    n = part.n_states
+    mats = jw * np.eye(n) - part.A
+    if part.e_d.shape[1]:
+        mats = mats - np.exp(-jw * part.delay) * (part.e_d @ part.d)
+    sources = np.column_stack([part.b, *sticking.column])
+    response = np.linalg.solve(mats, np.broadcast_to(sources, (jw.shape[0],) + sources.shape).astype(complex))
+    rows = np.vstack([part.c_x, np.eye(n)[list(sticking.index)]])
+    return np.einsum("oj,pjs->pos", rows, response).reshape(omega.shape + (rows.shape[0], sources.shape[1]))
 
 
 def _command_cut(part, omega, columns):
