@@ -24,7 +24,9 @@ b. **The project's generator** (:func:`backlash_df.identify.synthesize`): a reco
 c. **EMPS** (``examples/emps/``): ``diagnose --rig-out`` on the record, then ``simulate
    --inputs emps_reference.csv --compare emps_record.csv`` with the written rig, with its
    friction removed, and with the data set's own values (IDIM-LS: M = 95.11 kg, F_v = 203.5
-   N s/m, F_c = 20.39 N; no offset: the loop does not model one).
+   N s/m, F_c = 20.39 N; no offset: the loop does not model one); then, as for KUKA,
+   ``predict`` and ``tune --vary kv`` of the written rig (its cascade and torque limit the
+   data set's) with its friction and without.
 
 **Accuracy**: the fit of each column against the record (``fit_percent``, 100 (1 - |y -
 y_sim| / |y - mean y|) %); for a, the response against the reference (no record).
@@ -60,8 +62,6 @@ KUKA_CONTROLLER = {"structure": "cascade", "feedback": "motor", "position_feedba
                    "ti": 0.16, "kv": 6.0, "torque_limit": 3000.0}
 #: The position reference: 0 to 0.4 rad in 1.5 s (0.27 rad/s, the record's speeds are up to 0.44 rad/s), then held
 #: until 4 s; every 1 ms.
-#: The same cascade without its torque limit, for ``tune`` (:func:`kuka_design`).
-KUKA_TUNED = {**KUKA_CONTROLLER, "torque_limit": 0.0}
 KUKA_RAMP = (0.4, 1.5, 4.0, 1e-3)
 KUKA_BAND = 1e-4  # rad: the settling band after the ramp (0.006 degrees; the record's encoder steps are 2e-6 rad)
 
@@ -183,20 +183,25 @@ def kuka_case(folder, repeat):
 
 
 def kuka_design(folder, diagnosed, repeat):
-    """``predict`` and ``tune --vary kv`` of the KUKA cascade with the diagnosed friction and without: the verdict,
-    the tuning and their time.  ``tune`` takes the cascade without its torque limit (:data:`KUKA_TUNED`): the
-    friction's describing function, which the certificate needs, is solved in a loop without one."""
+    """``predict`` and ``tune --vary kv`` of the KUKA cascade, its torque limit in it, with the diagnosed friction and
+    without: the verdict, the tuning and their time (the friction's describing function solved together with the
+    saturation's)."""
+    design(folder, "KUKA", diagnosed, KUKA_CONTROLLER, "1,60", repeat)
+
+
+def design(folder, case, diagnosed, controller, kv_range, repeat):
+    """The rows of ``predict`` and ``tune --vary kv`` of ``diagnosed`` with ``controller``, with its friction and
+    without (the nominal rig: ``--nominal``; gain margin 1)."""
     for name, changes in (("with its friction", {}), ("without friction", {"friction": {}})):
-        tag = "bare" if changes else "friction"
-        limited = variant(diagnosed, folder / f"kuka_cascade_{tag}.toml", controller=KUKA_CONTROLLER, **changes)
-        wall, cpu, text = cli("predict", limited, repeat=repeat)
-        verdict = next(line for line in text.splitlines() if line.startswith("phase-plane:")).split(":")[1].strip()
-        row("KUKA", f"predict, {name}", wall, cpu, f"verdict {verdict}")
-        free = variant(diagnosed, folder / f"kuka_free_{tag}.toml", controller=KUKA_TUNED, **changes)
-        wall, cpu, text = cli("tune", free, "--vary", "kv", "1,60", "--json", folder / f"tune_{tag}.json",
-                              repeat=repeat)
+        tag = f"{case.lower()}_{'bare' if changes else 'friction'}"
+        path = variant(diagnosed, folder / f"design_{tag}.toml", controller=controller, **changes)
+        wall, cpu, text = cli("predict", path, repeat=repeat)
+        verdict = next(line for line in text.splitlines() if line.startswith("phase-plane:")).split(":", 1)[1]
+        row(case, f"predict, {name}", wall, cpu, verdict.strip()[:150])
+        wall, cpu, text = cli("tune", path, "--vary", "kv", kv_range, "--gain-margin", "1", "--nominal", "--json",
+                              folder / f"tune_{tag}.json", repeat=repeat)
         answer = json.loads((folder / f"tune_{tag}.json").read_text())
-        row("KUKA", f"tune --vary kv 1,60, {name}", wall, cpu,
+        row(case, f"tune --vary kv {kv_range}, {name}", wall, cpu,
             f"{'certified' if answer['feasible'] else 'none certified'}: kv = {answer['best']['values']['kv']:.4g} "
             f"1/s, bandwidth {answer['best']['bandwidth']:.4g} rad/s, {len(answer['searched']['certified'])} certificates")
 
@@ -255,6 +260,7 @@ def emps_case(folder, repeat):
     with_, bare, dataset = (fits[name]["motor_torque"] for name, _ in variants)
     print(f"  EMPS: motor force fit {with_:.1f} % with the diagnosed friction, {bare:.1f} % without, {dataset:.1f} % "
           f"with the data set's; misfit without / with {(100 - bare) / (100 - with_):.1f}x")
+    design(folder, "EMPS", diagnosed, diagnosed.to_dict()["controller"], "20,1000", repeat)
 
 
 def main():
