@@ -7,8 +7,9 @@ with their stability, its near misses) and the verdict must stay as they are: th
 kind of each, and the numbers to 1e-6 relative (a 1e-10 change of an input moves a well
 posed answer by about that much, times its condition).
 
-The rigs are the bundled examples and four that no example holds (rubber, cascade, torque
-limit, dead time), with every torque law the rig can take.  The exhaustive verdict sweep
+The rigs are the bundled examples and six that no example holds (rubber, cascade, torque
+limit, dead time, dry friction with a torque limit, dry friction on both sides), with every
+torque law the rig can take (the friction rigs with their own).  The exhaustive verdict sweep
 (every rig, every value, both signs) is marked slow; the suite runs a seeded sample of it.
 """
 
@@ -44,6 +45,9 @@ def _rigs():
                                controller__feedback="motor")
     rigs["torque_limit"] = _variant("torque_limit", controller__torque_limit=150.0)
     rigs["delay"] = _variant("delay", controller__delay=0.001)
+    rigs["friction_limit"] = _variant("friction_limit", friction__coulomb_load=200.0, friction__viscous_load=2.0,
+                                      controller__torque_limit=150.0)
+    rigs["friction_pair"] = _variant("friction_pair", friction__coulomb_load=200.0, friction__coulomb_motor=5.0)
     return rigs
 
 
@@ -52,7 +56,7 @@ RIGS = _rigs()
 
 def values_of(rig):
     """``(table, key)`` of every non-zero finite number of the rig (the gear ratio aside: it only reflects CSVs)."""
-    return [(table, field.name) for table in ("plant", "controller", "load")
+    return [(table, field.name) for table in ("plant", "controller", "load", "friction")
             for field in dataclasses.fields(getattr(rig, table))
             if field.name != "gear_ratio" and isinstance(value := getattr(getattr(rig, table), field.name), float)
             and value != 0.0 and np.isfinite(value)]
@@ -84,8 +88,8 @@ def _cases():
             ("loaded_suppressed", "exact")}  # 0.5-1 s a prediction: their perturbations run with the slow sweep
     for name, rig in RIGS.items():
         for law in LAWS:
-            if law == "rubber" and rig.plant.rubber_thickness == 0.0:
-                continue
+            if (law == "rubber" and rig.plant.rubber_thickness == 0.0) or (rig.friction.dry and law != rig.model):
+                continue  # a rig with dry friction: its own law (1-2 s a prediction, 20 of them)
             marks = [pytest.mark.slow] if (name, law) in slow else []
             yield pytest.param(name, law, id=f"{name}-{law}", marks=marks)
 
