@@ -805,7 +805,7 @@ def predict_limit_cycles(rig, model=None, *, linear=None, amplitude_range=None, 
     limited = part is not None and part.command is not None
     rubbing = part is not None and part.sticking is not None
     pair = rubbing and len(part.sticking.names) > 1
-    if rubbing and ((pair and limited) or (balanced and not (_mean_speed_held(rig) and not limited))):
+    if rubbing and ((pair and limited) or (balanced and (limited or not _mean_speed_held(rig)))):
         return LimitCyclePrediction(
             model=label, cycles=(), near_misses=(), amplitude_range=amplitude_range, omega_range=omega_range,
             linear=linear, describing=n_of, half_gap=half_gap, **carried,
@@ -902,9 +902,7 @@ def _slaved_balance(slaving, n_of, half_gap, amplitude_range, omega_range, grid,
             for cycle in found:
                 if not any(_same(cycle, other) for other in cycles + void):
                     cycle = _slaved_cycle(slaving, branch, cycle, half_gap)
-                    sticks = isinstance(slaving, CommandFrictionSlaving) and slaving.sticks(
-                        cycle.amplitude, cycle.omega, branch)
-                    (void if sticks else cycles).append(cycle)
+                    (void if slaving.sticks(cycle.amplitude, cycle.omega, branch) else cycles).append(cycle)
             near += [miss for miss in missed if not any(_same(miss, other) for other in near + cycles + void)]
     by_size = functools.partial(sorted, key=lambda c: (c.amplitude, c.omega))
     return by_size(cycles), sorted(near, key=lambda m: m.distance), by_size(void)
@@ -933,10 +931,8 @@ def _slaved_cycle(slaving, branch, cycle, half_gap):
         slope = float(ends[0] - ends[1]) / (2.0 * step)
         if math.isfinite(slope) and slope != 0.0:
             loeb = math.copysign(1.0, slope) * cycle.loeb
-    if isinstance(slaving, CommandFrictionSlaving):
-        cycle = dataclasses.replace(cycle, friction_amplitude=_floats(slaving.speed_amplitudes(amplitude, omega,
-                                                                                                 branch)))
-    return dataclasses.replace(cycle, command_amplitude=u, saturated=saturated, loeb=loeb, stable=bool(loeb > 0.0))
+    return dataclasses.replace(cycle, command_amplitude=u, saturated=saturated, loeb=loeb, stable=bool(loeb > 0.0),
+                               friction_amplitude=_floats(slaving.speed_amplitudes(amplitude, omega, branch)))
 
 
 def _floats(values):

@@ -133,9 +133,8 @@ class CommandSlaving:
         limit = self.part.command.limit
         shape = a.shape
         a, e, scale = (x.reshape(-1) for x in (a, e, scale))
+        star, peak = _peak(a, e)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            star = -(a * np.conj(e)).real / np.abs(e) ** 2
-            peak = np.where(np.isfinite(star), np.clip(star, 0.0, 1.0), 0.0)
             top = scale / np.abs(a + e * peak)  # the largest U on [0, 1]
             unsaturated = scale / np.abs(a + e) <= limit
         busy = np.flatnonzero(top > limit)  # elsewhere N_sat(U) = 1 on [0, 1]: N_s = 1 alone
@@ -225,10 +224,7 @@ class CommandSlaving:
         reaches the limit: ``L min |theta(N)| / |c|``, N in [0, 1]), broadcast."""
         a, b, c, d = command_channels(self.part, omega)
         e = b * c - a * d
-        with np.errstate(divide="ignore", invalid="ignore"):
-            star = -(a * np.conj(e)).real / np.abs(e) ** 2
-        peak = np.where(np.isfinite(star), np.clip(star, 0.0, 1.0), 0.0)
-        return self.part.command.limit * np.abs(a + e * peak) / np.abs(c)
+        return self.part.command.limit * np.abs(a + e * _peak(a, e)[1]) / np.abs(c)
 
     def command_amplitude(self, amplitude, omega, branch=0):
         """U, N m: the first-harmonic amplitude of the command u at (A, w) on branch ``branch``."""
@@ -247,6 +243,22 @@ class CommandSlaving:
     def _unslaved(self, channels):
         """G(jw) with the command unsaturated."""
         return self.closed(channels, 1.0)[0]
+
+    def sticks(self, amplitude, omega, branch=0):
+        """Whether a rubbing side sticks through the cycle at (A, w): never, the loop has no dry friction."""
+        return np.zeros(np.broadcast_shapes(np.shape(amplitude), np.shape(omega)), dtype=bool)
+
+    def speed_amplitudes(self, amplitude, omega, branch=0):
+        """{side: A_w} of the rubbing sides: none, the loop has no dry friction."""
+        return {}
+
+
+def _peak(a, e):
+    """``(N*, peak)``: where ``|a + e N|`` is least over real N, and that point clipped to [0, 1] (0 where N* is not a
+    number): the peak of ``U(N) = scale / |a + e N|`` (:class:`CommandSlaving`'s notes), broadcast."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        star = -(a * np.conj(e)).real / np.abs(e) ** 2
+    return star, np.where(np.isfinite(star), np.clip(star, 0.0, 1.0), 0.0)
 
 
 def _saturation_excess(fixed, n):
@@ -299,8 +311,7 @@ class FrictionSlaving:
         and ``theta_d(d) = c z - d z_i (c y) / (1 + d y_i)``: every damper's responses from
         the four numbers ``(c z, c y, z_i, y_i)``, one solve a frequency (:func:`_damped`).
         """
-        r = friction_channels(self.part, omega)
-        return r[..., 0, 0], r[..., 0, 1], r[..., 1, 0], r[..., 1, 1]
+        return _block(friction_channels(self.part, omega), 1)
 
     def _solve(self, amplitude, omega):
         """(d, sticks, channels): :func:`_friction_damper` at the broadcast (A, w), with the loop's
@@ -356,17 +367,13 @@ class FrictionPairSlaving:
     def _motor(self, amplitude, channels, load):
         """(d_1, sticks_1, channels with both dampers closed) at the load damper ``load``, broadcast."""
         with_load = _close(channels, 2, load)
-        motor = (with_load[..., 0, 0], with_load[..., 0, 1], with_load[..., 1, 0], with_load[..., 1, 1])
-        damping, sticks = _friction_damper(amplitude, motor, self.part.sticking, side=0)
+        damping, sticks = _friction_damper(amplitude, _block(with_load, 1), self.part.sticking, side=0)
         return damping, sticks, _close(with_load, 1, damping)
 
     def _load_excess(self, amplitude, channels, load):
         """``N_f,2(A_w,2) - d_2`` with the motor's damper at its fixed point: positive below the root."""
         closed = self._motor(amplitude, channels, load)[2]
-        speed = amplitude * np.abs(closed[..., 2, 0] / closed[..., 0, 0])
-        sticking = self.part.sticking
-        return friction_describing_function(np.maximum(speed, 1e-300), sticking.coulomb[1], sticking.breakaway[1],
-                                            sticking.stribeck_speed[1]) - load
+        return _side_gain(amplitude * np.abs(closed[..., 2, 0] / closed[..., 0, 0]), self.part.sticking, 1) - load
 
     def _solve(self, amplitude, omega):
         """(the loop's responses with both dampers closed, sticks) at the broadcast (A, w)."""
@@ -411,9 +418,9 @@ class CommandFrictionSlaving(CommandSlaving):
     ``d(1)``, and narrowed by false position (:func:`_false_position`, to 1e-13).  With a
     breakaway friction each value of ``h`` is a false position of its own: a prediction
     takes tens of seconds where Coulomb friction's takes one.  ``N_s = 1`` is a root where ``U(1,
-    d(1))`` is inside the limit.  Both closings are a 2 x 2 solve from the nine
-    responses of :func:`~backlash_df.system.command_friction_channels`, one solve a
-    frequency.
+    d(1))`` is inside the limit.  Both closings are rank-one changes (:func:`_close`) of
+    the nine responses of :func:`~backlash_df.system.command_friction_channels`, one solve
+    a frequency.
 
     A branch where the friction holds the side (no damper's fixed point: the side
     locked, as in :class:`FrictionSlaving`) is solved with the locked side, and
@@ -431,28 +438,16 @@ class CommandFrictionSlaving(CommandSlaving):
         """The loop's :func:`~backlash_df.system.command_friction_channels` at the frequencies ``omega``."""
         return command_friction_channels(self.part, omega)
 
-    @staticmethod
-    def _friction_channels(channels, gain):
-        """(theta_z, theta_y, side_z, side_y) of :class:`FrictionSlaving` for the loop with the command closed
-        through ``gain``, and (u_z, u_y), the command's, broadcast: from ``T`` and from the friction's column."""
-        r = channels
-        closing = gain / (1.0 - gain * r[..., 1, 1])  # T_c = N u with u = u_j + u_c T_c
-        through = [r[..., 1, j] * closing for j in (0, 2)]  # T_c per unit source j
-        theta_z, theta_y = (r[..., 0, j] + r[..., 0, 1] * t for j, t in zip((0, 2), through))
-        side_z, side_y = (r[..., 2, j] + r[..., 2, 1] * t for j, t in zip((0, 2), through))
-        u_z, u_y = (r[..., 1, j] / (1.0 - gain * r[..., 1, 1]) for j in (0, 2))
-        return (theta_z, theta_y, side_z, side_y), (u_z, u_y)
-
     def _solved(self, amplitude, channels, gain):
         """(d, sticks, G, u / theta_d, z_i / theta_d) of the loop with the command through ``gain`` and the
-        damper at its fixed point there, broadcast."""
+        damper at its fixed point there, broadcast: the command closed first (``T_c = N u``, entering where a
+        friction would with the opposite sign: a damper of ``-N``), then the side's friction."""
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            friction, (u_z, u_y) = self._friction_channels(channels, gain)
-            damping, sticks = _friction_damper(amplitude, friction, self.part.sticking)
-            g, side = _damped(friction, damping)
-            theta = -g
-            force = damping * friction[2] / (1.0 + damping * friction[3])  # F = d z_i per unit T
-            return damping, sticks, g, (u_z - u_y * force) / theta, side
+            commanded = _close(channels, 1, -np.asarray(gain))
+            damping, sticks = _friction_damper(amplitude, _block(commanded, 2), self.part.sticking)
+            closed = _close(commanded, 2, damping)
+            theta = closed[..., 0, 0]
+            return damping, sticks, -theta, closed[..., 1, 0] / theta, closed[..., 2, 0] / theta
 
     def branch_roots(self, amplitude, channels):
         """The roots of ``h(N_s)`` (class notes) in (0, 1] at the broadcast A and the channels' frequencies.
@@ -474,8 +469,7 @@ class CommandFrictionSlaving(CommandSlaving):
         amplitude = np.broadcast_to(amplitude, shape)
         channels = np.broadcast_to(channels, shape + (3, 3))
         top = self._solved(amplitude, channels, 1.0)[0]  # the unsaturated branch's damper d(1)
-        fixed = _damper_closed(channels, top)  # (a, b, c, d) of the loop with that damper, the command cut
-        a, b, c, d = fixed
+        a, b, c, d = _block(_close(channels, 2, top), 1)  # command_channels of the loop with that damper
         e = b * c - a * d
         scale = amplitude * np.abs(c)
         flat = channels.reshape(-1, 3, 3)
@@ -501,7 +495,7 @@ class CommandFrictionSlaving(CommandSlaving):
 
     def _unslaved(self, channels):
         """G(jw) with the command unsaturated and no friction."""
-        return -(channels[..., 0, 0] + channels[..., 0, 1] * channels[..., 1, 0] / (1.0 - channels[..., 1, 1]))
+        return -_close(channels, 1, -1.0)[..., 0, 0]
 
     def _at(self, amplitude, omega, branch):
         channels = self.channels(omega)
@@ -518,20 +512,21 @@ class CommandFrictionSlaving(CommandSlaving):
         return {self.part.sticking.names[0]: np.asarray(amplitude) * np.abs(self._at(amplitude, omega, branch)[4])}
 
 
-def _damper_closed(channels, damping):
-    """:func:`~backlash_df.system.command_channels`' ``(a, b, c, d)`` of the loop with the friction as the damper
-    ``damping`` on its side, from the nine :func:`~backlash_df.system.command_friction_channels`, broadcast."""
-    r = _close(channels, 2, damping)
-    return r[..., 0, 0], r[..., 0, 1], r[..., 1, 0], r[..., 1, 1]
-
-
 def _close(channels, k, damping):
     """The responses ``channels`` (outputs by sources, ``(..., m, m)``) with the friction of entry ``k`` (its side's
     speed the k-th output, its column the k-th source) closed through the damper ``damping``, ``F = d z_k``:
     ``R[o, j] - d R[o, k] R[k, j] / (1 + d R[k, k])`` (Sherman-Morrison), broadcast; entry ``k`` stays, the
     side's speed with its damper."""
     d = np.asarray(damping)[..., None, None]
-    return channels - d * channels[..., :, k:k + 1] * channels[..., k:k + 1, :] / (1.0 + d * channels[..., k:k + 1, k:k + 1])
+    column, row = channels[..., :, k:k + 1], channels[..., k:k + 1, :]
+    return channels - d * column * row / (1.0 + d * channels[..., k:k + 1, k:k + 1])
+
+
+def _block(channels, k):
+    """``(R[0, 0], R[0, k], R[k, 0], R[k, k])``: from ``T`` and from source ``k`` to theta_d and to output ``k``
+    (:class:`FrictionSlaving`'s channels of entry k's side; with k the command,
+    :func:`~backlash_df.system.command_channels`' ``(a, b, c, d)``)."""
+    return channels[..., 0, 0], channels[..., 0, k], channels[..., k, 0], channels[..., k, k]
 
 
 def _damped(channels, damping):
@@ -545,10 +540,13 @@ def _damped(channels, damping):
 
 def _friction_excess(amplitude, channels, damping, sticking, side=0):
     """``N_f(A_w(d)) - d``, N m s/rad, of side ``side``: positive below the fixed point."""
-    speed = amplitude * np.abs(_damped(channels, damping)[1])
-    gain = friction_describing_function(np.maximum(speed, 1e-300), sticking.coulomb[side], sticking.breakaway[side],
+    return _side_gain(amplitude * np.abs(_damped(channels, damping)[1]), sticking, side) - damping
+
+
+def _side_gain(speed, sticking, side):
+    """N_f of side ``side``'s friction at its speed amplitude ``speed`` (rad/s; 0 taken as the least positive)."""
+    return friction_describing_function(np.maximum(speed, 1e-300), sticking.coulomb[side], sticking.breakaway[side],
                                         sticking.stribeck_speed[side])
-    return gain - damping
 
 
 def _coulomb_root(amplitude, channels, coulomb):
