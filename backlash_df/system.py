@@ -280,13 +280,7 @@ def frequency_response(part, omega):
         Same shape as ``omega``, rad/(N m).
     """
     omega = np.asarray(omega, dtype=float)
-    n = part.A.shape[0]
-    flat = omega.reshape(-1)
-    jw = 1j * flat[:, None, None]
-    mats = jw * np.eye(n) - part.A
-    if part.e_d.shape[1]:  # the delayed signals' feedback (a loop without them subtracted zeros here)
-        mats = mats - np.exp(-jw * part.delay) * (part.e_d @ part.d)
-    z = np.linalg.solve(mats, np.broadcast_to(part.b.astype(complex)[:, None], (flat.size, n, 1)))
+    z = _responses(part, omega, part.b[:, None])
     return (-(z[:, :, 0] @ part.c_x)).reshape(omega.shape)
 
 
@@ -369,14 +363,9 @@ def friction_channels(part, omega):
     """
     sticking = part.sticking
     omega = np.asarray(omega, dtype=float)
-    jw = 1j * omega.reshape(-1)[:, None, None]
-    n = part.n_states
-    mats = jw * np.eye(n) - part.A
-    if part.e_d.shape[1]:
-        mats = mats - np.exp(-jw * part.delay) * (part.e_d @ part.d)
     sources = np.column_stack([part.b, *sticking.column])
-    response = np.linalg.solve(mats, np.broadcast_to(sources, (jw.shape[0],) + sources.shape).astype(complex))
-    rows = np.vstack([part.c_x, np.eye(n)[list(sticking.index)]])
+    response = _responses(part, omega, sources)
+    rows = np.vstack([part.c_x, np.eye(part.n_states)[list(sticking.index)]])
     return np.einsum("oj,pjs->pos", rows, response).reshape(omega.shape + (rows.shape[0], sources.shape[1]))
 
 
@@ -385,13 +374,11 @@ def _command_cut(part, omega, columns):
     last axis; z's states before it), at the frequencies ``omega``, the dead time exact."""
     command = part.command
     n, m = part.n_states, part.E.shape[1]
-    jw = 1j * omega.reshape(-1)[:, None, None]
     row_z, row_d = command.row[:n], command.row[n + m:]
-    delayed = np.exp(-jw * part.delay)
-    mats = (jw * np.eye(n) - part.A + np.outer(command.column, row_z)
-            - delayed * ((part.e_d - np.outer(command.column, row_d)) @ part.d))
+    delayed = np.exp(-1j * omega.reshape(-1)[:, None, None] * part.delay)
     sources = np.column_stack([part.b, command.column, *columns])
-    response = np.linalg.solve(mats, np.broadcast_to(sources, (jw.shape[0],) + sources.shape).astype(complex))
+    response = _responses(part, omega, sources, a=part.A - np.outer(command.column, row_z),
+                          e_d=part.e_d - np.outer(command.column, row_d))
     theta = np.einsum("j,pjs->ps", part.c_x, response)
     u = np.einsum("j,pjs->ps", row_z, response) + delayed[:, 0, :] * np.einsum(
         "k,kj,pjs->ps", row_d, part.d, response) if part.n_delayed else np.einsum("j,pjs->ps", row_z, response)
@@ -443,12 +430,23 @@ def closed_loop_response(part, omega, stiffness, damping, output, channel=0):
         The shape of ``omega``.
     """
     omega = np.asarray(omega, dtype=float)
-    n = part.n_states
+    response = _responses(part, omega, part.E[:, channel][:, None], a=closed_loop_matrix(part, stiffness, damping))
+    return response[:, output, 0].reshape(omega.shape)
+
+
+def _responses(part, omega, sources, a=None, e_d=None):
+    """``(jw I - a - e^{-jw delay} e_d d)^{-1} sources`` at each frequency of ``omega``, ``(points, n, k)``.
+
+    The loop cut at the backlash (``a``, ``e_d``: the part's ``A`` and ``e_d``, or those of
+    the loop with its command cut or its shaft closed), the dead time exact.
+    """
+    a = part.A if a is None else a
+    e_d = part.e_d if e_d is None else e_d
     jw = 1j * omega.reshape(-1)[:, None, None]
-    mats = jw * np.eye(n) - closed_loop_matrix(part, stiffness, damping) - np.exp(-jw * part.delay) * (
-        part.e_d @ part.d)
-    source = np.broadcast_to(part.E[:, channel][:, None], (jw.shape[0], n, 1)).astype(complex)
-    return np.linalg.solve(mats, source)[:, output, 0].reshape(omega.shape)
+    mats = jw * np.eye(a.shape[0]) - a
+    if e_d.shape[1]:  # the delayed signals' feedback (a loop without them would subtract zeros)
+        mats = mats - np.exp(-jw * part.delay) * (e_d @ part.d)
+    return np.linalg.solve(mats, np.broadcast_to(sources, (jw.shape[0],) + sources.shape).astype(complex))
 
 
 def with_pade(part, order):
